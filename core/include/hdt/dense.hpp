@@ -1,0 +1,20 @@
+// Dense export of a volume: one byte a voxel (0 outside, 1 inside, 2 surface).
+#pragma once
+
+#include "hdt/volume.hpp"
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace hdt {
+
+constexpr int kMaxDenseResolution = 1024;
+
+// N^3 bytes, x fastest. Throws Error(InvalidArgument) above kMaxDenseResolution.
+std::vector<uint8_t> denseStates(const Volume& volume);
+
+// NRRD (encoding raw, type uint8, sizes N N N, space origin and directions).
+void writeNrrd(const Volume& volume, const std::string& path);
+
+} // namespace hdt

@@ -1,0 +1,27 @@
+// The .hdt file format (spec: docs/hdt-format.md): writer and validating reader.
+#pragma once
+
+#include "hdt/volume.hpp"
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace hdt {
+
+struct HdtWriteOptions {
+  bool compressLeaves = true; // zstd, when the build has it
+  int zstdLevel = 3;
+};
+
+// Serialises to bytes / a file. Throws Error(BadInput) on I/O failure.
+std::vector<uint8_t> serializeHdt(const Volume& volume, const HdtWriteOptions& options = {});
+void writeHdt(const Volume& volume, const std::string& path, const HdtWriteOptions& options = {});
+
+// Parses and validates everything (magic, version, sizes, checksums, tree
+// consistency). Never trusts a header field before checking it. Throws
+// Error(BadInput) with a message naming the file and the problem.
+Volume deserializeHdt(const uint8_t* data, size_t size, const std::string& name = "<memory>");
+Volume readHdt(const std::string& path);
+
+} // namespace hdt

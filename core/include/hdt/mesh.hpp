@@ -1,0 +1,42 @@
+// Triangle meshes as the library takes them, and their preparation on the lattice.
+#pragma once
+
+#include "hdt/config.hpp"
+#include "hdt/lattice.hpp"
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace hdt {
+
+// An indexed triangle soup: 3 coordinates a point, 3 point indices a triangle.
+struct TriangleMesh {
+  std::vector<double> points;
+  std::vector<uint32_t> triangles;
+
+  size_t pointCount() const { return points.size() / 3; }
+  size_t triangleCount() const { return triangles.size() / 3; }
+};
+
+// The mesh snapped to the lattice of a placed grid, ready for either driver.
+struct PreparedMesh {
+  GridSpec grid;
+  std::vector<LatticeTriangle> triangles; // non-degenerate ones only, input order
+  size_t inputTriangles = 0;
+  size_t degenerateTriangles = 0;         // zero area after snapping: dropped
+  // Every edge is shared by an even number of triangles. Then all three ray
+  // directions agree and the classifier needs only one of them.
+  bool closed = false;
+};
+
+// Bounds of all points referenced by triangles. Throws Error(BadInput) for an
+// empty mesh, an index out of range or a non-finite coordinate.
+void meshBounds(const TriangleMesh& mesh, std::array<double, 3>& lo, std::array<double, 3>& hi);
+
+// Validates the mesh and configuration, places the grid and snaps the mesh.
+// Throws Error with a message that says what is wrong.
+PreparedMesh prepareMesh(const TriangleMesh& mesh, const BuildConfig& config);
+
+} // namespace hdt

@@ -1,0 +1,71 @@
+// The HDT (hybrid dynamic tree) data structure of Hossain et al., IA^3 2015.
+//
+//   root grid  R^3 elements, x fastest
+//   octree     every Branch element owns 8 contiguous children in Morton order
+//              (child bit 0 = +x half, bit 1 = +y half, bit 2 = +z half)
+//   leaf grid  every Boundary element owns one L^3 grid of 2-bit voxel states
+//
+// Elements are stored level by level (breadth first): level 0 is the root grid,
+// level k+1 holds the children of the Branch elements of level k in the order of
+// their parents. That order is canonical (it depends on nothing but the mesh
+// and the configuration), it is the order a level-synchronous GPU build produces,
+// and it is the breadth-first order vtkHyperTree descriptors want.
+#pragma once
+
+#include "hdt/platform.hpp"
+
+#include <cstdint>
+
+namespace hdt {
+
+enum class ElementState : uint8_t {
+  Empty = 0,    // uniform, outside the solid (or: surface-only build)
+  Full = 1,     // uniform, inside the solid
+  Branch = 2,   // payload: index of the first of 8 contiguous children
+  Boundary = 3, // payload: index of the leaf grid
+};
+
+enum class VoxelState : uint8_t {
+  Outside = 0,
+  Inside = 1,
+  Surface = 2,
+};
+
+// One element is one 32-bit word: state in the low 2 bits, payload above.
+// (The paper's element is 20 bytes; statistics report both accountings.)
+using ElementWord = uint32_t;
+constexpr uint32_t kMaxElementPayload = (1u << 30) - 1;
+
+HDT_HD constexpr ElementWord makeElement(ElementState s, uint32_t payload) {
+  return (payload << 2) | static_cast<uint32_t>(s);
+}
+HDT_HD constexpr ElementState elementState(ElementWord w) {
+  return static_cast<ElementState>(w & 3u);
+}
+HDT_HD constexpr uint32_t elementPayload(ElementWord w) { return w >> 2; }
+
+// Leaf grid layout: voxel (x, y, z) of an L^3 leaf is linear index
+// v = x + L * (y + L * z); it lives in 32-bit word v / 16 at bits 2 * (v % 16).
+// A 16^3 leaf is 256 words = 1024 bytes, a row of 16 voxels one word.
+constexpr int kVoxelsPerWord = 16;
+HDT_HD constexpr uint32_t leafWordCount(int leafSize) {
+  return static_cast<uint32_t>(leafSize) * leafSize * leafSize / kVoxelsPerWord;
+}
+
+HDT_HD inline VoxelState leafVoxel(const uint32_t* leafWords, int leafSize, int x, int y, int z) {
+  const uint32_t v = static_cast<uint32_t>(x + leafSize * (y + leafSize * z));
+  return static_cast<VoxelState>((leafWords[v >> 4] >> (2 * (v & 15u))) & 3u);
+}
+
+// Spreads the low 16 bits of m so that bit i moves to bit 2*i: turns a row
+// mask of 16 voxels into the "bit 0 of each 2-bit state" plane of one word.
+HDT_HD constexpr uint32_t spreadBits16(uint32_t m) {
+  m &= 0xFFFFu;
+  m = (m | (m << 8)) & 0x00FF00FFu;
+  m = (m | (m << 4)) & 0x0F0F0F0Fu;
+  m = (m | (m << 2)) & 0x33333333u;
+  m = (m | (m << 1)) & 0x55555555u;
+  return m;
+}
+
+} // namespace hdt

@@ -1,0 +1,64 @@
+// A built HDT: the tree, the leaf grids and the statistics of the build.
+#pragma once
+
+#include "hdt/config.hpp"
+#include "hdt/types.hpp"
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace hdt {
+
+// Wall-clock time of each phase, in milliseconds (paper Fig. 3: T1, T2, T3).
+struct PhaseTimes {
+  double mapping = 0;   // T1: triangles to root cells
+  double branching = 0; // T2: level-order refinement
+  double leaf = 0;      // T3: surface voxels of every leaf grid
+  double classify = 0;  // inside/outside of leaf voxels and uniform elements
+  double total = 0;
+};
+
+// The paper's Table 1 and Fig. 3, plus this implementation's real sizes.
+struct Statistics {
+  uint64_t triangles = 0;            // triangles used (non-degenerate)
+  uint64_t degenerateTriangles = 0;  // dropped
+  uint64_t treeElements = 0;         // root-grid elements + every octree node
+  uint64_t leafGrids = 0;
+  uint64_t leafVoxels = 0;           // leafGrids * L^3
+  uint64_t activeVoxels = 0;         // surface voxels
+  uint64_t insideVoxels = 0;         // inside voxels, uniform Full elements included
+  double paperBitsPerActiveVoxel = 0; // treeElements * 20 bytes * 8 / activeVoxels
+  uint64_t topologyBytes = 0;        // 4 bytes an element here
+  uint64_t leafBytes = 0;            // L^3 / 4 bytes a leaf grid
+  PhaseTimes time;
+  uint64_t peakHostBytes = 0;
+  uint64_t peakDeviceBytes = 0;
+  std::string backend;               // "cpu" or "cuda"
+  int threads = 0;                   // CPU threads used
+};
+
+struct Volume {
+  GridSpec grid;
+  bool surfaceOnly = false;
+  bool closedMesh = false;
+  std::vector<ElementWord> elements; // level order, see types.hpp
+  // levelStart[k] is the index of the first element of level k; the array has
+  // height + 2 entries, the last one equal to elements.size().
+  std::vector<uint64_t> levelStart;
+  std::vector<uint32_t> leafWords;   // leafGrids * leafWordCount(L)
+  Statistics stats;
+
+  uint64_t leafCount() const { return leafWords.size() / leafWordCount(grid.leafSize); }
+  const uint32_t* leaf(uint64_t i) const { return leafWords.data() + i * leafWordCount(grid.leafSize); }
+};
+
+// Recomputes the structural statistics (elements, leaves, voxel counts,
+// bytes) from a volume's contents; timings and backend are left alone.
+void computeStructureStatistics(Volume& volume);
+
+// Voxel state at global voxel (x, y, z), by walking the tree. Slow: for tests,
+// dense export and spot checks.
+VoxelState voxelAt(const Volume& volume, int x, int y, int z);
+
+} // namespace hdt
