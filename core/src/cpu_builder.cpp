@@ -1,1 +1,445 @@
-// placeholder
+// The CPU driver: the paper's phases, scheduled with oneTBB.
+//
+// Every step whose output order could depend on scheduling ends in a sort on a
+// total key (element, triangle) or works on disjoint outputs, so the result is
+// the same bytes for any thread count. All geometry is in build_steps.hpp,
+// shared with the CUDA driver.
+#include "hdt/builder.hpp"
+
+#include "hdt/build_steps.hpp"
+#include "hdt/error.hpp"
+#include "memory_info.hpp"
+
+#include <tbb/combinable.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_sort.h>
+#include <tbb/task_arena.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <thread>
+
+namespace hdt {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double msSince(Clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+
+// (element index within its level << 32) | triangle. Sorting these gives the
+// canonical order: by element, then by triangle.
+using Pair = uint64_t;
+inline Pair makePair(uint64_t element, uint32_t tri) { return (element << 32) | tri; }
+inline uint32_t pairElement(Pair p) { return uint32_t(p >> 32); }
+inline uint32_t pairTriangle(Pair p) { return uint32_t(p); }
+
+std::vector<Pair> gatherSorted(tbb::combinable<std::vector<Pair>>& local) {
+  size_t total = 0;
+  local.combine_each([&](const std::vector<Pair>& v) { total += v.size(); });
+  std::vector<Pair> all;
+  all.reserve(total);
+  local.combine_each([&](const std::vector<Pair>& v) { all.insert(all.end(), v.begin(), v.end()); });
+  tbb::parallel_sort(all.begin(), all.end());
+  return all;
+}
+
+// An element that no triangle touches; classification makes it Full or Empty.
+struct UniformElement {
+  uint64_t index; // global element index
+  uint64_t coord; // packed cell coordinates at its level
+  int level;
+};
+
+// A leaf on its "leaf line" along one ray axis: key = (w, u, along) leaf coords.
+struct LineEntry {
+  uint64_t key;
+  uint32_t leaf;
+  bool operator<(const LineEntry& o) const { return key < o.key; }
+};
+inline uint64_t lineKey(uint64_t u, uint64_t w, uint64_t along) {
+  return (((w << 21) | u) << 21) | along;
+}
+
+class CpuBuild {
+public:
+  CpuBuild(const PreparedMesh& mesh, const BuildOptions& options)
+      : mesh_(mesh), options_(options), g_(mesh.grid), L_(mesh.grid.leafSize),
+        rowWords_((mesh.grid.leafSize * mesh.grid.leafSize + 31) / 32) {}
+
+  Volume run(bool surfaceOnly) {
+    const auto t0 = Clock::now();
+    report(0.0, "mapping");
+    auto t = Clock::now();
+    std::vector<Pair> pairs = mapTrianglesToRootCells();
+    times_.mapping = msSince(t);
+
+    report(0.1, "branching");
+    t = Clock::now();
+    const std::vector<Pair> leafPairs = branch(std::move(pairs));
+    times_.branching = msSince(t);
+
+    report(0.4, "leaf processing");
+    t = Clock::now();
+    processLeaves(leafPairs);
+    times_.leaf = msSince(t);
+
+    report(0.7, "classification");
+    t = Clock::now();
+    if (!surfaceOnly) classify(leafPairs);
+    times_.classify = msSince(t);
+    times_.total = msSince(t0);
+    report(1.0, "done");
+    return finish(surfaceOnly);
+  }
+
+private:
+  void report(double fraction, const char* phase) {
+    if (options_.progress && !options_.progress(fraction, phase)) {
+      throw Error(ErrorKind::Aborted, std::string("build aborted during ") + phase);
+    }
+  }
+
+  // ---- T1: triangles -> root cells ------------------------------------------
+  std::vector<Pair> mapTrianglesToRootCells() {
+    const int64_t R = g_.rootGrid;
+    const int64_t cellSize = int64_t(g_.rootCellVoxels()) * kLatticePerVoxel;
+    tbb::combinable<std::vector<Pair>> local;
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, mesh_.triangles.size(), 1024),
+                      [&](const tbb::blocked_range<size_t>& r) {
+                        std::vector<Pair>& out = local.local();
+                        for (size_t ti = r.begin(); ti != r.end(); ++ti) {
+                          const LatticeTriangle& tri = mesh_.triangles[ti];
+                          int64_t lo[3], hi[3], first[3], last[3];
+                          triangleBounds(tri, lo, hi);
+                          for (int a = 0; a < 3; ++a) cellRange(lo[a], hi[a], cellSize, R, first[a], last[a]);
+                          for (int64_t z = first[2]; z <= last[2]; ++z)
+                            for (int64_t y = first[1]; y <= last[1]; ++y)
+                              for (int64_t x = first[0]; x <= last[0]; ++x)
+                                if (triangleOverlapsElement(tri, packCoord(x, y, z), cellSize))
+                                  out.push_back(makePair(uint64_t(x + R * (y + R * z)), uint32_t(ti)));
+                        }
+                      });
+    return gatherSorted(local);
+  }
+
+  // ---- T2: level-order branching -------------------------------------------
+  // Takes the sorted (root index, triangle) pairs; appends every level to the
+  // element array and returns the sorted (leaf index, triangle) pairs.
+  std::vector<Pair> branch(std::vector<Pair> pairs) {
+    const uint64_t R = uint64_t(g_.rootGrid);
+    std::vector<uint64_t> coords(R * R * R);
+    for (uint64_t i = 0; i < coords.size(); ++i) coords[i] = packCoord(i % R, (i / R) % R, i / (R * R));
+    for (int level = 0;; ++level) {
+      // The touched elements of this level, in order; pairRank maps a pair to
+      // the position of its element among them.
+      std::vector<uint32_t> touched;
+      std::vector<uint32_t> pairRank(pairs.size());
+      for (size_t i = 0; i < pairs.size(); ++i) {
+        if (i == 0 || pairElement(pairs[i]) != pairElement(pairs[i - 1])) touched.push_back(pairElement(pairs[i]));
+        pairRank[i] = uint32_t(touched.size() - 1);
+      }
+      const bool leafLevel = level == g_.height;
+      appendLevel(level, coords, touched, leafLevel);
+      if (leafLevel) {
+        leafCoords_.resize(touched.size());
+        for (size_t i = 0; i < touched.size(); ++i) leafCoords_[i] = coords[touched[i]];
+        for (size_t i = 0; i < pairs.size(); ++i) pairs[i] = makePair(pairRank[i], pairTriangle(pairs[i]));
+        return pairs;
+      }
+      // Each touched element branches into 8 children, allocated in its order.
+      std::vector<uint64_t> childCoords(touched.size() * 8);
+      tbb::parallel_for(size_t(0), touched.size(), [&](size_t r) {
+        for (int c = 0; c < 8; ++c) childCoords[8 * r + c] = childCoord(coords[touched[r]], c);
+      });
+      const int64_t childSize = int64_t(g_.elementVoxels(level + 1)) * kLatticePerVoxel;
+      tbb::combinable<std::vector<Pair>> local;
+      tbb::parallel_for(tbb::blocked_range<size_t>(0, pairs.size(), 256), [&](const tbb::blocked_range<size_t>& r) {
+        std::vector<Pair>& out = local.local();
+        for (size_t i = r.begin(); i != r.end(); ++i) {
+          const uint32_t tri = pairTriangle(pairs[i]);
+          for (int c = 0; c < 8; ++c) {
+            const uint64_t child = uint64_t(pairRank[i]) * 8 + c;
+            if (triangleOverlapsElement(mesh_.triangles[tri], childCoords[child], childSize))
+              out.push_back(makePair(child, tri));
+          }
+        }
+      });
+      pairs = gatherSorted(local);
+      coords.swap(childCoords);
+      report(0.1 + 0.3 * double(level + 1) / double(g_.height + 1), "branching");
+    }
+  }
+
+  void appendLevel(int level, const std::vector<uint64_t>& coords, const std::vector<uint32_t>& touched,
+                   bool leafLevel) {
+    const uint64_t start = elements_.size();
+    const uint64_t next = start + coords.size();
+    if (next + 8 * uint64_t(touched.size()) > kMaxElementPayload) {
+      throw Error(ErrorKind::OutOfResources, "the tree would exceed 2^30 elements at level " +
+                                                 std::to_string(level + 1) + "; lower the resolution");
+    }
+    levelStart_.push_back(start);
+    elements_.resize(next, makeElement(ElementState::Empty, 0));
+    size_t r = 0;
+    for (uint64_t i = 0; i < coords.size(); ++i) {
+      if (r < touched.size() && touched[r] == i) {
+        elements_[start + i] = leafLevel ? makeElement(ElementState::Boundary, uint32_t(r))
+                                         : makeElement(ElementState::Branch, uint32_t(next + 8 * r));
+        ++r;
+      } else {
+        uniform_.push_back(UniformElement{start + i, coords[i], level});
+      }
+    }
+  }
+
+  // ---- T3: leaf grids --------------------------------------------------------
+  void processLeaves(const std::vector<Pair>& leafPairs) {
+    const size_t leaves = leafCoords_.size();
+    const uint32_t wordsPerLeaf = leafWordCount(L_);
+    leafWords_.assign(leaves * wordsPerLeaf, 0u);
+    leafPairStart_.assign(leaves + 1, 0);
+    for (Pair p : leafPairs) ++leafPairStart_[pairElement(p) + 1];
+    for (size_t i = 0; i < leaves; ++i) leafPairStart_[i + 1] += leafPairStart_[i];
+
+    tbb::parallel_for(size_t(0), leaves, [&](size_t leaf) {
+      int64_t v0[3];
+      leafOrigin(leaf, v0);
+      uint32_t rows[32 * 32] = {};
+      for (uint64_t p = leafPairStart_[leaf]; p < leafPairStart_[leaf + 1]; ++p) {
+        const LatticeTriangle& tri = mesh_.triangles[pairTriangle(leafPairs[p])];
+        int64_t lo[3], hi[3], first[3], last[3];
+        triangleBounds(tri, lo, hi);
+        for (int a = 0; a < 3; ++a) {
+          cellRange(lo[a], hi[a], kLatticePerVoxel, g_.resolution, first[a], last[a]);
+          first[a] = std::max(first[a], v0[a]);
+          last[a] = std::min(last[a], v0[a] + L_ - 1);
+        }
+        RowClipper clipper;
+        makeRowClipper(tri, clipper);
+        for (int64_t z = first[2]; z <= last[2]; ++z) {
+          int64_t y0 = first[1], y1 = last[1];
+          clipRowsOfSlice(clipper, z, y0, y1);
+          for (int64_t y = y0; y <= y1; ++y) {
+            int64_t f = first[0], l = last[0];
+            clipRow(clipper, y, z, f, l);
+            rows[(y - v0[1]) + L_ * (z - v0[2])] |= rowBits(v0[0], f, l);
+          }
+        }
+      }
+      uint32_t* words = leafWords_.data() + leaf * wordsPerLeaf;
+      for (int r = 0; r < L_ * L_; ++r) orRowIntoLeaf(words, L_, r, rows[r], 1);
+    });
+  }
+
+  void leafOrigin(size_t leaf, int64_t (&v0)[3]) const {
+    for (int a = 0; a < 3; ++a) v0[a] = int64_t(unpackCoord(leafCoords_[leaf], a)) * L_;
+  }
+
+  // ---- classification ------------------------------------------------------
+  // Parity of crossings along +axis, from every voxel centre to the grid's end:
+  //   pass 1  per leaf and row, the parity of crossings inside the leaf;
+  //   lines   per line of leaves along the axis, a suffix XOR gives the parity
+  //           of everything beyond each leaf (the regions between leaves hold
+  //           no triangle, so they add nothing);
+  //   pass 2  per leaf voxel: crossings ahead of it in its leaf + beyond.
+  // Closed meshes need one axis (all agree); open ones take the majority of 3.
+  struct AxisParity {
+    std::vector<uint32_t> exit;     // per leaf, rowWords_: parity beyond the leaf
+    std::vector<uint32_t> entry;    // per leaf, rowWords_: parity from the leaf's start
+    std::vector<LineEntry> line;    // leaves sorted by (w, u, along)
+  };
+
+  template <class RowFn>
+  void forEachCrossing(size_t leaf, const std::vector<Pair>& leafPairs, int axis, RowFn&& fn) const {
+    const int U = rayAxisU(axis), W = rayAxisW(axis);
+    int64_t v0[3];
+    leafOrigin(leaf, v0);
+    for (uint64_t p = leafPairStart_[leaf]; p < leafPairStart_[leaf + 1]; ++p) {
+      const LatticeTriangle& tri = mesh_.triangles[pairTriangle(leafPairs[p])];
+      int64_t lo[3], hi[3], u0, u1, w0, w1;
+      triangleBounds(tri, lo, hi);
+      centreRange(lo[U], hi[U], v0[U], L_, u0, u1);
+      centreRange(lo[W], hi[W], v0[W], L_, w0, w1);
+      for (int64_t w = w0; w <= w1; ++w)
+        for (int64_t u = u0; u <= u1; ++u) {
+          int before;
+          if (rowCrossing(tri, axis, u, w, v0[axis], L_, before)) fn(int((u - v0[U]) + L_ * (w - v0[W])), before);
+        }
+    }
+  }
+
+  AxisParity axisParity(int axis, const std::vector<Pair>& leafPairs) const {
+    const size_t leaves = leafCoords_.size();
+    AxisParity ap;
+    std::vector<uint32_t> inside(leaves * rowWords_, 0u);
+    tbb::parallel_for(size_t(0), leaves, [&](size_t leaf) {
+      uint32_t* bits = inside.data() + leaf * rowWords_;
+      forEachCrossing(leaf, leafPairs, axis, [&](int row, int) { bits[row >> 5] ^= 1u << (row & 31); });
+    });
+    const int U = rayAxisU(axis), W = rayAxisW(axis);
+    ap.line.resize(leaves);
+    for (size_t leaf = 0; leaf < leaves; ++leaf) {
+      const uint64_t c = leafCoords_[leaf];
+      ap.line[leaf] = LineEntry{lineKey(unpackCoord(c, U), unpackCoord(c, W), unpackCoord(c, axis)), uint32_t(leaf)};
+    }
+    tbb::parallel_sort(ap.line.begin(), ap.line.end());
+    ap.exit.assign(leaves * rowWords_, 0u);
+    ap.entry.assign(leaves * rowWords_, 0u);
+    std::vector<uint32_t> running(rowWords_, 0u);
+    for (size_t i = leaves; i-- > 0;) {
+      const uint32_t leaf = ap.line[i].leaf;
+      if (i + 1 == leaves || (ap.line[i].key >> 21) != (ap.line[i + 1].key >> 21))
+        std::fill(running.begin(), running.end(), 0u);
+      for (int k = 0; k < rowWords_; ++k) {
+        ap.exit[leaf * rowWords_ + k] = running[k];
+        running[k] ^= inside[leaf * rowWords_ + k];
+        ap.entry[leaf * rowWords_ + k] = running[k];
+      }
+    }
+    return ap;
+  }
+
+  // Parity along `axis` at the lowest-corner voxel centre of a uniform
+  // element: the entry parity (row 0) of the first leaf beyond it on its line.
+  bool uniformParity(const AxisParity& ap, int axis, const UniformElement& e) const {
+    const uint64_t leavesPerElement = uint64_t(g_.elementVoxels(e.level)) / uint64_t(L_);
+    const uint64_t u = unpackCoord(e.coord, rayAxisU(axis)) * leavesPerElement;
+    const uint64_t w = unpackCoord(e.coord, rayAxisW(axis)) * leavesPerElement;
+    const uint64_t along = (unpackCoord(e.coord, axis) + 1) * leavesPerElement;
+    const uint64_t key = lineKey(u, w, along);
+    auto it = std::lower_bound(ap.line.begin(), ap.line.end(), LineEntry{key, 0});
+    if (it == ap.line.end() || (it->key >> 21) != (key >> 21)) return false;
+    return ap.entry[size_t(it->leaf) * rowWords_] & 1u;
+  }
+
+  // Per row (u, w) of a leaf along `axis`: bit i = the ray from voxel i's
+  // centre crosses the surface an odd number of times.
+  void insideRows(size_t leaf, const std::vector<Pair>& leafPairs, const AxisParity& ap, int axis,
+                  uint32_t* rows) const {
+    for (int r = 0; r < L_ * L_; ++r)
+      rows[r] = (ap.exit[leaf * rowWords_ + (r >> 5)] >> (r & 31)) & 1u ? fullRowMask(L_) : 0u;
+    forEachCrossing(leaf, leafPairs, axis, [&](int row, int before) {
+      rows[row] ^= before >= 32 ? 0xFFFFFFFFu : ((1u << before) - 1u);
+    });
+  }
+
+  void classify(const std::vector<Pair>& leafPairs) {
+    const int axes = mesh_.closed ? 1 : 3;
+    std::vector<AxisParity> parity;
+    for (int a = 0; a < axes; ++a) {
+      parity.push_back(axisParity(a, leafPairs));
+      report(0.7 + 0.1 * (a + 1) / axes, "classification");
+    }
+    const uint32_t wordsPerLeaf = leafWordCount(L_);
+    tbb::parallel_for(size_t(0), leafCoords_.size(), [&](size_t leaf) {
+      uint32_t* words = leafWords_.data() + leaf * wordsPerLeaf;
+      uint32_t rows[32 * 32];
+      if (axes == 1) { // closed: the +x parity rows are the leaf's own x rows
+        insideRows(leaf, leafPairs, parity[0], 0, rows);
+        for (int r = 0; r < L_ * L_; ++r) orRowIntoLeaf(words, L_, r, rows[r] & ~rowFromLeaf(words, L_, r, 1), 0);
+        return;
+      }
+      // Open: votes[v] counts the axes that say leaf voxel v is inside.
+      uint8_t votes[32 * 32 * 32];
+      std::fill(votes, votes + L_ * L_ * L_, uint8_t(0));
+      const int stride[3] = {1, L_, L_ * L_};
+      for (int a = 0; a < 3; ++a) {
+        insideRows(leaf, leafPairs, parity[a], a, rows);
+        const int su = stride[rayAxisU(a)], sw = stride[rayAxisW(a)], sa = stride[a];
+        for (int w = 0; w < L_; ++w)
+          for (int u = 0; u < L_; ++u) {
+            const uint32_t m = rows[u + L_ * w];
+            for (int i = 0; i < L_; ++i) votes[u * su + w * sw + i * sa] += (m >> i) & 1u;
+          }
+      }
+      for (int r = 0; r < L_ * L_; ++r) {
+        uint32_t m = 0;
+        for (int i = 0; i < L_; ++i) m |= uint32_t(votes[r * L_ + i] >= 2) << i;
+        orRowIntoLeaf(words, L_, r, m & ~rowFromLeaf(words, L_, r, 1), 0);
+      }
+    });
+    tbb::parallel_for(size_t(0), uniform_.size(), [&](size_t i) {
+      int votes = 0;
+      for (int a = 0; a < axes; ++a) votes += uniformParity(parity[a], a, uniform_[i]);
+      if (2 * votes > axes) elements_[uniform_[i].index] = makeElement(ElementState::Full, 0);
+    });
+  }
+
+  Volume finish(bool surfaceOnly) {
+    Volume v;
+    v.grid = g_;
+    v.surfaceOnly = surfaceOnly;
+    v.closedMesh = mesh_.closed;
+    v.elements = std::move(elements_);
+    levelStart_.push_back(v.elements.size());
+    v.levelStart = std::move(levelStart_);
+    v.leafWords = std::move(leafWords_);
+    computeStructureStatistics(v);
+    v.stats.triangles = mesh_.triangles.size();
+    v.stats.degenerateTriangles = mesh_.degenerateTriangles;
+    v.stats.time = times_;
+    v.stats.backend = "cpu";
+    v.stats.peakHostBytes = peakResidentBytes();
+    return v;
+  }
+
+  const PreparedMesh& mesh_;
+  const BuildOptions& options_;
+  const GridSpec& g_;
+  const int L_;
+  const int rowWords_; // 32-bit words for one bit per leaf row
+  std::vector<ElementWord> elements_;
+  std::vector<uint64_t> levelStart_;
+  std::vector<UniformElement> uniform_;
+  std::vector<uint64_t> leafCoords_;
+  std::vector<uint64_t> leafPairStart_;
+  std::vector<uint32_t> leafWords_;
+  PhaseTimes times_;
+};
+
+} // namespace
+
+uint64_t estimateHostBytes(const PreparedMesh& mesh) {
+  // Leaf grids dominate. A surface of area A (voxel units) touches about
+  // 3A / L^2 leaf grids of L^3 / 4 bytes (closed boxes: faces count twice),
+  // and every triangle touches at least one.
+  double area = 0;
+  for (const LatticeTriangle& t : mesh.triangles) {
+    int64_t n[3];
+    triangleNormal(t, n);
+    area += 0.5 * std::sqrt(double(n[0]) * n[0] + double(n[1]) * n[1] + double(n[2]) * n[2]);
+  }
+  area /= double(kLatticePerVoxel) * double(kLatticePerVoxel);
+  const double L = mesh.grid.leafSize;
+  const double leaves = 3.0 * area / (L * L) + double(mesh.triangles.size());
+  const double perLeaf = L * L * L / 4.0 /*states*/ + 8.0 * 8 /*pairs*/ + 4.0 * 8 * 2 /*elements*/ + 16;
+  const double rootGrid = std::pow(double(mesh.grid.rootGrid), 3) * 20.0;
+  const double triangles = double(mesh.triangles.size()) * (sizeof(LatticeTriangle) + 64);
+  return uint64_t(leaves * perLeaf * 1.5 + rootGrid + triangles);
+}
+
+Volume buildCpu(const PreparedMesh& mesh, const BuildOptions& options) {
+  const uint64_t need = estimateHostBytes(mesh);
+  const uint64_t have = availableHostBytes();
+  if (have != 0 && need > have) {
+    throw Error(ErrorKind::OutOfResources,
+                "resolution " + std::to_string(mesh.grid.resolution) + " needs about " +
+                    std::to_string(need >> 20) + " MiB of memory but only " + std::to_string(have >> 20) +
+                    " MiB are available; lower the resolution");
+  }
+  const int threads = options.threads > 0 ? options.threads : int(std::max(1u, std::thread::hardware_concurrency()));
+  tbb::task_arena arena(threads);
+  Volume v;
+  try {
+    arena.execute([&] { v = CpuBuild(mesh, options).run(mesh.surfaceOnly); });
+  } catch (const std::bad_alloc&) {
+    throw Error(ErrorKind::OutOfResources, "out of host memory while building at resolution " +
+                                               std::to_string(mesh.grid.resolution));
+  }
+  v.stats.threads = threads;
+  return v;
+}
+
+} // namespace hdt

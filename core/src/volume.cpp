@@ -1,1 +1,70 @@
-// placeholder
+#include "hdt/volume.hpp"
+
+#include <tbb/parallel_reduce.h>
+#include <tbb/blocked_range.h>
+
+#include <bitset>
+
+namespace hdt {
+
+void computeStructureStatistics(Volume& v) {
+  Statistics& s = v.stats;
+  const uint64_t L = uint64_t(v.grid.leafSize);
+  s.treeElements = v.elements.size();
+  s.leafGrids = v.leafCount();
+  s.leafVoxels = s.leafGrids * L * L * L;
+  s.topologyBytes = v.elements.size() * sizeof(ElementWord);
+  s.leafBytes = v.leafWords.size() * sizeof(uint32_t);
+
+  struct Counts {
+    uint64_t surface = 0, inside = 0;
+  };
+  const Counts leafCounts = tbb::parallel_reduce(
+      tbb::blocked_range<size_t>(0, v.leafWords.size(), 1 << 16), Counts{},
+      [&](const tbb::blocked_range<size_t>& r, Counts c) {
+        for (size_t i = r.begin(); i != r.end(); ++i) {
+          const uint32_t w = v.leafWords[i];
+          c.surface += uint64_t(__builtin_popcount((w >> 1) & 0x55555555u));
+          c.inside += uint64_t(__builtin_popcount(w & 0x55555555u));
+        }
+        return c;
+      },
+      [](Counts a, Counts b) { return Counts{a.surface + b.surface, a.inside + b.inside}; });
+  s.activeVoxels = leafCounts.surface;
+  s.insideVoxels = leafCounts.inside;
+  for (size_t level = 0; level + 1 < v.levelStart.size(); ++level) {
+    const uint64_t edge = uint64_t(v.grid.elementVoxels(int(level)));
+    for (uint64_t i = v.levelStart[level]; i < v.levelStart[level + 1]; ++i)
+      if (elementState(v.elements[i]) == ElementState::Full) s.insideVoxels += edge * edge * edge;
+  }
+  s.paperBitsPerActiveVoxel =
+      s.activeVoxels ? double(s.treeElements) * 20.0 * 8.0 / double(s.activeVoxels) : 0.0;
+}
+
+VoxelState voxelAt(const Volume& v, int x, int y, int z) {
+  const GridSpec& g = v.grid;
+  if (x < 0 || y < 0 || z < 0 || x >= g.resolution || y >= g.resolution || z >= g.resolution)
+    return VoxelState::Outside;
+  int edge = g.rootCellVoxels();
+  const int R = g.rootGrid;
+  uint64_t index = uint64_t(x / edge) + uint64_t(R) * (uint64_t(y / edge) + uint64_t(R) * uint64_t(z / edge));
+  for (;;) {
+    const ElementWord w = v.elements[index];
+    switch (elementState(w)) {
+    case ElementState::Empty: return VoxelState::Outside;
+    case ElementState::Full: return VoxelState::Inside;
+    case ElementState::Boundary: {
+      const int L = g.leafSize;
+      return leafVoxel(v.leaf(elementPayload(w)), L, x % L, y % L, z % L);
+    }
+    case ElementState::Branch: {
+      edge /= 2;
+      const int c = ((x / edge) & 1) | (((y / edge) & 1) << 1) | (((z / edge) & 1) << 2);
+      index = uint64_t(elementPayload(w)) + uint64_t(c);
+      break;
+    }
+    }
+  }
+}
+
+} // namespace hdt

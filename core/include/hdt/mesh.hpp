@@ -29,6 +29,7 @@ struct PreparedMesh {
   // Every edge is shared by an even number of triangles. Then all three ray
   // directions agree and the classifier needs only one of them.
   bool closed = false;
+  bool surfaceOnly = false;               // from BuildConfig: skip classification
 };
 
 // Bounds of all points referenced by triangles. Throws Error(BadInput) for an

@@ -52,7 +52,7 @@ HDT_HD constexpr uint32_t leafWordCount(int leafSize) {
   return static_cast<uint32_t>(leafSize) * leafSize * leafSize / kVoxelsPerWord;
 }
 
-HDT_HD inline VoxelState leafVoxel(const uint32_t* leafWords, int leafSize, int x, int y, int z) {
+HDT_HD VoxelState leafVoxel(const uint32_t* leafWords, int leafSize, int x, int y, int z) {
   const uint32_t v = static_cast<uint32_t>(x + leafSize * (y + leafSize * z));
   return static_cast<VoxelState>((leafWords[v >> 4] >> (2 * (v & 15u))) & 3u);
 }

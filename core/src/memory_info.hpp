@@ -1,0 +1,14 @@
+// Host memory figures for refusing oversized builds and for statistics.
+#pragma once
+
+#include <cstdint>
+
+namespace hdt {
+
+// MemAvailable from /proc/meminfo, or 0 when unknown.
+uint64_t availableHostBytes();
+
+// Peak resident set size of this process so far (getrusage).
+uint64_t peakResidentBytes();
+
+} // namespace hdt
