@@ -1,1 +1,930 @@
-// placeholder
+// The .hdt file format (docs/hdt-format.md): writer and validating reader.
+//
+// The reader checks in file order, and every check that bounds a later
+// allocation comes before it: section lengths against the bytes left in the
+// file, the element count against the element section, the leaf data against
+// the number of Boundary elements. A violated rule throws Invalid, which the
+// entry points turn into hdt::Error naming the file.
+//
+// The writer runs the same checks on the volume first (it must never produce a
+// file the reader refuses) and then streams the sections; the bulk (elements,
+// leaf words) goes from the volume's own arrays to the output without a copy
+// on little-endian hosts, or through zstd.
+#include "hdt/hdt_file.hpp"
+
+#include "hdt/error.hpp"
+#include "hdt/lattice.hpp"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_reduce.h>
+#include <zlib.h>
+#if defined(HDT_HAVE_ZSTD)
+#include <zstd.h>
+#endif
+
+#include <sys/stat.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <memory>
+#include <new>
+#include <stdexcept>
+#include <thread>
+
+namespace hdt {
+namespace {
+
+// ---- the format's constants (docs/hdt-format.md) ----------------------------------
+
+constexpr uint8_t kMagic[4] = {'H', 'D', 'T', 0};
+constexpr uint32_t kVersion = 1;
+constexpr uint32_t kFlagLeafZstd = 1u; // flags bit 0
+constexpr size_t kFileHeaderBytes = 12;
+constexpr size_t kSectionHeaderBytes = 28;
+constexpr size_t kGridBytes = 56;
+constexpr size_t kStatsFixedBytes = 144;
+constexpr size_t kMaxBackendLength = 64;
+constexpr int64_t kMaxHeight = 16; // keeps R * 2^h * L far from overflow
+
+enum class Section : uint32_t { Grid = 1, Statistics = 2, LevelTable = 3, Elements = 4, LeafData = 5 };
+enum class Encoding : uint32_t { Raw = 0, Zstd = 1 };
+
+const char* sectionName(Section s) {
+  switch (s) {
+  case Section::Grid: return "grid";
+  case Section::Statistics: return "statistics";
+  case Section::LevelTable: return "level table";
+  case Section::Elements: return "elements";
+  case Section::LeafData: return "leaf data";
+  }
+  return "?";
+}
+
+// A broken rule of the format; the entry points add the name and the ErrorKind.
+struct Invalid : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+[[noreturn]] void invalid(const std::string& what) { throw Invalid(what); }
+
+std::string str(uint64_t v) { return std::to_string(v); }
+
+// ---- bytes ------------------------------------------------------------------------
+
+constexpr bool kLittleEndianHost = __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__;
+
+// zlib's crc32() takes a 32-bit length: feed it at most 1 GiB at a time.
+uint32_t crc32Update(uint32_t crc, const void* data, size_t size) {
+  const Bytef* p = static_cast<const Bytef*>(data);
+  uLong c = crc;
+  while (size > 0) {
+    const uInt n = static_cast<uInt>(std::min<size_t>(size, size_t(1) << 30));
+    c = crc32(c, p, n);
+    p += n;
+    size -= n;
+  }
+  return static_cast<uint32_t>(c);
+}
+
+// Calls fn(bytes, size) over the little-endian encoding of `words`, in order.
+// On little-endian hosts that is the array itself, in one call and no copy.
+template <class Fn>
+void forEachLittleEndianChunk(const uint32_t* words, size_t count, Fn&& fn) {
+  if (count == 0) return;
+  if (kLittleEndianHost) {
+    fn(reinterpret_cast<const uint8_t*>(words), count * 4);
+    return;
+  }
+  std::vector<uint32_t> chunk(std::min<size_t>(count, 1 << 16));
+  for (size_t i = 0; i < count; i += chunk.size()) {
+    const size_t n = std::min(chunk.size(), count - i);
+    for (size_t j = 0; j < n; ++j) chunk[j] = __builtin_bswap32(words[i + j]);
+    fn(reinterpret_cast<const uint8_t*>(chunk.data()), n * 4);
+  }
+}
+
+// Words just read in little-endian order -> host order, in place.
+void littleEndianToHost(uint32_t* words, size_t count) {
+  if (!kLittleEndianHost)
+    for (size_t i = 0; i < count; ++i) words[i] = __builtin_bswap32(words[i]);
+}
+
+// Little-endian encoding of the small sections' fields.
+class ByteWriter {
+public:
+  void u32(uint32_t v) {
+    for (int i = 0; i < 4; ++i) bytes_.push_back(uint8_t(v >> (8 * i)));
+  }
+  void u64(uint64_t v) {
+    for (int i = 0; i < 8; ++i) bytes_.push_back(uint8_t(v >> (8 * i)));
+  }
+  void i32(int32_t v) { u32(static_cast<uint32_t>(v)); }
+  void f64(double v) {
+    uint64_t b;
+    std::memcpy(&b, &v, 8);
+    u64(b);
+  }
+  void raw(const void* data, size_t size) {
+    const uint8_t* p = static_cast<const uint8_t*>(data);
+    bytes_.insert(bytes_.end(), p, p + size);
+  }
+  const std::vector<uint8_t>& bytes() const { return bytes_; }
+
+private:
+  std::vector<uint8_t> bytes_;
+};
+
+// The matching decoder. Callers check section lengths before decoding, so
+// running past the end is a bug here, but still an error rather than a crash.
+class ByteReader {
+public:
+  ByteReader(const uint8_t* data, size_t size) : p_(data), size_(size) {}
+  uint32_t u32() { return uint32_t(take(4)); }
+  uint64_t u64() { return take(8); }
+  int32_t i32() { return static_cast<int32_t>(u32()); }
+  double f64() {
+    const uint64_t b = take(8);
+    double v;
+    std::memcpy(&v, &b, 8);
+    return v;
+  }
+  const uint8_t* bytes(size_t n) {
+    need(n);
+    const uint8_t* p = p_ + pos_;
+    pos_ += n;
+    return p;
+  }
+
+private:
+  void need(size_t n) const {
+    if (n > size_ - pos_) invalid("internal: field beyond its section");
+  }
+  uint64_t take(int n) {
+    need(size_t(n));
+    uint64_t v = 0;
+    for (int i = 0; i < n; ++i) v |= uint64_t(p_[pos_ + i]) << (8 * i);
+    pos_ += size_t(n);
+    return v;
+  }
+  const uint8_t* p_;
+  size_t size_;
+  size_t pos_ = 0;
+};
+
+// ---- validation, shared by the reader and the writer ------------------------------
+
+void checkGrid(int64_t N, int64_t R, int64_t L, int64_t h, const std::array<double, 3>& origin,
+               double voxelSize) {
+  if (L != 8 && L != 16 && L != 32) invalid("grid: leaf size " + std::to_string(L) + " is not 8, 16 or 32");
+  if (R < 1 || R > kMaxResolution) invalid("grid: root grid " + std::to_string(R) + " is out of range");
+  if (h < 0 || h > kMaxHeight) invalid("grid: height " + std::to_string(h) + " is out of range");
+  const int64_t expected = R * (int64_t(1) << h) * L;
+  if (N != expected) {
+    invalid("grid: resolution " + std::to_string(N) + " is not R * 2^h * L = " + std::to_string(expected));
+  }
+  if (N > kMaxResolution) {
+    invalid("grid: resolution " + std::to_string(N) + " exceeds " + std::to_string(kMaxResolution));
+  }
+  for (double o : origin)
+    if (!std::isfinite(o)) invalid("grid: origin is not finite");
+  if (!std::isfinite(voxelSize) || !(voxelSize > 0)) invalid("grid: voxel size is not finite and positive");
+}
+
+// The fields that are not derived from the contents (those: checkStructure).
+void checkStatisticsFields(const Statistics& s) {
+  if (s.backend.size() > kMaxBackendLength) invalid("statistics: backend name longer than 64 bytes");
+  for (char c : s.backend)
+    if (c < 0x20 || c > 0x7E) invalid("statistics: backend name is not printable ASCII");
+  if (s.threads < 0) invalid("statistics: negative thread count");
+  const double values[] = {s.paperBitsPerActiveVoxel, s.time.mapping, s.time.branching,
+                           s.time.leaf, s.time.classify, s.time.total};
+  for (double v : values)
+    if (!std::isfinite(v) || v < 0) invalid("statistics: a time or ratio is negative or not finite");
+}
+
+// levelStart: h + 2 entries; see docs/hdt-format.md rule 13.
+void checkLevelTable(const std::vector<uint64_t>& ls, const GridSpec& g) {
+  if (ls.size() != size_t(g.height) + 2) invalid("level table: " + str(ls.size()) + " entries, expected h + 2");
+  const uint64_t R = uint64_t(g.rootGrid);
+  const uint64_t roots = R * R * R;
+  if (roots > kMaxElementPayload) invalid("level table: R^3 = " + str(roots) + " exceeds the element limit");
+  if (ls[0] != 0 || ls[1] != roots) invalid("level table: level 0 must be the R^3 = " + str(roots) + " root elements");
+  for (size_t k = 1; k + 1 < ls.size(); ++k) {
+    if (ls[k + 1] < ls[k] || ls[k + 1] > kMaxElementPayload) {
+      invalid("level table: start of level " + str(k + 1) + " (" + str(ls[k + 1]) +
+              ") is decreasing or beyond the element limit");
+    }
+    const uint64_t size = ls[k + 1] - ls[k], parents = ls[k] - ls[k - 1];
+    if (size % 8 != 0 || size > 8 * parents) {
+      invalid("level table: level " + str(k) + " has " + str(size) +
+              " elements, not 8 per branch of the " + str(parents) + " elements above");
+    }
+  }
+}
+
+struct TreeCounts {
+  uint64_t leaves = 0;     // Boundary elements
+  uint64_t fullVoxels = 0; // voxels covered by Full elements
+};
+
+// Rules 14-17: the canonical level-order layout, element by element.
+TreeCounts checkElements(const std::vector<ElementWord>& elements, const std::vector<uint64_t>& ls,
+                         const GridSpec& g, bool surfaceOnly) {
+  TreeCounts counts;
+  const int h = g.height;
+  for (int k = 0; k <= h; ++k) {
+    const bool leafLevel = k == h;
+    const uint64_t edge = uint64_t(g.elementVoxels(k));
+    uint64_t nextChild = ls[k + 1]; // where the next Branch's children must start
+    for (uint64_t i = ls[k]; i < ls[k + 1]; ++i) {
+      const ElementWord w = elements[i];
+      const uint32_t payload = elementPayload(w);
+      // Built only for a message: this loop may run a billion times.
+      const auto where = [&] { return "element " + str(i) + " (level " + std::to_string(k) + ")"; };
+      switch (elementState(w)) {
+      case ElementState::Full:
+        if (surfaceOnly) invalid(where() + ": Full element in a surface-only volume");
+        counts.fullVoxels += edge * edge * edge;
+        [[fallthrough]];
+      case ElementState::Empty:
+        if (payload != 0) invalid(where() + ": uniform element with nonzero payload " + str(payload));
+        break;
+      case ElementState::Branch:
+        if (leafLevel) invalid(where() + ": Branch at the leaf level");
+        if (payload != nextChild) {
+          invalid(where() + ": Branch points to " + str(payload) + ", its children are at " + str(nextChild));
+        }
+        nextChild += 8;
+        break;
+      case ElementState::Boundary:
+        if (!leafLevel) invalid(where() + ": Boundary element above the leaf level " + std::to_string(h));
+        if (payload != counts.leaves) {
+          invalid(where() + ": Boundary points to leaf " + str(payload) + ", expected " + str(counts.leaves));
+        }
+        ++counts.leaves;
+        break;
+      }
+    }
+    if (!leafLevel && nextChild != ls[k + 2]) {
+      invalid("level " + std::to_string(k) + " has " + str((nextChild - ls[k + 1]) / 8) + " Branch elements but level " +
+              std::to_string(k + 1) + " has " + str(ls[k + 2] - ls[k + 1]) + " elements");
+    }
+  }
+  return counts;
+}
+
+// Number of set bits in the even positions (one per 2-bit voxel state). Plain
+// arithmetic: without -mpopcnt, __builtin_popcount is a library call per word,
+// several times slower on a gigabyte of leaves.
+inline uint32_t countEvenBits(uint32_t w) {
+  uint32_t m = w & 0x55555555u;
+  m = (m & 0x33333333u) + ((m >> 2) & 0x33333333u);
+  m = (m + (m >> 4)) & 0x0F0F0F0Fu;
+  return (m * 0x01010101u) >> 24;
+}
+
+struct LeafCounts {
+  uint64_t surface = 0, inside = 0, invalidWords = 0;
+};
+
+// Rule 19, and the voxel counts the statistics must match.
+LeafCounts checkLeaves(const std::vector<uint32_t>& words, int leafSize, bool surfaceOnly) {
+  const LeafCounts c = tbb::parallel_reduce(
+      tbb::blocked_range<size_t>(0, words.size(), 1 << 16), LeafCounts{},
+      [&](const tbb::blocked_range<size_t>& r, LeafCounts c) {
+        for (size_t i = r.begin(); i != r.end(); ++i) {
+          const uint32_t w = words[i];
+          c.surface += countEvenBits(w >> 1);
+          c.inside += countEvenBits(w);
+          c.invalidWords += (w & (w >> 1) & 0x55555555u) != 0;
+        }
+        return c;
+      },
+      [](LeafCounts a, const LeafCounts& b) {
+        a.surface += b.surface;
+        a.inside += b.inside;
+        a.invalidWords += b.invalidWords;
+        return a;
+      });
+  if (c.invalidWords != 0) {
+    const auto bad = std::find_if(words.begin(), words.end(),
+                                  [](uint32_t w) { return (w & (w >> 1) & 0x55555555u) != 0; });
+    const uint64_t word = uint64_t(bad - words.begin()), perLeaf = leafWordCount(leafSize);
+    invalid("leaf data: leaf " + str(word / perLeaf) + " has a voxel in the invalid state 3 (word " +
+            str(word % perLeaf) + ")");
+  }
+  // Inside and Surface are exclusive states, so the popcounts above count voxels.
+  if (surfaceOnly && c.inside != 0) invalid("leaf data: " + str(c.inside) + " Inside voxels in a surface-only volume");
+  return c;
+}
+
+// Rule 12: the statistics that are functions of the contents must agree with them.
+void checkStructure(const Statistics& s, const Volume& v, const TreeCounts& tree, const LeafCounts& leaves) {
+  const uint64_t L = uint64_t(v.grid.leafSize);
+  const struct {
+    const char* name;
+    uint64_t stored, actual;
+  } fields[] = {
+      {"tree elements", s.treeElements, v.elements.size()},
+      {"leaf grids", s.leafGrids, tree.leaves},
+      {"leaf voxels", s.leafVoxels, tree.leaves * L * L * L},
+      {"active voxels", s.activeVoxels, leaves.surface},
+      {"inside voxels", s.insideVoxels, leaves.inside + tree.fullVoxels},
+      {"topology bytes", s.topologyBytes, uint64_t(v.elements.size()) * 4},
+      {"leaf bytes", s.leafBytes, uint64_t(v.leafWords.size()) * 4},
+  };
+  for (const auto& f : fields) {
+    if (f.stored != f.actual) {
+      invalid(std::string("statistics: ") + f.name + " is " + str(f.stored) + " but the volume has " + str(f.actual));
+    }
+  }
+}
+
+// Everything at once, for the writer.
+void checkVolume(const Volume& v) {
+  const GridSpec& g = v.grid;
+  checkGrid(g.resolution, g.rootGrid, g.leafSize, g.height, g.origin, g.voxelSize);
+  checkStatisticsFields(v.stats);
+  checkLevelTable(v.levelStart, g);
+  if (v.elements.size() != v.levelStart.back()) {
+    invalid(str(v.elements.size()) + " elements but the level table ends at " + str(v.levelStart.back()));
+  }
+  const TreeCounts tree = checkElements(v.elements, v.levelStart, g, v.surfaceOnly);
+  if (v.leafWords.size() != tree.leaves * leafWordCount(g.leafSize)) {
+    invalid(str(v.leafWords.size()) + " leaf words for " + str(tree.leaves) + " Boundary elements");
+  }
+  checkStructure(v.stats, v, tree, checkLeaves(v.leafWords, g.leafSize, v.surfaceOnly));
+}
+
+// ---- zstd ---------------------------------------------------------------------------
+
+#if defined(HDT_HAVE_ZSTD)
+struct CCtxFree {
+  void operator()(ZSTD_CCtx* c) const { ZSTD_freeCCtx(c); }
+};
+struct DCtxFree {
+  void operator()(ZSTD_DCtx* d) const { ZSTD_freeDCtx(d); }
+};
+
+void zstdCheck(size_t code, const char* what) {
+  if (ZSTD_isError(code)) throw Error(ErrorKind::OutOfResources, std::string("zstd ") + what + ": " + ZSTD_getErrorName(code));
+}
+
+// One zstd frame stating its content size. The output buffer has room for the
+// worst case (ZSTD_compressBound), so the loop never waits for space; pages of
+// it that are not written are never touched.
+struct Compressed {
+  std::unique_ptr<uint8_t[]> data;
+  size_t size = 0;
+};
+
+Compressed compressLeaves(const std::vector<uint32_t>& words, int level) {
+  const size_t rawBytes = words.size() * 4;
+  std::unique_ptr<ZSTD_CCtx, CCtxFree> cctx(ZSTD_createCCtx());
+  if (!cctx) throw std::bad_alloc();
+  zstdCheck(ZSTD_CCtx_setParameter(cctx.get(), ZSTD_c_compressionLevel, level), "level");
+  zstdCheck(ZSTD_CCtx_setParameter(cctx.get(), ZSTD_c_contentSizeFlag, 1), "content size flag");
+  zstdCheck(ZSTD_CCtx_setPledgedSrcSize(cctx.get(), rawBytes), "pledged size");
+  if (rawBytes >= (size_t(16) << 20)) {
+    // Large volumes: let zstd compress in parallel. Fails harmlessly (and we
+    // stay single-threaded) when the library was built without threads.
+    const int workers = int(std::min(16u, std::max(1u, std::thread::hardware_concurrency())));
+    ZSTD_CCtx_setParameter(cctx.get(), ZSTD_c_nbWorkers, workers);
+  }
+  Compressed out;
+  const size_t capacity = ZSTD_compressBound(rawBytes);
+  out.data.reset(new uint8_t[capacity]);
+  ZSTD_outBuffer dst{out.data.get(), capacity, 0};
+  forEachLittleEndianChunk(words.data(), words.size(), [&](const uint8_t* p, size_t n) {
+    ZSTD_inBuffer src{p, n, 0};
+    while (src.pos < src.size) zstdCheck(ZSTD_compressStream2(cctx.get(), &dst, &src, ZSTD_e_continue), "compress");
+  });
+  ZSTD_inBuffer none{nullptr, 0, 0};
+  size_t left;
+  do {
+    left = ZSTD_compressStream2(cctx.get(), &dst, &none, ZSTD_e_end);
+    zstdCheck(left, "compress");
+  } while (left != 0);
+  out.size = dst.pos;
+  return out;
+}
+
+// Decodes exactly `dstSize` bytes from exactly one frame of `srcSize` bytes.
+void decompressLeaves(const uint8_t* src, size_t srcSize, uint8_t* dst, size_t dstSize) {
+  const unsigned long long content = ZSTD_getFrameContentSize(src, srcSize);
+  if (content == ZSTD_CONTENTSIZE_ERROR) invalid("leaf data: not a zstd frame");
+  if (content == ZSTD_CONTENTSIZE_UNKNOWN) invalid("leaf data: the zstd frame does not state its size");
+  if (content != dstSize) {
+    invalid("leaf data: the zstd frame holds " + str(content) + " bytes, expected " + str(dstSize));
+  }
+  const size_t frame = ZSTD_findFrameCompressedSize(src, srcSize);
+  if (ZSTD_isError(frame) || frame != srcSize) invalid("leaf data: not exactly one zstd frame");
+  std::unique_ptr<ZSTD_DCtx, DCtxFree> dctx(ZSTD_createDCtx());
+  if (!dctx) throw std::bad_alloc();
+  uint8_t none;
+  // One-shot into the caller's buffer: zstd never writes beyond dstSize and
+  // needs no window buffer of its own, whatever the frame header claims.
+  const size_t n = ZSTD_decompressDCtx(dctx.get(), dstSize ? dst : &none, dstSize, src, srcSize);
+  if (ZSTD_isError(n)) invalid(std::string("leaf data: zstd: ") + ZSTD_getErrorName(n));
+  if (n != dstSize) invalid("leaf data: the zstd frame decoded to " + str(n) + " bytes, expected " + str(dstSize));
+}
+#endif
+
+// ---- writing ------------------------------------------------------------------------
+
+class Sink {
+public:
+  virtual ~Sink() = default;
+  virtual void write(const void* data, size_t size) = 0;
+};
+
+class VectorSink final : public Sink {
+public:
+  explicit VectorSink(std::vector<uint8_t>& out) : out_(out) {}
+  void write(const void* data, size_t size) override {
+    const uint8_t* p = static_cast<const uint8_t*>(data);
+    out_.insert(out_.end(), p, p + size);
+  }
+
+private:
+  std::vector<uint8_t>& out_;
+};
+
+class FileSink final : public Sink {
+public:
+  FileSink(std::FILE* f, const std::string& path) : f_(f), path_(path) {}
+  void write(const void* data, size_t size) override {
+    if (size != 0 && std::fwrite(data, 1, size, f_) != size) {
+      throw Error(ErrorKind::BadInput, path_ + ": cannot write: " + std::strerror(errno));
+    }
+  }
+
+private:
+  std::FILE* f_;
+  const std::string& path_;
+};
+
+// A volume ready to be written: small sections encoded, bulk sections
+// checksummed (and the leaf data compressed), so every header is known before
+// the first byte goes out and the output needs no seeking.
+struct EncodedVolume {
+  std::vector<uint8_t> grid, stats, levels;
+  uint32_t elementsCrc = 0;
+  Encoding leafEncoding = Encoding::Raw;
+  uint64_t leafRawBytes = 0;
+#if defined(HDT_HAVE_ZSTD)
+  Compressed compressed;
+#endif
+  uint32_t leafCrc = 0;
+
+  uint64_t leafStoredBytes() const {
+#if defined(HDT_HAVE_ZSTD)
+    if (leafEncoding == Encoding::Zstd) return compressed.size;
+#endif
+    return leafRawBytes;
+  }
+};
+
+EncodedVolume encode(const Volume& v, const HdtWriteOptions& options) {
+  EncodedVolume e;
+  const GridSpec& g = v.grid;
+  {
+    ByteWriter w;
+    w.u32(uint32_t(g.resolution));
+    w.u32(uint32_t(g.rootGrid));
+    w.u32(uint32_t(g.leafSize));
+    w.u32(uint32_t(g.height));
+    for (double o : g.origin) w.f64(o);
+    w.f64(g.voxelSize);
+    w.u32(v.surfaceOnly ? 1 : 0);
+    w.u32(v.closedMesh ? 1 : 0);
+    e.grid = w.bytes();
+  }
+  {
+    const Statistics& s = v.stats;
+    ByteWriter w;
+    for (uint64_t x : {s.triangles, s.degenerateTriangles, s.treeElements, s.leafGrids, s.leafVoxels,
+                       s.activeVoxels, s.insideVoxels})
+      w.u64(x);
+    w.f64(s.paperBitsPerActiveVoxel);
+    w.u64(s.topologyBytes);
+    w.u64(s.leafBytes);
+    for (double t : {s.time.mapping, s.time.branching, s.time.leaf, s.time.classify, s.time.total}) w.f64(t);
+    w.u64(s.peakHostBytes);
+    w.u64(s.peakDeviceBytes);
+    w.i32(s.threads);
+    w.u32(uint32_t(s.backend.size()));
+    w.raw(s.backend.data(), s.backend.size());
+    e.stats = w.bytes();
+  }
+  {
+    ByteWriter w;
+    for (uint64_t x : v.levelStart) w.u64(x);
+    e.levels = w.bytes();
+  }
+  forEachLittleEndianChunk(v.elements.data(), v.elements.size(),
+                           [&](const uint8_t* p, size_t n) { e.elementsCrc = crc32Update(e.elementsCrc, p, n); });
+
+  e.leafRawBytes = uint64_t(v.leafWords.size()) * 4;
+#if defined(HDT_HAVE_ZSTD)
+  if (options.compressLeaves && !v.leafWords.empty()) {
+    e.leafEncoding = Encoding::Zstd;
+    e.compressed = compressLeaves(v.leafWords, options.zstdLevel);
+    e.leafCrc = crc32Update(0, e.compressed.data.get(), e.compressed.size);
+    return e;
+  }
+#else
+  (void)options;
+#endif
+  forEachLittleEndianChunk(v.leafWords.data(), v.leafWords.size(),
+                           [&](const uint8_t* p, size_t n) { e.leafCrc = crc32Update(e.leafCrc, p, n); });
+  return e;
+}
+
+void writeSectionHeader(Sink& out, Section id, Encoding encoding, uint64_t stored, uint64_t raw, uint32_t crc) {
+  ByteWriter w;
+  w.u32(uint32_t(id));
+  w.u32(uint32_t(encoding));
+  w.u64(stored);
+  w.u64(raw);
+  w.u32(crc);
+  out.write(w.bytes().data(), w.bytes().size());
+}
+
+void writeSmallSection(Sink& out, Section id, const std::vector<uint8_t>& payload) {
+  writeSectionHeader(out, id, Encoding::Raw, payload.size(), payload.size(), crc32Update(0, payload.data(), payload.size()));
+  out.write(payload.data(), payload.size());
+}
+
+uint64_t encodedSize(const EncodedVolume& e, const Volume& v) {
+  return kFileHeaderBytes + 5 * kSectionHeaderBytes + e.grid.size() + e.stats.size() + e.levels.size() +
+         uint64_t(v.elements.size()) * 4 + e.leafStoredBytes();
+}
+
+void emit(const EncodedVolume& e, const Volume& v, Sink& out) {
+  ByteWriter header;
+  header.raw(kMagic, 4);
+  header.u32(kVersion);
+  header.u32(e.leafEncoding == Encoding::Zstd ? kFlagLeafZstd : 0u);
+  out.write(header.bytes().data(), header.bytes().size());
+
+  writeSmallSection(out, Section::Grid, e.grid);
+  writeSmallSection(out, Section::Statistics, e.stats);
+  writeSmallSection(out, Section::LevelTable, e.levels);
+
+  const uint64_t elementBytes = uint64_t(v.elements.size()) * 4;
+  writeSectionHeader(out, Section::Elements, Encoding::Raw, elementBytes, elementBytes, e.elementsCrc);
+  forEachLittleEndianChunk(v.elements.data(), v.elements.size(), [&](const uint8_t* p, size_t n) { out.write(p, n); });
+
+  writeSectionHeader(out, Section::LeafData, e.leafEncoding, e.leafStoredBytes(), e.leafRawBytes, e.leafCrc);
+#if defined(HDT_HAVE_ZSTD)
+  if (e.leafEncoding == Encoding::Zstd) {
+    out.write(e.compressed.data.get(), e.compressed.size);
+    return;
+  }
+#endif
+  forEachLittleEndianChunk(v.leafWords.data(), v.leafWords.size(), [&](const uint8_t* p, size_t n) { out.write(p, n); });
+}
+
+// Checks the volume and the options, then encodes; throws hdt::Error.
+EncodedVolume prepare(const Volume& v, const HdtWriteOptions& options, const std::string& name) {
+#if defined(HDT_HAVE_ZSTD)
+  if (options.compressLeaves && (options.zstdLevel < ZSTD_minCLevel() || options.zstdLevel > ZSTD_maxCLevel())) {
+    throw Error(ErrorKind::InvalidArgument, "zstd level " + std::to_string(options.zstdLevel) + " is out of range [" +
+                                                std::to_string(ZSTD_minCLevel()) + ", " +
+                                                std::to_string(ZSTD_maxCLevel()) + "]");
+  }
+#endif
+  try {
+    checkVolume(v);
+  } catch (const Invalid& e) {
+    throw Error(ErrorKind::InvalidArgument, name + ": refusing to write an inconsistent volume: " + e.what());
+  }
+  try {
+    return encode(v, options);
+  } catch (const std::bad_alloc&) {
+    throw Error(ErrorKind::OutOfResources, name + ": out of memory while encoding the volume");
+  }
+}
+
+// ---- reading ------------------------------------------------------------------------
+
+class Source {
+public:
+  explicit Source(uint64_t size) : size_(size) {}
+  virtual ~Source() = default;
+  uint64_t position() const { return pos_; }
+  uint64_t remaining() const { return size_ - pos_; }
+  // The next `n` bytes (n <= remaining()) into `dst`.
+  void read(void* dst, size_t n) {
+    doRead(dst, n);
+    pos_ += n;
+  }
+  // The next `n` bytes (n <= remaining()), valid until the next call; they
+  // may be copied into `scratch` (a file) or not (memory).
+  const uint8_t* view(size_t n, std::vector<uint8_t>& scratch) {
+    const uint8_t* p = doView(n, scratch);
+    pos_ += n;
+    return p;
+  }
+
+protected:
+  virtual void doRead(void* dst, size_t n) = 0;
+  virtual const uint8_t* doView(size_t n, std::vector<uint8_t>& scratch) = 0;
+  uint64_t size_;
+  uint64_t pos_ = 0;
+};
+
+class MemorySource final : public Source {
+public:
+  MemorySource(const uint8_t* data, size_t size) : Source(size), data_(data) {}
+
+private:
+  void doRead(void* dst, size_t n) override {
+    if (n) std::memcpy(dst, data_ + pos_, n);
+  }
+  const uint8_t* doView(size_t, std::vector<uint8_t>&) override { return data_ + pos_; }
+  const uint8_t* data_;
+};
+
+class FileSource final : public Source {
+public:
+  FileSource(std::FILE* f, uint64_t size) : Source(size), f_(f) {}
+
+private:
+  void doRead(void* dst, size_t n) override {
+    if (n && std::fread(dst, 1, n, f_) != n) {
+      invalid(std::string("read error at byte ") + str(pos_) + (std::ferror(f_) ? ": " + std::string(std::strerror(errno)) : ": the file shrank"));
+    }
+  }
+  const uint8_t* doView(size_t n, std::vector<uint8_t>& scratch) override {
+    scratch.resize(n);
+    doRead(scratch.data(), n);
+    return scratch.data();
+  }
+  std::FILE* f_;
+};
+
+struct SectionHeader {
+  Section id;
+  Encoding encoding;
+  uint64_t stored, raw;
+  uint32_t crc;
+};
+
+// Rule 4: the header is complete, expected, and its payload is in the file.
+SectionHeader readSectionHeader(Source& in, Section expected) {
+  const std::string name = sectionName(expected);
+  const uint64_t at = in.position();
+  if (in.remaining() < kSectionHeaderBytes) {
+    invalid("the file ends at byte " + str(at + in.remaining()) + ", before the " + name + " section header is complete");
+  }
+  uint8_t bytes[kSectionHeaderBytes];
+  in.read(bytes, kSectionHeaderBytes);
+  ByteReader r(bytes, kSectionHeaderBytes);
+  const uint32_t id = r.u32(), encoding = r.u32();
+  SectionHeader h{expected, Encoding::Raw, r.u64(), r.u64(), r.u32()};
+  if (id != uint32_t(expected)) {
+    invalid("expected the " + name + " section (id " + str(uint32_t(expected)) + ") at byte " + str(at) +
+            ", found id " + str(id));
+  }
+  if (encoding == uint32_t(Encoding::Zstd) && expected == Section::LeafData) {
+    h.encoding = Encoding::Zstd;
+  } else if (encoding != uint32_t(Encoding::Raw)) {
+    invalid(name + " section: invalid encoding " + str(encoding));
+  }
+  if (h.stored > in.remaining()) {
+    invalid(name + " section: " + str(h.stored) + " bytes stored but only " + str(in.remaining()) +
+            " remain in the file (truncated?)");
+  }
+  if (h.encoding == Encoding::Raw && h.raw != h.stored) {
+    invalid(name + " section: raw section with " + str(h.stored) + " bytes stored but " + str(h.raw) + " decoded");
+  }
+  return h;
+}
+
+// Rule 5: checked before the payload is read.
+void expectRawBytes(const SectionHeader& h, uint64_t expected) {
+  if (h.raw != expected) {
+    invalid(std::string(sectionName(h.id)) + " section: " + str(h.raw) + " bytes, expected " + str(expected));
+  }
+}
+
+// Rule 6.
+void checkCrc(const SectionHeader& h, uint32_t actual) {
+  if (actual != h.crc) {
+    char msg[128];
+    std::snprintf(msg, sizeof msg, " section: CRC-32 mismatch (stored %08x, computed %08x)", h.crc, actual);
+    invalid(sectionName(h.id) + std::string(msg));
+  }
+}
+
+// A small, already length-checked section: its bytes, CRC verified.
+std::vector<uint8_t> readSmallSection(Source& in, const SectionHeader& h) {
+  std::vector<uint8_t> bytes(size_t(h.stored));
+  in.read(bytes.data(), bytes.size());
+  checkCrc(h, crc32Update(0, bytes.data(), bytes.size()));
+  return bytes;
+}
+
+// Words of a raw section, straight into `words` (already sized to h.stored / 4).
+void readWordSection(Source& in, const SectionHeader& h, std::vector<uint32_t>& words) {
+  in.read(words.data(), size_t(h.stored));
+  checkCrc(h, crc32Update(0, words.data(), size_t(h.stored)));
+  littleEndianToHost(words.data(), words.size());
+}
+
+size_t toSize(uint64_t bytes) {
+  if (bytes > uint64_t(SIZE_MAX)) throw std::bad_alloc();
+  return size_t(bytes);
+}
+
+Volume readVolume(Source& in) {
+  Volume v;
+  GridSpec& g = v.grid;
+
+  // File header (rules 1-3).
+  uint8_t header[kFileHeaderBytes];
+  if (in.remaining() < kFileHeaderBytes) invalid("too short for an .hdt file (" + str(in.remaining()) + " bytes)");
+  in.read(header, kFileHeaderBytes);
+  if (std::memcmp(header, kMagic, 4) != 0) invalid("not an .hdt file (bad magic)");
+  ByteReader hr(header + 4, kFileHeaderBytes - 4);
+  const uint32_t version = hr.u32(), flags = hr.u32();
+  if (version != kVersion) {
+    invalid("unsupported .hdt format version " + str(version) + " (this reader supports " + str(kVersion) + ")");
+  }
+  if (flags & ~kFlagLeafZstd) invalid("unknown flags " + str(flags) + " in the file header");
+#if !defined(HDT_HAVE_ZSTD)
+  if (flags & kFlagLeafZstd) {
+    invalid("the leaf data is zstd-compressed but this build of HDT has no zstd support "
+            "(rebuild with libzstd, or write the file without compression)");
+  }
+#endif
+
+  // Grid (rules 8-10).
+  {
+    const SectionHeader h = readSectionHeader(in, Section::Grid);
+    expectRawBytes(h, kGridBytes);
+    const std::vector<uint8_t> bytes = readSmallSection(in, h);
+    ByteReader r(bytes.data(), bytes.size());
+    const int64_t N = r.u32(), R = r.u32(), L = r.u32(), height = r.u32();
+    std::array<double, 3> origin;
+    for (double& o : origin) o = r.f64();
+    const double voxelSize = r.f64();
+    const uint32_t surfaceOnly = r.u32(), closedMesh = r.u32();
+    checkGrid(N, R, L, height, origin, voxelSize);
+    if (surfaceOnly > 1 || closedMesh > 1) invalid("grid: a boolean flag is neither 0 nor 1");
+    g.resolution = int(N);
+    g.rootGrid = int(R);
+    g.leafSize = int(L);
+    g.height = int(height);
+    g.origin = origin;
+    g.voxelSize = voxelSize;
+    v.surfaceOnly = surfaceOnly == 1;
+    v.closedMesh = closedMesh == 1;
+  }
+
+  // Statistics (rule 11; rule 12 once the contents are known).
+  {
+    const SectionHeader h = readSectionHeader(in, Section::Statistics);
+    if (h.raw < kStatsFixedBytes || h.raw > kStatsFixedBytes + kMaxBackendLength) {
+      invalid("statistics section: " + str(h.raw) + " bytes, expected " + str(kStatsFixedBytes) + " to " +
+              str(kStatsFixedBytes + kMaxBackendLength));
+    }
+    const std::vector<uint8_t> bytes = readSmallSection(in, h);
+    ByteReader r(bytes.data(), bytes.size());
+    Statistics& s = v.stats;
+    for (uint64_t* x : {&s.triangles, &s.degenerateTriangles, &s.treeElements, &s.leafGrids, &s.leafVoxels,
+                        &s.activeVoxels, &s.insideVoxels})
+      *x = r.u64();
+    s.paperBitsPerActiveVoxel = r.f64();
+    s.topologyBytes = r.u64();
+    s.leafBytes = r.u64();
+    for (double* t : {&s.time.mapping, &s.time.branching, &s.time.leaf, &s.time.classify, &s.time.total}) *t = r.f64();
+    s.peakHostBytes = r.u64();
+    s.peakDeviceBytes = r.u64();
+    s.threads = r.i32();
+    const uint32_t length = r.u32();
+    if (length != bytes.size() - kStatsFixedBytes) {
+      invalid("statistics section: backend name of " + str(length) + " bytes in a section of " + str(bytes.size()));
+    }
+    s.backend.assign(reinterpret_cast<const char*>(r.bytes(length)), length);
+    checkStatisticsFields(s);
+  }
+
+  // Level table (rule 13).
+  {
+    const SectionHeader h = readSectionHeader(in, Section::LevelTable);
+    expectRawBytes(h, (uint64_t(g.height) + 2) * 8);
+    const std::vector<uint8_t> bytes = readSmallSection(in, h);
+    ByteReader r(bytes.data(), bytes.size());
+    v.levelStart.resize(size_t(g.height) + 2);
+    for (uint64_t& x : v.levelStart) x = r.u64();
+    checkLevelTable(v.levelStart, g);
+  }
+
+  // Elements (rules 14-17). The count is at most 2^30 - 1 and the section is in the file.
+  TreeCounts tree;
+  {
+    const SectionHeader h = readSectionHeader(in, Section::Elements);
+    expectRawBytes(h, v.levelStart.back() * 4);
+    v.elements.resize(toSize(v.levelStart.back()));
+    readWordSection(in, h, v.elements);
+    tree = checkElements(v.elements, v.levelStart, g, v.surfaceOnly);
+  }
+
+  // Leaf data (rules 18-19). Its size follows from the Boundary elements just
+  // counted, at most 8 KiB for each 4-byte element read.
+  {
+    const SectionHeader h = readSectionHeader(in, Section::LeafData);
+    if (((flags & kFlagLeafZstd) != 0) != (h.encoding == Encoding::Zstd)) {
+      invalid("the file header's compression flag disagrees with the leaf data section");
+    }
+    const uint64_t words = tree.leaves * leafWordCount(g.leafSize);
+    expectRawBytes(h, words * 4);
+    v.leafWords.resize(toSize(words));
+    if (h.encoding == Encoding::Raw) {
+      readWordSection(in, h, v.leafWords);
+    } else {
+#if defined(HDT_HAVE_ZSTD)
+      std::vector<uint8_t> scratch;
+      const uint8_t* stored = in.view(size_t(h.stored), scratch);
+      checkCrc(h, crc32Update(0, stored, size_t(h.stored)));
+      decompressLeaves(stored, size_t(h.stored), reinterpret_cast<uint8_t*>(v.leafWords.data()), size_t(h.raw));
+      littleEndianToHost(v.leafWords.data(), v.leafWords.size());
+#endif
+    }
+  }
+  if (in.remaining() != 0) invalid(str(in.remaining()) + " bytes after the end of the leaf data section");
+
+  checkStructure(v.stats, v, tree, checkLeaves(v.leafWords, g.leafSize, v.surfaceOnly));
+  return v;
+}
+
+Volume readNamed(Source& in, const std::string& name) {
+  try {
+    return readVolume(in);
+  } catch (const Invalid& e) {
+    throw Error(ErrorKind::BadInput, name + ": " + e.what());
+  } catch (const std::bad_alloc&) {
+    throw Error(ErrorKind::OutOfResources, name + ": not enough memory to load the volume");
+  }
+}
+
+struct FileClose {
+  void operator()(std::FILE* f) const { std::fclose(f); }
+};
+
+} // namespace
+
+std::vector<uint8_t> serializeHdt(const Volume& volume, const HdtWriteOptions& options) {
+  const std::string name = "<memory>";
+  const EncodedVolume e = prepare(volume, options, name);
+  std::vector<uint8_t> bytes;
+  try {
+    bytes.reserve(toSize(encodedSize(e, volume)));
+    VectorSink sink(bytes);
+    emit(e, volume, sink);
+  } catch (const std::bad_alloc&) {
+    throw Error(ErrorKind::OutOfResources, name + ": out of memory while serializing the volume");
+  }
+  return bytes;
+}
+
+void writeHdt(const Volume& volume, const std::string& path, const HdtWriteOptions& options) {
+  // Encode first: a refused volume must not leave a file behind.
+  const EncodedVolume e = prepare(volume, options, path);
+  std::unique_ptr<std::FILE, FileClose> f(std::fopen(path.c_str(), "wb"));
+  if (!f) throw Error(ErrorKind::BadInput, path + ": cannot open for writing: " + std::strerror(errno));
+  try {
+    FileSink sink(f.get(), path);
+    emit(e, volume, sink);
+    std::FILE* raw = f.release();
+    if (std::fclose(raw) != 0) throw Error(ErrorKind::BadInput, path + ": cannot write: " + std::strerror(errno));
+  } catch (...) {
+    f.reset();
+    std::remove(path.c_str()); // no half-written file that looks like a volume
+    throw;
+  }
+}
+
+Volume deserializeHdt(const uint8_t* data, size_t size, const std::string& name) {
+  if (data == nullptr && size != 0) throw Error(ErrorKind::InvalidArgument, name + ": null data");
+  MemorySource in(data, size);
+  return readNamed(in, name);
+}
+
+Volume readHdt(const std::string& path) {
+  std::unique_ptr<std::FILE, FileClose> f(std::fopen(path.c_str(), "rb"));
+  if (!f) throw Error(ErrorKind::BadInput, path + ": cannot open: " + std::strerror(errno));
+  struct stat st;
+  if (fstat(fileno(f.get()), &st) != 0 || !S_ISREG(st.st_mode)) {
+    throw Error(ErrorKind::BadInput, path + ": not a regular file");
+  }
+  FileSource in(f.get(), uint64_t(st.st_size));
+  return readNamed(in, path);
+}
+
+} // namespace hdt

@@ -8,6 +8,7 @@
 #include "hdt/geometry.hpp"
 #include "hdt/lattice.hpp"
 #include "hdt/platform.hpp"
+#include "hdt/types.hpp" // spreadBits16 (orRowIntoLeaf)
 
 namespace hdt {
 

@@ -1,18 +1,38 @@
-// Reading triangle meshes: STL (binary, ASCII), OBJ, PLY (binary, ASCII).
-// Polygons are split into triangle fans.
+// Reading triangle meshes, and the built-in meshes of the demo and the tests.
 #pragma once
 
 #include "hdt/mesh.hpp"
 
 #include <string>
+#include <vector>
 
 namespace hdt {
 
-// Throws Error(BadInput) naming the file and what is wrong.
+// Reads STL (binary, ASCII), OBJ and PLY (ASCII, binary little and big
+// endian). Polygons are split into triangles; every mesh of the file's scene
+// is collected with its node transform. Nothing is merged, reordered or
+// dropped: degenerate triangles and duplicate points are the library's
+// business (prepareMesh), so counts match the file.
+//
+// Binary STL and PLY have built-in readers in every build; ASCII STL and OBJ
+// need assimp (see readsAllMeshFormats()).
+//
+// Throws Error(BadInput) "<path>: <what is wrong>" for an unreadable file,
+// an unknown extension, corrupt or truncated content, or no triangles.
 TriangleMesh readMesh(const std::string& path);
 
-// Built-in meshes for demos and the README's default job (no download):
-// "sphere", "torus", "bunny-like blob" ... see mesh_io.cpp.
+// True when this build has assimp and so reads every format above; without
+// it only binary STL and PLY can be read.
+bool readsAllMeshFormats();
+
+// Procedural closed meshes (watertight, points shared by index, oriented
+// outwards) for demos and tests, so that nothing needs a download:
+//   "sphere"  icosphere, 20,480 triangles, radius 1
+//   "torus"   ring radius 1, tube radius 0.4, 16,384 triangles
+//   "knot"    a tube around the (2,3) torus knot (trefoil), 40,960 triangles;
+//             the demo's mesh
+// Throws Error(InvalidArgument) listing the names for an unknown name.
 TriangleMesh builtinMesh(const std::string& name);
+std::vector<std::string> builtinMeshNames();
 
 } // namespace hdt

@@ -1,0 +1,108 @@
+#include "cli_options.hpp"
+
+#include <cerrno>
+#include <climits>
+#include <cstdlib>
+
+namespace hdt::cli {
+namespace {
+
+// A whole-string decimal integer in [lo, INT_MAX]; no silent truncation of "12x" or "1e3".
+int parseInt(const std::string& flag, const std::string& text, int lo) {
+  errno = 0;
+  char* end = nullptr;
+  const long v = std::strtol(text.c_str(), &end, 10);
+  if (text.empty() || *end != '\0' || errno == ERANGE || v < INT_MIN || v > INT_MAX) {
+    throw UsageError(flag + " expects an integer, got '" + text + "'");
+  }
+  if (v < lo) throw UsageError(flag + " must be at least " + std::to_string(lo) + ", got " + text);
+  return int(v);
+}
+
+Backend parseBackend(const std::string& text) {
+  if (text == "auto") return Backend::Auto;
+  if (text == "cpu") return Backend::Cpu;
+  if (text == "cuda") return Backend::Cuda;
+  throw UsageError("--backend expects auto, cpu or cuda, got '" + text + "'");
+}
+
+} // namespace
+
+std::string usageText() {
+  const BuildConfig defaults;
+  return "usage: hdt-voxelize MESH [options]\n"
+         "\n"
+         "Voxelizes a triangle mesh into an HDT (hybrid dynamic tree) sparse volume.\n"
+         "MESH is an .stl, .obj or .ply file, or builtin:NAME (sphere, torus, knot).\n"
+         "\n"
+         "options:\n"
+         "  --resolution N   voxels along the longest side; N = R * 2^h * L (default " +
+         std::to_string(defaults.resolution) +
+         ")\n"
+         "  --root-grid R    root grid cells per axis (default " +
+         std::to_string(defaults.rootGrid) +
+         ")\n"
+         "  --leaf-size L    leaf grid voxels per axis: 8, 16 or 32 (default " +
+         std::to_string(defaults.leafSize) +
+         ")\n"
+         "  --backend B      auto, cpu or cuda (default auto: CUDA when a device is usable)\n"
+         "  --device N       CUDA device ordinal (default 0)\n"
+         "  --threads T      CPU threads (default 0: all cores)\n"
+         "  --surface-only   mark surface voxels only; skip inside/outside classification\n"
+         "  -o OUT.hdt       write the volume as an .hdt file\n"
+         "  --dense OUT.nrrd write a dense N^3 uint8 NRRD (0 outside, 1 inside, 2 surface; N <= 1024)\n"
+         "  --json           print the statistics as one JSON object on stdout\n"
+         "  --quiet          no progress or notes on stderr (errors still go there)\n"
+         "  -h, --help       print this help and exit\n"
+         "\n"
+         "exit codes: 0 ok, 2 usage or invalid option, 3 bad input file or mesh,\n"
+         "            4 out of memory or device resources, 1 anything else\n";
+}
+
+Options parseOptions(int argc, const char* const* argv) {
+  Options o;
+  for (int i = 1; i < argc; ++i) {
+    std::string arg = argv[i];
+    // "--flag=value" is the same as "--flag value".
+    std::string inlineValue;
+    bool hasInlineValue = false;
+    if (arg.rfind("--", 0) == 0) {
+      const size_t eq = arg.find('=');
+      if (eq != std::string::npos) {
+        inlineValue = arg.substr(eq + 1);
+        arg.resize(eq);
+        hasInlineValue = true;
+      }
+    }
+    auto value = [&]() -> std::string {
+      if (hasInlineValue) return inlineValue;
+      if (i + 1 >= argc) throw UsageError(arg + " expects a value");
+      return argv[++i];
+    };
+    auto set = [&](bool& flag) {
+      if (hasInlineValue) throw UsageError(arg + " takes no value");
+      flag = true;
+    };
+
+    if (arg == "-h" || arg == "--help") set(o.help);
+    else if (arg == "--resolution") o.config.resolution = parseInt(arg, value(), 1);
+    else if (arg == "--root-grid") o.config.rootGrid = parseInt(arg, value(), 1);
+    else if (arg == "--leaf-size") o.config.leafSize = parseInt(arg, value(), 1);
+    else if (arg == "--backend") o.build.backend = parseBackend(value());
+    else if (arg == "--device") o.build.device = parseInt(arg, value(), 0);
+    else if (arg == "--threads") o.build.threads = parseInt(arg, value(), 0);
+    else if (arg == "--surface-only") set(o.config.surfaceOnly);
+    else if (arg == "-o" || arg == "--output") o.hdtPath = value();
+    else if (arg == "--dense") o.densePath = value();
+    else if (arg == "--json") set(o.json);
+    else if (arg == "--quiet") set(o.quiet);
+    else if (arg.size() > 1 && arg[0] == '-') throw UsageError("unknown option '" + arg + "'");
+    else if (o.mesh.empty()) o.mesh = arg;
+    else throw UsageError("unexpected argument '" + arg + "' (only one MESH is accepted)");
+  }
+  if (!o.help && o.mesh.empty()) throw UsageError("missing MESH (a mesh file or builtin:NAME)");
+  if (!o.hdtPath.empty() && o.hdtPath == o.densePath) throw UsageError("-o and --dense name the same file");
+  return o;
+}
+
+} // namespace hdt::cli

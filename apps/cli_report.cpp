@@ -1,0 +1,192 @@
+#include "cli_report.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <vector>
+
+namespace hdt::cli {
+namespace {
+
+// ---- JSON: flat enough to write by hand --------------------------------------------
+
+std::string quoted(const std::string& s) {
+  std::string q = "\"";
+  for (const unsigned char c : s) {
+    if (c == '"' || c == '\\') {
+      q += '\\';
+      q += char(c);
+    } else if (c < 0x20) {
+      char esc[8];
+      std::snprintf(esc, sizeof esc, "\\u%04x", c);
+      q += esc;
+    } else {
+      q += char(c);
+    }
+  }
+  return q + "\"";
+}
+
+// %.17g round-trips a double exactly; JSON has no NaN or infinity.
+std::string number(double v, const char* format = "%.17g") {
+  if (!std::isfinite(v)) return "null";
+  char text[64];
+  std::snprintf(text, sizeof text, format, v);
+  return text;
+}
+std::string number(uint64_t v) { return std::to_string(v); }
+
+// The members of one object, in insertion order.
+class JsonObject {
+public:
+  JsonObject& add(const char* key, const std::string& json) {
+    text_ += (text_.empty() ? "" : ",") + quoted(key) + ":" + json;
+    return *this;
+  }
+  std::string str() const { return "{" + text_ + "}"; }
+
+private:
+  std::string text_;
+};
+
+std::string orNull(const std::string& path) { return path.empty() ? "null" : quoted(path); }
+
+// ---- table ----------------------------------------------------------------------------
+
+std::string withCommas(uint64_t v) {
+  std::string digits = std::to_string(v), out;
+  for (size_t i = 0; i < digits.size(); ++i) {
+    if (i > 0 && (digits.size() - i) % 3 == 0) out += ',';
+    out += digits[i];
+  }
+  return out;
+}
+
+std::string fixed(double v, int decimals) {
+  char text[64];
+  std::snprintf(text, sizeof text, "%.*f", decimals, v);
+  return text;
+}
+
+std::string bytes(uint64_t b) {
+  const char* units[] = {"B", "KiB", "MiB", "GiB", "TiB"};
+  double v = double(b);
+  int u = 0;
+  for (; v >= 1024 && u < 4; ++u) v /= 1024;
+  return u == 0 ? std::to_string(b) + " B" : fixed(v, v < 10 ? 2 : v < 100 ? 1 : 0) + " " + units[u];
+}
+
+std::string ms(double v) { return fixed(v, v < 10 ? 2 : 1) + " ms"; }
+
+struct Row {
+  std::string label, value, note;
+  bool aligned = true; // numbers line up on the right; names and paths do not
+};
+
+} // namespace
+
+void writeJson(std::ostream& out, const Report& r) {
+  const Volume& v = *r.volume;
+  const Statistics& s = v.stats;
+  const GridSpec& g = v.grid;
+  const std::string origin =
+      "[" + number(g.origin[0]) + "," + number(g.origin[1]) + "," + number(g.origin[2]) + "]";
+  JsonObject time;
+  time.add("mapping", number(s.time.mapping, "%.3f"))
+      .add("branching", number(s.time.branching, "%.3f"))
+      .add("leaf", number(s.time.leaf, "%.3f"))
+      .add("classify", number(s.time.classify, "%.3f"))
+      .add("total", number(s.time.total, "%.3f"));
+  JsonObject io;
+  io.add("read", number(r.io.read, "%.3f"))
+      .add("prepare", number(r.io.prepare, "%.3f"))
+      .add("write", number(r.io.write, "%.3f"));
+
+  JsonObject o;
+  o.add("mesh", quoted(r.mesh))
+      .add("triangles", number(s.triangles))
+      .add("resolution", number(uint64_t(g.resolution)))
+      .add("root_grid", number(uint64_t(g.rootGrid)))
+      .add("leaf_size", number(uint64_t(g.leafSize)))
+      .add("height", number(uint64_t(g.height)))
+      .add("origin", origin)
+      .add("voxel_size", number(g.voxelSize))
+      .add("tree_elements", number(s.treeElements))
+      .add("leaf_grids", number(s.leafGrids))
+      .add("leaf_voxels", number(s.leafVoxels))
+      .add("active_voxels", number(s.activeVoxels))
+      .add("inside_voxels", number(s.insideVoxels))
+      .add("paper_bits_per_active_voxel", number(s.paperBitsPerActiveVoxel, "%.6g"))
+      .add("topology_bytes", number(s.topologyBytes))
+      .add("leaf_bytes", number(s.leafBytes))
+      .add("backend", quoted(s.backend))
+      .add("threads", std::to_string(s.threads))
+      .add("time_ms", time.str())
+      .add("peak_host_bytes", number(s.peakHostBytes))
+      .add("degenerate_triangles", number(s.degenerateTriangles))
+      .add("closed_mesh", v.closedMesh ? "true" : "false")
+      .add("peak_device_bytes", number(s.peakDeviceBytes))
+      .add("surface_only", v.surfaceOnly ? "true" : "false")
+      .add("io_ms", io.str())
+      .add("hdt_file", orNull(r.hdtPath))
+      .add("dense_file", orNull(r.densePath));
+  out << o.str() << '\n';
+}
+
+void writeTable(std::ostream& out, const Report& r) {
+  const Volume& v = *r.volume;
+  const Statistics& s = v.stats;
+  const GridSpec& g = v.grid;
+  const int L = g.leafSize;
+  std::vector<Row> rows = {
+      {"mesh", r.mesh, "", false},
+      {"triangles", withCommas(s.triangles),
+       withCommas(s.degenerateTriangles) + " degenerate dropped; " +
+           (v.closedMesh ? "closed" : "open: inside = majority of 3 ray axes")},
+      {"resolution", std::to_string(g.resolution) + "^3", "voxels"},
+      {"root grid", std::to_string(g.rootGrid) + "^3", "cells"},
+      {"octree height", std::to_string(g.height), "levels"},
+      {"leaf grid", std::to_string(L) + "^3", "voxels"},
+      {"voxel size", number(g.voxelSize, "%.6g"), "mesh units"},
+      {"origin",
+       "(" + number(g.origin[0], "%.6g") + ", " + number(g.origin[1], "%.6g") + ", " +
+           number(g.origin[2], "%.6g") + ")",
+       "mesh units, low corner of voxel (0, 0, 0)", false},
+      {"tree elements", withCommas(s.treeElements), "root cells + octree nodes"},
+      {"leaf grids", withCommas(s.leafGrids), ""},
+      {"leaf voxels", withCommas(s.leafVoxels), "voxels in leaf grids"},
+      {"active voxels", withCommas(s.activeVoxels), "surface"},
+      {"inside voxels", v.surfaceOnly ? "-" : withCommas(s.insideVoxels),
+       v.surfaceOnly ? "surface-only build" : "full elements included"},
+      {"bits / active voxel", number(s.paperBitsPerActiveVoxel, "%.3g"), "topology, 20-byte elements (paper)"},
+      {"topology", bytes(s.topologyBytes), "4 bytes an element"},
+      {"leaf data", bytes(s.leafBytes), std::to_string(L * L * L / 4) + " bytes a leaf grid"},
+      {"backend", s.backend, s.backend == "cpu" ? std::to_string(s.threads) + " threads" : ""},
+      {"read mesh", ms(r.io.read), ""},
+      {"prepare", ms(r.io.prepare), "validate, place, snap"},
+      {"mapping", ms(s.time.mapping), "T1: triangles to root cells"},
+      {"branching", ms(s.time.branching), "T2: octree levels"},
+      {"leaf", ms(s.time.leaf), "T3: surface voxels"},
+      {"classify", ms(s.time.classify), "inside / outside"},
+      {"build total", ms(s.time.total), ""},
+      {"peak host memory", bytes(s.peakHostBytes), "resident set"},
+  };
+  if (s.backend == "cuda") rows.push_back({"peak device memory", bytes(s.peakDeviceBytes), ""});
+  if (!r.hdtPath.empty()) rows.push_back({"wrote", r.hdtPath, "", false});
+  if (!r.densePath.empty()) rows.push_back({"wrote", r.densePath, "dense uint8 NRRD", false});
+
+  size_t labelWidth = 0, valueWidth = 0;
+  for (const Row& row : rows) {
+    labelWidth = std::max(labelWidth, row.label.size());
+    if (row.aligned) valueWidth = std::max(valueWidth, row.value.size());
+  }
+  for (const Row& row : rows) {
+    std::string line = row.label + std::string(labelWidth + 2 - row.label.size(), ' ');
+    if (row.aligned) line += std::string(valueWidth - row.value.size(), ' ');
+    line += row.value;
+    if (!row.note.empty()) line += "  " + row.note;
+    out << line << '\n';
+  }
+}
+
+} // namespace hdt::cli

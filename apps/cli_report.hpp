@@ -1,0 +1,37 @@
+// What hdt-voxelize prints about a build: one JSON object, or an aligned table.
+#pragma once
+
+#include "hdt/volume.hpp"
+
+#include <ostream>
+#include <string>
+
+namespace hdt::cli {
+
+// Wall-clock time of the steps around the build, in milliseconds.
+struct IoTimes {
+  double read = 0;    // reading or generating the mesh
+  double prepare = 0; // hdt::prepareMesh: validation, placement, snapping
+  double write = 0;   // -o and --dense
+};
+
+struct Report {
+  std::string mesh;      // as given on the command line
+  const Volume* volume = nullptr;
+  IoTimes io;
+  std::string hdtPath;   // empty when not written
+  std::string densePath; // empty when not written
+};
+
+// Keys, in this order: mesh, triangles, resolution, root_grid, leaf_size,
+// height, origin, voxel_size, tree_elements, leaf_grids, leaf_voxels,
+// active_voxels, inside_voxels, paper_bits_per_active_voxel, topology_bytes,
+// leaf_bytes, backend, threads, time_ms {mapping, branching, leaf, classify,
+// total}, peak_host_bytes, then degenerate_triangles, closed_mesh,
+// peak_device_bytes, surface_only, io_ms {read, prepare, write}, hdt_file,
+// dense_file. README.md says what each means.
+void writeJson(std::ostream& out, const Report& report);
+
+void writeTable(std::ostream& out, const Report& report);
+
+} // namespace hdt::cli

@@ -1,0 +1,184 @@
+// hdt-voxelize: mesh file -> HDT volume (.hdt), optional dense NRRD, statistics.
+//
+//   readMesh / builtinMesh -> prepareMesh -> build -> writeHdt / writeNrrd -> report
+//
+// Statistics go to stdout (a table, or one JSON object with --json); progress,
+// notes and errors go to stderr. Exit codes follow hdt::ErrorKind: 2 for a bad
+// command line or option, 3 for a bad mesh file, 4 when memory or the device
+// runs out, 1 for anything unexpected.
+#include "cli_options.hpp"
+#include "cli_report.hpp"
+
+#include "hdt/builder.hpp"
+#include "hdt/dense.hpp"
+#include "hdt/error.hpp"
+#include "hdt/hdt_file.hpp"
+#include "hdt/mesh_io.hpp"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <iostream>
+#include <new>
+
+namespace hdt::cli {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+// Progress on stderr. On a terminal one line that rewrites itself; on a pipe
+// or file plain lines, and only once the build has taken a second, so that
+// short runs in scripts and tests print nothing.
+class ProgressLine {
+public:
+  explicit ProgressLine(bool enabled) : enabled_(enabled), tty_(::isatty(STDERR_FILENO) == 1) {}
+  ~ProgressLine() { clear(); } // an error message then starts on a clean line
+  ProgressLine(const ProgressLine&) = delete;
+  ProgressLine& operator=(const ProgressLine&) = delete;
+
+  bool update(double fraction, const char* phase) {
+    if (!enabled_ || (!tty_ && Clock::now() - start_ < std::chrono::seconds(1))) return true;
+    const int percent = int(std::lround(100 * std::clamp(fraction, 0.0, 1.0)));
+    if (percent == percent_ && phase == phase_) return true;
+    percent_ = percent;
+    phase_ = phase;
+    if (tty_) {
+      std::fprintf(stderr, "\r\033[K%s %d%%", phase, percent);
+      open_ = true;
+    } else {
+      std::fprintf(stderr, "%s %d%%\n", phase, percent);
+    }
+    std::fflush(stderr);
+    return true; // never abort
+  }
+
+  // A note from the library (e.g. which backend Auto chose).
+  void note(const std::string& text) {
+    if (!enabled_) return;
+    clear();
+    std::fprintf(stderr, "hdt-voxelize: %s\n", text.c_str());
+  }
+
+  void clear() {
+    if (!open_) return;
+    std::fputs("\r\033[K", stderr);
+    std::fflush(stderr);
+    open_ = false;
+  }
+
+private:
+  const bool enabled_, tty_;
+  const Clock::time_point start_ = Clock::now();
+  int percent_ = -1;
+  std::string phase_;
+  bool open_ = false;
+};
+
+// Runs f; an hdt::Error from it gets "<subject>: " in front, so that every
+// message names the file (or builtin mesh) it is about.
+template <class F>
+auto about(const std::string& subject, F&& f) -> decltype(f()) {
+  try {
+    return f();
+  } catch (const Error& e) {
+    const std::string what = e.what();
+    if (what.rfind(subject + ":", 0) == 0) throw; // already named
+    throw Error(e.kind(), subject + ": " + what);
+  }
+}
+
+TriangleMesh loadMesh(const std::string& spec) {
+  const std::string prefix = "builtin:";
+  if (spec.rfind(prefix, 0) == 0) return builtinMesh(spec.substr(prefix.size()));
+  return readMesh(spec);
+}
+
+double msSince(Clock::time_point& t) {
+  const Clock::time_point now = Clock::now();
+  const double ms = std::chrono::duration<double, std::milli>(now - t).count();
+  t = now;
+  return ms;
+}
+
+int run(int argc, const char* const* argv) {
+  const Options options = parseOptions(argc, argv);
+  if (options.help) {
+    std::cout << usageText();
+    return 0;
+  }
+  // Refuse bad sizes before any work (the message lists the nearest valid resolutions).
+  validateConfig(options.config);
+  if (!options.densePath.empty() && options.config.resolution > kMaxDenseResolution) {
+    throw Error(ErrorKind::InvalidArgument, "--dense needs N^3 bytes and is limited to N <= " +
+                                                std::to_string(kMaxDenseResolution) + " (got N = " +
+                                                std::to_string(options.config.resolution) + ")");
+  }
+
+  Report report;
+  report.mesh = options.mesh;
+  Clock::time_point t = Clock::now();
+  TriangleMesh mesh = about(options.mesh, [&] { return loadMesh(options.mesh); });
+  report.io.read = msSince(t);
+  const PreparedMesh prepared = about(options.mesh, [&] { return prepareMesh(mesh, options.config); });
+  mesh = TriangleMesh(); // the lattice copy is all the build needs
+  report.io.prepare = msSince(t);
+
+  ProgressLine progress(!options.quiet);
+  BuildOptions build = options.build;
+  build.progress = [&](double fraction, const char* phase) { return progress.update(fraction, phase); };
+  build.log = [&](const std::string& text) { progress.note(text); };
+  const Volume volume = about(options.mesh, [&] { return hdt::build(prepared, build); });
+  progress.clear();
+
+  t = Clock::now();
+  if (!options.hdtPath.empty()) {
+    about(options.hdtPath, [&] { writeHdt(volume, options.hdtPath); });
+    report.hdtPath = options.hdtPath;
+  }
+  if (!options.densePath.empty()) {
+    about(options.densePath, [&] { writeNrrd(volume, options.densePath); });
+    report.densePath = options.densePath;
+  }
+  report.io.write = msSince(t);
+
+  report.volume = &volume;
+  if (options.json) writeJson(std::cout, report);
+  else writeTable(std::cout, report);
+  std::cout.flush();
+  return std::cout ? 0 : 1;
+}
+
+int exitCode(ErrorKind kind) {
+  switch (kind) {
+  case ErrorKind::InvalidArgument: return 2;
+  case ErrorKind::BadInput: return 3;
+  case ErrorKind::OutOfResources: return 4;
+  case ErrorKind::Aborted: return 1;
+  }
+  return 1;
+}
+
+} // namespace
+} // namespace hdt::cli
+
+int main(int argc, char** argv) {
+  using namespace hdt::cli;
+  try {
+    return run(argc, argv);
+  } catch (const UsageError& e) {
+    std::fprintf(stderr, "hdt-voxelize: %s\nTry 'hdt-voxelize --help'.\n", e.what());
+    return 2;
+  } catch (const hdt::Error& e) {
+    std::fprintf(stderr, "hdt-voxelize: error: %s\n", e.what());
+    return exitCode(e.kind());
+  } catch (const std::bad_alloc&) {
+    std::fprintf(stderr, "hdt-voxelize: error: out of memory\n");
+    return 4;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "hdt-voxelize: internal error: %s\n", e.what());
+    return 1;
+  }
+}

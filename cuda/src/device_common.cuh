@@ -1,0 +1,105 @@
+// Device-side helpers shared by the phase kernels (include from .cu only).
+#pragma once
+
+#include "check.hpp"
+#include "device_memory.hpp"
+
+#include "hdt/types.hpp"
+
+#include <cub/device/device_radix_sort.cuh>
+
+#include <cstdint>
+#include <utility>
+
+namespace hdt {
+namespace cuda {
+
+constexpr unsigned kFullMask = 0xFFFFFFFFu;
+
+inline unsigned blocksFor(uint64_t threads, unsigned blockSize) {
+  return unsigned((threads + blockSize - 1) / blockSize);
+}
+
+// Bits needed to hold every value in [0, maxValue].
+inline int bitsFor(uint64_t maxValue) {
+  int b = 0;
+  while (b < 64 && (maxValue >> b) != 0) ++b;
+  return b;
+}
+
+// Runs a CUB device algorithm the usual two-step way (size query, then run)
+// with its temporary storage from the build's pool.
+template <class Algorithm>
+void runCub(DeviceMemory& mem, Algorithm&& algorithm) {
+  size_t bytes = 0;
+  HDT_CUDA_CHECK(algorithm(static_cast<void*>(nullptr), bytes));
+  DeviceBuffer<uint8_t> temp(mem, bytes > 16 ? bytes : 16);
+  HDT_CUDA_CHECK(algorithm(static_cast<void*>(temp.data()), bytes));
+}
+
+// Stable LSD radix sort of (key, value) pairs on the low `endBit` key bits.
+// Stability is what the canonical order rests on: equal keys keep their
+// input order (the triangle order).
+template <class K, class V>
+void sortPairs(DeviceMemory& mem, DeviceBuffer<K>& keys, DeviceBuffer<V>& values, uint32_t n, int endBit) {
+  if (n < 2 || endBit == 0) return;
+  DeviceBuffer<K> keysAlt(mem, n);
+  DeviceBuffer<V> valuesAlt(mem, n);
+  cub::DoubleBuffer<K> k(keys.data(), keysAlt.data());
+  cub::DoubleBuffer<V> v(values.data(), valuesAlt.data());
+  runCub(mem, [&](void* temp, size_t& bytes) {
+    return cub::DeviceRadixSort::SortPairs(temp, bytes, k, v, n, 0, endBit, mem.stream());
+  });
+  if (k.selector != 0) std::swap(keys, keysAlt);
+  if (v.selector != 0) std::swap(values, valuesAlt);
+}
+
+// ---- warp-cooperative work over the (leaf, triangle) pairs of one leaf -----------
+//
+// Each pair of a leaf brings a variable number of independent items (slices
+// of rows for T3, lines of rays for classification). The warp that owns the
+// leaf takes its pairs 32 at a time: every lane counts its pair's items, a
+// warp scan lays the counts end to end, and the lanes then take the items
+// round-robin, so a triangle that covers the whole leaf is shared by all 32
+// lanes instead of serialising one of them.
+template <class Count, class Item>
+__device__ __forceinline__ void warpForEachPairItem(uint32_t p0, uint32_t p1, Count count, Item item) {
+  const int lane = threadIdx.x & 31;
+  for (uint32_t base = p0; base < p1; base += 32) {
+    const int c = base + lane < p1 ? count(base + lane) : 0;
+    int incl = c;
+#pragma unroll
+    for (int o = 1; o < 32; o <<= 1) {
+      const int v = __shfl_up_sync(kFullMask, incl, o);
+      if (lane >= o) incl += v;
+    }
+    const int total = __shfl_sync(kFullMask, incl, 31);
+    for (int t0 = 0; t0 < total; t0 += 32) {
+      const int t = t0 + lane;
+      // Owner of item t: the first lane whose inclusive count exceeds t.
+      int owner = 0;
+#pragma unroll
+      for (int step = 16; step > 0; step >>= 1) {
+        if (__shfl_sync(kFullMask, incl, owner + step - 1) <= t) owner += step;
+      }
+      const int first = __shfl_sync(kFullMask, incl - c, owner);
+      if (t < total) item(base + owner, t - first);
+    }
+  }
+}
+
+// ---- leaf words from row masks ------------------------------------------------------
+//
+// Leaf layout (types.hpp): voxel v = x + L (y + L z) is 2-bit field v % 16 of
+// word v / 16, so a word holds 16 voxels of one row (L = 16), half a row
+// (L = 32) or two rows (L = 8). rows[] holds one L-bit mask per row (y + L z).
+// Returns the 16 voxel bits of word `w`, voxel order.
+template <int L>
+__device__ __forceinline__ uint32_t wordBitsFromRows(const uint32_t* rows, int w) {
+  if (L == 16) return rows[w] & 0xFFFFu;
+  if (L == 8) return (rows[2 * w] & 0xFFu) | ((rows[2 * w + 1] & 0xFFu) << 8);
+  return (rows[w >> 1] >> ((w & 1) * 16)) & 0xFFFFu; // L == 32
+}
+
+} // namespace cuda
+} // namespace hdt

@@ -1,0 +1,132 @@
+// The device phases of one chunk of the root grid, as host-callable
+// functions (kernels and CUB calls live in the .cu files).
+//
+// A chunk is a range [firstCell, endCell) of root-cell indices (x fastest).
+// Unchunked builds are the chunk [0, R^3). Element indices inside a chunk are
+// chunk-local per level; a Branch payload is `branchBase + 8 * rank`, where the
+// caller passes the global index of the next level's first element when the
+// chunk is the whole grid, and 0 when payloads are renumbered on the host.
+#pragma once
+
+#include "device_memory.hpp"
+
+#include "hdt/config.hpp"
+#include "hdt/lattice.hpp"
+#include "hdt/types.hpp"
+
+#include <cuda_runtime.h>
+
+#include <cstdint>
+#include <functional>
+#include <vector>
+
+namespace hdt {
+namespace cuda {
+
+struct DeviceMesh {
+  const LatticeTriangle* triangles = nullptr;
+  uint32_t count = 0;
+};
+
+// Pinned host scalars for the few values the host must read back (counts
+// that size the next allocations): one small copy and one stream sync each.
+class HostScalars {
+public:
+  HostScalars();
+  ~HostScalars();
+  HostScalars(const HostScalars&) = delete;
+  HostScalars& operator=(const HostScalars&) = delete;
+  uint64_t* host() const { return host_; }
+  uint64_t* device() const { return device_; }
+  // Copies the first n device scalars to the host and waits for them.
+  void fetch(cudaStream_t stream, int n);
+
+private:
+  uint64_t* host_ = nullptr;
+  uint64_t* device_ = nullptr;
+};
+
+// Sorted (element, triangle) pairs of one level, element chunk-local.
+struct PairList {
+  DeviceBuffer<uint32_t> element;
+  DeviceBuffer<uint32_t> triangle;
+  uint32_t count = 0;
+};
+
+struct Level {
+  uint32_t count = 0;              // elements of this level in the chunk
+  DeviceBuffer<ElementWord> words; // final words except Empty -> Full
+  DeviceBuffer<uint64_t> coords;   // packed cell coordinates at this level
+};
+
+struct Leaves {
+  uint32_t count = 0;
+  DeviceBuffer<uint64_t> coord;     // packed leaf coordinates (leaf units)
+  DeviceBuffer<uint32_t> pairStart; // count + 1 offsets into triangle
+  DeviceBuffer<uint32_t> triangle;  // triangles of the (leaf, triangle) pairs
+};
+
+// ---- T1 (mapping.cu) ---------------------------------------------------------
+struct RootMapping {
+  PairList pairs;
+  double area = 0; // surface area of the mesh in voxel^2 (for the estimate)
+};
+RootMapping mapTrianglesToRootCells(DeviceMemory& mem, HostScalars& scalars, const DeviceMesh& mesh,
+                                    const GridSpec& grid, uint64_t firstCell, uint64_t endCell,
+                                    bool wantArea);
+
+// ---- T2 (branching.cu) -------------------------------------------------------
+struct Tree {
+  std::vector<Level> levels; // height + 1
+  Leaves leaves;
+};
+// Consumes the root pairs. When `unchunked`, Branch payloads are global and
+// the 2^30-element limit is checked here with the CPU driver's message;
+// otherwise payloads are chunk-local (base 0) and the host checks the joined
+// tree. `afterLevel(level)` runs after each branching level (progress).
+Tree buildTree(DeviceMemory& mem, HostScalars& scalars, const DeviceMesh& mesh, const GridSpec& grid,
+               uint64_t firstCell, uint64_t endCell, PairList rootPairs, bool unchunked,
+               const std::function<void(int)>& afterLevel);
+
+// ---- T3 (leaf.cu) -------------------------------------------------------------
+// Writes every word of every leaf grid once: the surface plane (plane 1).
+void writeLeafSurfaces(DeviceMemory& mem, const DeviceMesh& mesh, const GridSpec& grid, const Leaves& leaves,
+                       uint32_t* words);
+
+// ---- classification (classify.cu) ---------------------------------------------
+// Words of one bit per leaf row: L * L / 32.
+inline int rowWordsFor(int leafSize) { return leafSize * leafSize / 32; }
+
+// Pass 1: per leaf and row along each ray axis, the parity of the crossings
+// inside the leaf; parity[a] holds leaves * rowWords words.
+void leafRowParity(DeviceMemory& mem, const DeviceMesh& mesh, const GridSpec& grid, const Leaves& leaves,
+                   int axes, uint32_t* const parity[3]);
+
+// The leaves of a chunk sorted by line along one axis, with the entry parity
+// of every leaf. Turns parity[a] (pass 1) into the exit parity in place.
+struct LineTable {
+  DeviceBuffer<uint64_t> key;  // sorted compact line keys (w, u, along)
+  DeviceBuffer<uint32_t> leaf; // leaf of each key
+  DeviceBuffer<uint8_t> entry; // per leaf: entry parity of row 0
+};
+LineTable lineParity(DeviceMemory& mem, const GridSpec& grid, const Leaves& leaves, int axis, uint32_t* parity);
+
+// Pass 2: inside bits (plane 0) of every leaf voxel that is not surface.
+void writeLeafInside(DeviceMemory& mem, const DeviceMesh& mesh, const GridSpec& grid, const Leaves& leaves,
+                     int axes, const uint32_t* const exitParity[3], uint32_t* words);
+
+// Uniform elements of one level: Empty -> Full where the majority of the
+// axes' parities at the element's lowest-corner voxel centre is odd.
+void classifyUniform(DeviceMemory& mem, const GridSpec& grid, int level, Level& lv, int axes,
+                     const LineTable* const tables[3], uint32_t leafCount);
+
+// Line-key layout shared by the device tables and the host (chunked) path:
+// b = log2(leaves per axis) bits per field, key = (w << 2b) | (u << b) | along.
+inline int lineFieldBits(const GridSpec& g) {
+  int b = 0;
+  while ((uint64_t(1) << b) < uint64_t(g.resolution / g.leafSize)) ++b;
+  return b;
+}
+
+} // namespace cuda
+} // namespace hdt

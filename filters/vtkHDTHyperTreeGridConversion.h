@@ -1,0 +1,89 @@
+// hdt::Volume -> vtkHyperTreeGrid, shared by vtkHDTVoxelizer and the .hdt reader.
+//
+// Mapping (see docs in the .cxx for the reasons):
+//   * the HDT root grid (R^3 elements, x fastest) is the HTG level-0 grid: tree
+//     index i + R (j + R k), coordinates origin + i * voxelSize * N / R, so R + 1
+//     coordinates per axis; branch factor 2, dimension 3;
+//   * octree level k is HTG depth k; HDT's Morton child c (bit 0 = +x, bit 1 = +y,
+//     bit 2 = +z) is VTK's child c (VTK puts child c at x = c & 1, y = (c >> 1) & 1,
+//     z = c >> 2 for branch factor 2 in 3D);
+//   * a Boundary element (depth h, one L^3 leaf grid) continues for log2(L)
+//     depths as an octree over the leaf grid, refined only where an octant holds
+//     a surface voxel (or, in a damaged volume only, a mix of inside and outside);
+//     uniform octants stay coarse HTG leaves. Full depth = h + log2(L).
+//
+// Cell data "VoxelState" (unsigned char), for every cell, refined or not, from the
+// voxels below it: 2 (surface) if any is surface, else 1 (inside) if more than
+// half of them are inside, else 0 (outside). For uniform cells that is simply
+// their state; the majority rule only decides cells that MaxDepth cuts and that
+// mix inside and outside without a surface voxel, which a correct build does not
+// produce (inside and outside voxels are always separated by surface voxels).
+#pragma once
+
+#include "HDTFiltersModule.h" // export macro
+#include "vtkType.h"
+
+#include <cstdint>
+#include <vector>
+
+class vtkFieldData;
+class vtkHyperTreeGrid;
+namespace hdt
+{
+struct Volume;
+}
+
+struct vtkHDTConversionOptions
+{
+  // -1: full depth. k >= 0: no cell deeper than k; cells at depth k take the
+  // aggregated state of the voxels below them.
+  int MaxDepth = -1;
+  // Mask (hide) every leaf cell whose state is 0 (outside). Refined cells are
+  // never masked. With the mask, vtkHyperTreeGridGeometry draws the voxel surface.
+  bool MaskOutside = true;
+  // Add the build statistics and grid description as field data.
+  bool AddFieldData = true;
+  // Worker threads: 0 = all cores, 1 = sequential (the benchmark's "one core").
+  int Threads = 0;
+};
+
+struct vtkHDTConversionInfo
+{
+  vtkIdType Cells = 0;       // all HTG vertices (coarse and leaf cells)
+  vtkIdType LeafCells = 0;   // unrefined cells
+  vtkIdType MaskedCells = 0; // leaves hidden by MaskOutside
+  vtkIdType Trees = 0;       // = R^3
+  int Depth = 0;             // deepest depth present
+  std::vector<vtkIdType> CellsPerDepth;
+  double Milliseconds = 0;          // the whole conversion
+  double TreeBuildMilliseconds = 0; // of which VTK's BuildFromBreadthFirstOrderDescriptor
+};
+
+class HDTFILTERS_EXPORT vtkHDTToHyperTreeGrid
+{
+public:
+  // Depth of single-voxel cells: height + log2(L).
+  static int FullDepth(const hdt::Volume& volume);
+
+  // Replaces the contents of `output` with the volume. Throws hdt::Error
+  // (InvalidArgument for MaxDepth < -1, BadInput for an inconsistent volume:
+  // child or leaf indices out of range, wrong level sizes) before touching
+  // `output`; std::bad_alloc if memory runs out. Safe on any Volume.
+  static vtkHDTConversionInfo Convert(
+    const hdt::Volume& volume, const vtkHDTConversionOptions& options, vtkHyperTreeGrid* output);
+
+  // Field data: the paper's Table 1 (TreeElements, LeafGrids, LeafVoxels,
+  // ActiveVoxels, InsideVoxels, PaperBitsPerActiveVoxel, TopologyBytes,
+  // LeafBytes), phase times in ms (TimeMapping, TimeBranching, TimeLeaf,
+  // TimeClassify, TimeTotal), Backend, Resolution, Height, RootGridSize,
+  // LeafGridSize, VoxelSize, Origin, SurfaceOnly, ClosedMesh, Triangles,
+  // DegenerateTriangles, Threads. Replaces arrays of the same names.
+  static void AddFieldData(const hdt::Volume& volume, vtkFieldData* fieldData);
+
+  // The state rule above: `voxels` voxels of which `surface` are surface and
+  // `inside` inside.
+  static unsigned char AggregateState(uint64_t voxels, uint64_t surface, uint64_t inside)
+  {
+    return surface ? 2 : (2 * inside > voxels ? 1 : 0);
+  }
+};

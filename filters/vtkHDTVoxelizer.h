@@ -1,0 +1,195 @@
+/**
+ * @class   vtkHDTVoxelizer
+ * @brief   voxelizes a triangle mesh into an HDT and outputs it as a vtkHyperTreeGrid
+ *
+ * Input: vtkPolyData, or a composite dataset whose vtkPolyData leaves are
+ * voxelized together as one mesh. Polygons and triangle strips are
+ * triangulated; vertices and lines have no area and are ignored (one warning).
+ *
+ * The HDT (hybrid dynamic tree, Hossain et al., IA^3 2015) has an effective
+ * resolution N = RootGridSize * 2^h * LeafGridSize voxels along the longest side
+ * of the mesh: a root grid of R^3 cells, an octree of height h under each, and
+ * L^3 leaf grids of 2-bit voxel states where the surface passes. The grid is a
+ * cube of N^3 voxels centred on the mesh with one voxel of margin on each side.
+ *
+ * Output: a vtkHyperTreeGrid with one tree per root cell, the octree levels, and
+ * then log2(L) levels refined inside each leaf grid only where surface voxels
+ * are. Cell data "VoxelState": 0 outside, 1 inside, 2 surface (see
+ * vtkHDTHyperTreeGridConversion.h for coarse and MaxDepth-cut cells). Field
+ * data: the build statistics (the paper's Table 1) and phase times.
+ *
+ * Changing only MaxDepth or MaskOutside re-runs the conversion, not the
+ * voxelization: the last volume is kept (GetVolume()) while the input and the
+ * build properties are unchanged.
+ *
+ * The algorithm itself lives in the VTK-free `hdt` library; this class only
+ * moves data in and out and reports errors (vtkErrorMacro, empty output).
+ */
+#ifndef vtkHDTVoxelizer_h
+#define vtkHDTVoxelizer_h
+
+#include "HDTFiltersModule.h" // export macro
+#include "vtkAlgorithm.h"
+
+#ifndef __VTK_WRAP__
+#include <memory> // for std::shared_ptr
+#endif
+
+class vtkHyperTreeGrid;
+#ifndef __VTK_WRAP__
+namespace hdt
+{
+struct Volume;
+}
+#endif
+
+class HDTFILTERS_EXPORT vtkHDTVoxelizer : public vtkAlgorithm
+{
+public:
+  static vtkHDTVoxelizer* New();
+  vtkTypeMacro(vtkHDTVoxelizer, vtkAlgorithm);
+  void PrintSelf(ostream& os, vtkIndent indent) override;
+
+  enum BackendType
+  {
+    BACKEND_AUTO = 0,
+    BACKEND_CPU = 1,
+    BACKEND_CUDA = 2
+  };
+
+  ///@{
+  /**
+   * Effective resolution N: voxels along the longest side of the mesh. Must be
+   * RootGridSize * 2^h * LeafGridSize for some h >= 0, and at most 65536; an
+   * invalid value is an error that names the nearest valid ones. Default 256.
+   */
+  vtkSetMacro(Resolution, int);
+  vtkGetMacro(Resolution, int);
+  ///@}
+
+  ///@{
+  /**
+   * R: root grid cells per axis (one vtkHyperTree each). Default 16.
+   */
+  vtkSetMacro(RootGridSize, int);
+  vtkGetMacro(RootGridSize, int);
+  ///@}
+
+  ///@{
+  /**
+   * L: leaf grid edge in voxels, 8, 16 or 32. Default 8 (with R = 16 and
+   * N = 256 that is an octree of height 1 over 8^3 leaf grids).
+   */
+  vtkSetMacro(LeafGridSize, int);
+  vtkGetMacro(LeafGridSize, int);
+  ///@}
+
+  ///@{
+  /**
+   * BACKEND_AUTO (default): the CUDA driver when this build has it and a device
+   * is usable, the CPU driver otherwise, and the CPU driver again (with a
+   * warning) if the device fails. BACKEND_CPU, BACKEND_CUDA: that driver only;
+   * CUDA without a usable device is an error.
+   */
+  vtkSetClampMacro(Backend, int, BACKEND_AUTO, BACKEND_CUDA);
+  vtkGetMacro(Backend, int);
+  ///@}
+
+  ///@{
+  /**
+   * Only mark the voxels the surface passes through; no inside/outside
+   * classification (faster, and the only meaningful mode for open meshes).
+   */
+  vtkSetMacro(SurfaceOnly, vtkTypeBool);
+  vtkGetMacro(SurfaceOnly, vtkTypeBool);
+  vtkBooleanMacro(SurfaceOnly, vtkTypeBool);
+  ///@}
+
+  ///@{
+  /**
+   * -1 (default): full depth (h + log2 L, single voxels). k >= 0: cut the trees
+   * at depth k; cut cells take the aggregated state of their voxels. Values
+   * beyond the full depth mean full depth.
+   */
+  vtkSetMacro(MaxDepth, int);
+  vtkGetMacro(MaxDepth, int);
+  ///@}
+
+  ///@{
+  /**
+   * Hide (mask) outside leaf cells, so that a surface representation shows the
+   * voxelized solid. Default on.
+   */
+  vtkSetMacro(MaskOutside, vtkTypeBool);
+  vtkGetMacro(MaskOutside, vtkTypeBool);
+  vtkBooleanMacro(MaskOutside, vtkTypeBool);
+  ///@}
+
+  ///@{
+  /**
+   * CPU threads for the build and the conversion; 0 (default) = all cores.
+   */
+  vtkSetClampMacro(Threads, int, 0, 4096);
+  vtkGetMacro(Threads, int);
+  ///@}
+
+  ///@{
+  /**
+   * Wall-clock milliseconds of the last run's voxelization (0 when the kept
+   * volume was reused) and of its conversion to the hyper tree grid.
+   */
+  vtkGetMacro(LastVoxelizationTime, double);
+  vtkGetMacro(LastConversionTime, double);
+  ///@}
+
+  /**
+   * True when the last run reused the kept volume (only MaxDepth or
+   * MaskOutside had changed).
+   */
+  vtkGetMacro(LastRunReusedVolume, bool);
+
+  vtkHyperTreeGrid* GetOutput();
+  vtkHyperTreeGrid* GetOutput(int port);
+
+#ifndef __VTK_WRAP__
+  /**
+   * The HDT of the last successful run (for writers); null after an error.
+   */
+  std::shared_ptr<const hdt::Volume> GetVolume() const;
+#endif
+
+  vtkTypeBool ProcessRequest(vtkInformation* request, vtkInformationVector** inInfo,
+    vtkInformationVector* outInfo) override;
+
+protected:
+  vtkHDTVoxelizer();
+  ~vtkHDTVoxelizer() override;
+
+  int FillInputPortInformation(int port, vtkInformation* info) override;
+  int FillOutputPortInformation(int port, vtkInformation* info) override;
+  virtual int RequestData(vtkInformation* request, vtkInformationVector** inputVector,
+    vtkInformationVector* outputVector);
+
+  int Resolution = 256;
+  int RootGridSize = 16;
+  int LeafGridSize = 8;
+  int Backend = BACKEND_AUTO;
+  vtkTypeBool SurfaceOnly = false;
+  int MaxDepth = -1;
+  vtkTypeBool MaskOutside = true;
+  int Threads = 0;
+  double LastVoxelizationTime = 0;
+  double LastConversionTime = 0;
+  bool LastRunReusedVolume = false;
+
+private:
+  vtkHDTVoxelizer(const vtkHDTVoxelizer&) = delete;
+  void operator=(const vtkHDTVoxelizer&) = delete;
+
+  void Fail(vtkHyperTreeGrid* output, const char* message);
+
+  struct Internals;
+  Internals* Internal;
+};
+
+#endif

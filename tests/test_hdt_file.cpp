@@ -1,0 +1,700 @@
+// .hdt files (docs/hdt-format.md): bit-exact round trips, the layout the spec
+// describes, and a reader that refuses every corruption without crashing or
+// allocating what the file cannot justify.
+#include "hdt/builder.hpp"
+#include "hdt/error.hpp"
+#include "hdt/hdt_file.hpp"
+#include "hdt/mesh.hpp"
+#include "support/format_volumes.hpp"
+#include "support/shapes.hpp"
+
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
+#include <functional>
+#include <iterator>
+#include <limits>
+#include <new>
+
+// ---- allocation probe ----------------------------------------------------------------
+// Records the largest single operator-new request while armed, to prove that
+// forged counts are refused before anything is allocated from them. Replacing
+// the global operator new affects all of hdt_tests; disarmed it costs one
+// relaxed atomic load per allocation.
+namespace {
+std::atomic<bool> gProbeArmed{false};
+std::atomic<size_t> gLargestRequest{0};
+} // namespace
+
+void* operator new(std::size_t size) {
+  if (gProbeArmed.load(std::memory_order_relaxed)) {
+    size_t seen = gLargestRequest.load(std::memory_order_relaxed);
+    while (size > seen && !gLargestRequest.compare_exchange_weak(seen, size)) {
+    }
+  }
+  if (void* p = std::malloc(size ? size : 1)) return p;
+  throw std::bad_alloc();
+}
+void operator delete(void* p) noexcept { std::free(p); }
+void operator delete(void* p, std::size_t) noexcept { std::free(p); }
+
+namespace hdt {
+namespace test {
+namespace {
+
+size_t largestAllocationDuring(const std::function<void()>& f) {
+  gLargestRequest = 0;
+  gProbeArmed = true;
+  f();
+  gProbeArmed = false;
+  return gLargestRequest;
+}
+
+// Section indices in an HdtImage.
+enum { kGrid = 0, kStats = 1, kLevels = 2, kElements = 3, kLeaves = 4 };
+
+HdtWriteOptions raw() {
+  HdtWriteOptions o;
+  o.compressLeaves = false;
+  return o;
+}
+HdtWriteOptions compressed() { return HdtWriteOptions{}; }
+
+std::vector<uint8_t> bytesOf(const Volume& v, const HdtWriteOptions& o = raw()) { return serializeHdt(v, o); }
+
+// Does this build compress (i.e. was it built with zstd)?
+bool haveZstd() {
+  static const bool have = [] {
+    const std::vector<uint8_t> b = bytesOf(randomVolume(1, RandomVolumeSpec{}), compressed());
+    return (getLe32(b, 8) & 1u) != 0;
+  }();
+  return have;
+}
+
+// "ACCEPTED", or the message of what deserializeHdt threw, marked when it was
+// not an hdt::Error of kind BadInput naming the file.
+std::string refusal(const uint8_t* data, size_t size) {
+  try {
+    deserializeHdt(data, size, "forged.hdt");
+  } catch (const Error& e) {
+    const std::string m = e.what();
+    if (e.kind() != ErrorKind::BadInput) return "WRONG KIND: " + m;
+    if (m.rfind("forged.hdt: ", 0) != 0) return "UNNAMED: " + m;
+    return m;
+  } catch (const std::exception& e) {
+    return std::string("NOT AN hdt::Error: ") + e.what();
+  }
+  return "ACCEPTED";
+}
+std::string refusal(const std::vector<uint8_t>& b) { return refusal(b.data(), b.size()); }
+
+bool refusedProperly(const std::string& m) {
+  return m != "ACCEPTED" && m.rfind("WRONG KIND", 0) != 0 && m.rfind("UNNAMED", 0) != 0 &&
+         m.rfind("NOT AN", 0) != 0;
+}
+
+#define EXPECT_REFUSED(bytes, fragment)                                                            \
+  do {                                                                                             \
+    const std::string m_ = refusal(bytes);                                                         \
+    EXPECT_TRUE(refusedProperly(m_) && m_.find(fragment) != std::string::npos)                    \
+        << "expected a BadInput mentioning \"" << (fragment) << "\", got: " << m_;                 \
+  } while (0)
+
+// Forges a file from a valid one: edit the image, reassemble with fresh CRCs.
+std::vector<uint8_t> forge(const std::vector<uint8_t>& valid, const std::function<void(HdtImage&)>& edit) {
+  HdtImage image = parseHdtImage(valid);
+  edit(image);
+  return assembleHdtImage(image);
+}
+
+// A small volume with Branches at two levels and several leaves.
+Volume smallVolume(bool surfaceOnly = false) {
+  RandomVolumeSpec spec;
+  spec.rootGrid = 2;
+  spec.leafSize = 8;
+  spec.height = 2;
+  spec.branchChance = 0.6;
+  spec.surfaceOnly = surfaceOnly;
+  return randomVolume(7, spec);
+}
+
+// A smaller one for the byte-by-byte tests.
+Volume tinyVolume() {
+  RandomVolumeSpec spec; // R = 2, L = 8, h = 1
+  return randomVolume(3, spec);
+}
+
+// Index of the n-th element with state s at level k (or at any level when k < 0).
+uint64_t findElement(const Volume& v, ElementState s, int k, int n = 0) {
+  for (uint64_t i = 0; i < v.elements.size(); ++i) {
+    const bool levelOk = k < 0 || (i >= v.levelStart[size_t(k)] && i < v.levelStart[size_t(k) + 1]);
+    if (levelOk && elementState(v.elements[i]) == s && n-- == 0) return i;
+  }
+  ADD_FAILURE() << "the test volume lacks the element it needs";
+  return 0;
+}
+
+// ---- round trips ------------------------------------------------------------------
+
+TEST(HdtFile, RoundTripsRandomVolumesBitExact) {
+  struct Case {
+    RandomVolumeSpec spec;
+    const char* name;
+  };
+  std::vector<Case> cases;
+  auto add = [&](int R, int L, int h, bool surfaceOnly, double branch, double boundary, const char* name) {
+    RandomVolumeSpec s;
+    s.rootGrid = R;
+    s.leafSize = L;
+    s.height = h;
+    s.surfaceOnly = surfaceOnly;
+    s.branchChance = branch;
+    s.boundaryChance = boundary;
+    cases.push_back({s, name});
+  };
+  add(2, 8, 1, false, 0.5, 0.5, "R2 L8 h1");
+  add(1, 16, 2, false, 0.9, 0.7, "R1 L16 h2");
+  add(3, 8, 2, true, 0.4, 0.6, "R3 L8 h2 surface-only");
+  add(2, 32, 0, false, 0.0, 0.5, "R2 L32 h0 (root elements are the leaves)");
+  add(1, 8, 4, false, 0.8, 0.9, "R1 L8 h4");
+  add(4, 8, 0, false, 0.0, 0.05, "R4 L8 h0 sparse");
+  add(2, 8, 3, false, 0.0, 0.5, "no Branch at all: levels 1.. empty");
+  for (const Case& c : cases) {
+    for (uint32_t seed = 1; seed <= 3; ++seed) {
+      const Volume v = randomVolume(seed, c.spec);
+      for (const HdtWriteOptions& o : {raw(), compressed()}) {
+        const std::string what = std::string(c.name) + " seed " + std::to_string(seed) +
+                                 (o.compressLeaves ? " compressed" : " raw");
+        const std::vector<uint8_t> bytes = serializeHdt(v, o);
+        const Volume back = deserializeHdt(bytes.data(), bytes.size());
+        expectSameVolume(v, back, what);
+        EXPECT_TRUE(serializeHdt(back, o) == bytes) << what << ": re-serialising changed the bytes";
+      }
+    }
+  }
+}
+
+TEST(HdtFile, RoundTripsEmptyVolumes) {
+  for (int h : {0, 1, 3}) {
+    const Volume v = emptyVolume(3, 16, h);
+    for (const HdtWriteOptions& o : {raw(), compressed()}) {
+      const std::vector<uint8_t> bytes = serializeHdt(v, o);
+      expectSameVolume(v, deserializeHdt(bytes.data(), bytes.size()), "empty, h = " + std::to_string(h));
+    }
+  }
+}
+
+TEST(HdtFile, FileOnDiskEqualsSerializedBytes) {
+  const Volume v = smallVolume();
+  const std::string path = tempPath("format_roundtrip.hdt");
+  for (const HdtWriteOptions& o : {raw(), compressed()}) {
+    writeHdt(v, path, o);
+    std::ifstream in(path, std::ios::binary);
+    const std::vector<uint8_t> file((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    EXPECT_TRUE(file == serializeHdt(v, o));
+    expectSameVolume(v, readHdt(path), "file");
+  }
+  std::remove(path.c_str());
+}
+
+TEST(HdtFile, CompressionShrinksRedundantLeaves) {
+  if (!haveZstd()) GTEST_SKIP() << "built without zstd";
+  Volume v = smallVolume();
+  for (uint32_t& w : v.leafWords) w = 0xAAAAAAAAu; // all Surface
+  computeStructureStatistics(v);
+  const std::vector<uint8_t> r = bytesOf(v, raw()), c = bytesOf(v, compressed());
+  EXPECT_LT(c.size() * 4, r.size());
+  expectSameVolume(v, deserializeHdt(c.data(), c.size()));
+}
+
+// Real builds, once the CPU builder is there: a closed sphere, an open
+// hemisphere and a surface-only torus.
+TEST(HdtFile, RoundTripsRealBuilds) {
+  struct Case {
+    TriangleMesh mesh;
+    BuildConfig config;
+    const char* name;
+  };
+  auto config = [](int N, int R, int L, bool surfaceOnly) {
+    BuildConfig c;
+    c.resolution = N;
+    c.rootGrid = R;
+    c.leafSize = L;
+    c.surfaceOnly = surfaceOnly;
+    return c;
+  };
+  const Case cases[] = {
+      {icosphere(3, 1.0), config(64, 2, 16, false), "sphere N64"},
+      {uvHemisphere(16, 32, 1.0), config(128, 4, 8, false), "open hemisphere N128"},
+      {torus(1.0, 0.3, 48, 24), config(96, 3, 8, true), "surface-only torus N96"},
+  };
+  for (const Case& c : cases) {
+    Volume v;
+    try {
+      v = buildCpu(prepareMesh(c.mesh, c.config), BuildOptions{});
+    } catch (const std::exception& e) {
+      FAIL() << c.name << ": the CPU builder failed: " << e.what();
+    }
+    ASSERT_GT(v.leafCount(), 0u) << c.name;
+    for (const HdtWriteOptions& o : {raw(), compressed()}) {
+      const std::vector<uint8_t> bytes = serializeHdt(v, o);
+      expectSameVolume(v, deserializeHdt(bytes.data(), bytes.size()), c.name);
+    }
+  }
+}
+
+// ---- the layout of docs/hdt-format.md, checked independently ------------------------
+
+TEST(HdtFile, LayoutFollowsTheSpec) {
+  EXPECT_EQ(referenceCrc32(reinterpret_cast<const uint8_t*>("123456789"), 9), 0xCBF43926u);
+  const Volume v = smallVolume();
+  const std::vector<uint8_t> b = bytesOf(v, raw());
+  ASSERT_GE(b.size(), 12u);
+  EXPECT_EQ(b[0], 'H');
+  EXPECT_EQ(b[1], 'D');
+  EXPECT_EQ(b[2], 'T');
+  EXPECT_EQ(b[3], 0);
+  EXPECT_EQ(getLe32(b, 4), 1u);
+  EXPECT_EQ(getLe32(b, 8), 0u);
+
+  const HdtImage image = parseHdtImage(b);
+  ASSERT_EQ(image.sections.size(), 5u);
+  for (size_t i = 0; i < 5; ++i) {
+    const HdtSectionImage& s = image.sections[i];
+    EXPECT_EQ(s.id, i + 1);
+    EXPECT_EQ(s.encoding, 0u);
+    EXPECT_EQ(s.raw, s.stored);
+    EXPECT_EQ(s.crc, referenceCrc32(s.payload.data(), s.payload.size())) << "section " << s.id;
+  }
+  const std::vector<uint8_t>& grid = image.sections[kGrid].payload;
+  ASSERT_EQ(grid.size(), 56u);
+  EXPECT_EQ(getLe32(grid, 0), uint32_t(v.grid.resolution));
+  EXPECT_EQ(getLe32(grid, 4), uint32_t(v.grid.rootGrid));
+  EXPECT_EQ(getLe32(grid, 8), uint32_t(v.grid.leafSize));
+  EXPECT_EQ(getLe32(grid, 12), uint32_t(v.grid.height));
+  double origin0;
+  const uint64_t bits = getLe64(grid, 16);
+  std::memcpy(&origin0, &bits, 8);
+  EXPECT_EQ(origin0, v.grid.origin[0]);
+  EXPECT_EQ(getLe32(grid, 48), v.surfaceOnly ? 1u : 0u);
+  EXPECT_EQ(getLe32(grid, 52), v.closedMesh ? 1u : 0u);
+
+  const std::vector<uint8_t>& stats = image.sections[kStats].payload;
+  ASSERT_EQ(stats.size(), 144u + v.stats.backend.size());
+  EXPECT_EQ(getLe64(stats, 0), v.stats.triangles);
+  EXPECT_EQ(getLe64(stats, 40), v.stats.activeVoxels);
+  EXPECT_EQ(getLe64(stats, 120), v.stats.peakHostBytes);
+  EXPECT_EQ(getLe32(stats, 136), uint32_t(v.stats.threads));
+  EXPECT_EQ(getLe32(stats, 140), v.stats.backend.size());
+  EXPECT_EQ(std::string(stats.begin() + 144, stats.end()), v.stats.backend);
+
+  const std::vector<uint8_t>& levels = image.sections[kLevels].payload;
+  ASSERT_EQ(levels.size(), 8 * v.levelStart.size());
+  for (size_t k = 0; k < v.levelStart.size(); ++k) EXPECT_EQ(getLe64(levels, 8 * k), v.levelStart[k]);
+
+  const std::vector<uint8_t>& elements = image.sections[kElements].payload;
+  ASSERT_EQ(elements.size(), 4 * v.elements.size());
+  for (size_t i = 0; i < v.elements.size(); ++i) EXPECT_EQ(getLe32(elements, 4 * i), v.elements[i]);
+
+  const std::vector<uint8_t>& leaves = image.sections[kLeaves].payload;
+  ASSERT_EQ(leaves.size(), 4 * v.leafWords.size());
+  for (size_t i = 0; i < v.leafWords.size(); ++i) ASSERT_EQ(getLe32(leaves, 4 * i), v.leafWords[i]);
+
+  if (haveZstd()) {
+    const HdtImage c = parseHdtImage(bytesOf(v, compressed()));
+    ASSERT_EQ(c.sections.size(), 5u);
+    EXPECT_EQ(getLe32(c.fileHeader, 8), 1u);
+    EXPECT_EQ(c.sections[kLeaves].encoding, 1u);
+    EXPECT_EQ(c.sections[kLeaves].raw, 4 * v.leafWords.size());
+    for (size_t i = 0; i < 4; ++i) EXPECT_EQ(c.sections[i].payload, image.sections[i].payload);
+  }
+}
+
+// ---- corruption ---------------------------------------------------------------------
+
+TEST(HdtFileCorrupt, TruncatedAtEveryOffset) {
+  for (const HdtWriteOptions& o : {raw(), compressed()}) {
+    const std::vector<uint8_t> b = bytesOf(tinyVolume(), o);
+    for (size_t n = 0; n < b.size(); ++n) {
+      const std::string m = refusal(b.data(), n);
+      ASSERT_TRUE(refusedProperly(m)) << "truncated to " << n << " of " << b.size() << " bytes: " << m;
+    }
+    EXPECT_EQ(refusal(b), "ACCEPTED");
+  }
+}
+
+TEST(HdtFileCorrupt, EveryByteFlipped) {
+  for (const HdtWriteOptions& o : {raw(), compressed()}) {
+    const std::vector<uint8_t> valid = bytesOf(tinyVolume(), o);
+    std::vector<uint8_t> b = valid;
+    for (size_t i = 0; i < b.size(); ++i) {
+      for (uint8_t mask : {0x01, 0x10, 0x80, 0xFF}) {
+        b[i] ^= mask;
+        const std::string m = refusal(b);
+        b[i] ^= mask;
+        // Every byte is covered by a check: none may be changed unnoticed.
+        ASSERT_TRUE(refusedProperly(m)) << "byte " << i << " ^ " << int(mask) << ": " << m;
+      }
+    }
+  }
+}
+
+TEST(HdtFileCorrupt, BadMagicVersionAndFlags) {
+  const std::vector<uint8_t> valid = bytesOf(smallVolume());
+  for (int i = 0; i < 4; ++i) {
+    std::vector<uint8_t> b = valid;
+    b[size_t(i)] ^= 0x20;
+    EXPECT_REFUSED(b, "bad magic");
+  }
+  for (uint32_t version : {0u, 2u, 3u, 0xFFFFFFFFu}) {
+    std::vector<uint8_t> b = valid;
+    putLe32(b, 4, version);
+    EXPECT_REFUSED(b, "unsupported .hdt format version " + std::to_string(version));
+  }
+  for (uint32_t flags : {2u, 0x80000000u, 0xFFFFFFFEu}) {
+    std::vector<uint8_t> b = valid;
+    putLe32(b, 8, flags);
+    EXPECT_REFUSED(b, "unknown flags");
+  }
+  std::vector<uint8_t> b = valid;
+  putLe32(b, 8, 1); // says compressed; the leaf section is raw
+  EXPECT_REFUSED(b, haveZstd() ? "compression flag disagrees" : "no zstd support");
+  EXPECT_REFUSED(std::vector<uint8_t>{}, "too short");
+  EXPECT_REFUSED(std::vector<uint8_t>(valid.begin(), valid.begin() + 12), "before the grid section header");
+}
+
+TEST(HdtFileCorrupt, ForgedCountsAreRefusedBeforeAllocating) {
+  // N = 65536 with one Empty root: 15 levels, tiny file.
+  const std::vector<uint8_t> base = bytesOf(emptyVolume(1, 8, 13));
+  const size_t kSmall = 64 * 1024; // far below anything the forged counts ask for
+  auto expectCheapRefusal = [&](const std::vector<uint8_t>& b, const std::string& fragment) {
+    std::string m;
+    const size_t largest = largestAllocationDuring([&] { m = refusal(b); });
+    EXPECT_TRUE(refusedProperly(m) && m.find(fragment) != std::string::npos) << fragment << " / " << m;
+    EXPECT_LT(largest, kSmall) << m;
+  };
+  // Level sizes 1, 8, 64, ..., 8^9 then 0: a consistent table for 153 million
+  // elements (613 MB) in a file of a few hundred bytes.
+  auto geometricLevels = [](HdtImage& im) {
+    std::vector<uint8_t>& t = im.sections[kLevels].payload;
+    uint64_t start = 0, size = 1;
+    for (size_t k = 0; k < 15; ++k) {
+      putLe64(t, 8 * k, start);
+      start += size;
+      size = k < 9 ? size * 8 : 0;
+    }
+  };
+  const uint64_t forgedElements = (uint64_t(1) << 30) / 7; // (8^10 - 1) / 7
+  expectCheapRefusal(forge(base, geometricLevels), "elements section: 4 bytes, expected " + std::to_string(4 * forgedElements));
+  expectCheapRefusal(forge(base,
+                           [&](HdtImage& im) {
+                             geometricLevels(im);
+                             HdtSectionImage& e = im.sections[kElements];
+                             e.keepHeader = true;
+                             e.stored = e.raw = 4 * forgedElements;
+                           }),
+                     "remain in the file");
+  // Element section claiming 2^62 bytes on its own.
+  expectCheapRefusal(forge(base,
+                           [](HdtImage& im) {
+                             HdtSectionImage& e = im.sections[kElements];
+                             e.keepHeader = true;
+                             e.stored = e.raw = uint64_t(1) << 62;
+                           }),
+                     "remain in the file");
+  // Level table claiming 2^40 elements.
+  expectCheapRefusal(forge(base, [](HdtImage& im) { putLe64(im.sections[kLevels].payload, 8 * 14, uint64_t(1) << 40); }),
+                     "level table");
+  // R = 8192 (N = 65536 at h = 0): R^3 root elements exceed the element limit.
+  expectCheapRefusal(forge(base,
+                           [](HdtImage& im) {
+                             putLe32(im.sections[kGrid].payload, 4, 8192);
+                             putLe32(im.sections[kGrid].payload, 12, 0);
+                             std::vector<uint8_t>& t = im.sections[kLevels].payload;
+                             t.assign(16, 0);
+                             putLe64(t, 8, uint64_t(8192) * 8192 * 8192);
+                           }),
+                     "exceeds the element limit");
+  // A backend name of 4 GiB.
+  expectCheapRefusal(forge(base, [](HdtImage& im) { putLe32(im.sections[kStats].payload, 140, 0xFFFFFFFFu); }),
+                     "backend name of 4294967295 bytes");
+  // Statistics section claiming a huge length.
+  expectCheapRefusal(forge(base,
+                           [](HdtImage& im) {
+                             HdtSectionImage& s = im.sections[kStats];
+                             s.keepHeader = true;
+                             s.stored = s.raw = uint64_t(1) << 40;
+                           }),
+                     "statistics section");
+  // Compressed leaf data claiming 1 TiB when the tree has a few leaves.
+  const std::vector<uint8_t> leafy = bytesOf(smallVolume());
+  expectCheapRefusal(forge(leafy,
+                           [](HdtImage& im) {
+                             putLe32(im.fileHeader, 8, 1);
+                             HdtSectionImage& l = im.sections[kLeaves];
+                             l.encoding = 1;
+                             l.raw = uint64_t(1) << 40;
+                           }),
+                     haveZstd() ? "leaf data section: 1099511627776 bytes, expected" : "no zstd support");
+}
+
+TEST(HdtFileCorrupt, InconsistentTrees) {
+  const Volume v = smallVolume();
+  ASSERT_GE(v.leafCount(), 2u);
+  const std::vector<uint8_t> valid = bytesOf(v);
+  auto withElement = [&](uint64_t index, ElementWord w) {
+    return forge(valid, [&](HdtImage& im) { putLe32(im.sections[kElements].payload, 4 * index, w); });
+  };
+  const int h = v.grid.height;
+
+  const uint64_t branch = findElement(v, ElementState::Branch, 1);
+  EXPECT_REFUSED(withElement(branch, makeElement(ElementState::Branch, elementPayload(v.elements[branch]) + 8)),
+                 "Branch points to");
+  EXPECT_REFUSED(withElement(branch, makeElement(ElementState::Branch, elementPayload(v.elements[branch]) - 1)),
+                 "Branch points to");
+
+  const uint64_t b0 = findElement(v, ElementState::Boundary, h, 0), b1 = findElement(v, ElementState::Boundary, h, 1);
+  EXPECT_REFUSED(forge(valid,
+                       [&](HdtImage& im) {
+                         putLe32(im.sections[kElements].payload, 4 * b0, v.elements[b1]);
+                         putLe32(im.sections[kElements].payload, 4 * b1, v.elements[b0]);
+                       }),
+                 "Boundary points to leaf 1, expected 0");
+
+  const uint64_t emptyRoot = findElement(v, ElementState::Empty, 0);
+  EXPECT_REFUSED(withElement(emptyRoot, makeElement(ElementState::Boundary, 0)), "Boundary element above the leaf level");
+  const uint64_t emptyLeafLevel = findElement(v, ElementState::Empty, h);
+  EXPECT_REFUSED(withElement(emptyLeafLevel, makeElement(ElementState::Branch, uint32_t(v.elements.size()))),
+                 "Branch at the leaf level");
+  EXPECT_REFUSED(withElement(emptyRoot, makeElement(ElementState::Empty, 5)), "nonzero payload");
+  EXPECT_REFUSED(withElement(findElement(v, ElementState::Full, -1), makeElement(ElementState::Full, 1)),
+                 "nonzero payload");
+
+  // One more Branch at level 0, after the last one, pointing where its
+  // children would go: level 1 is then 8 elements short.
+  uint64_t rootBranches = 0, afterLast = 0;
+  for (uint64_t i = 0; i < v.levelStart[1]; ++i)
+    if (elementState(v.elements[i]) == ElementState::Branch) ++rootBranches, afterLast = i + 1;
+  ASSERT_LT(afterLast, v.levelStart[1]) << "the test volume needs a root after its last Branch";
+  EXPECT_REFUSED(withElement(afterLast, makeElement(ElementState::Branch, uint32_t(v.levelStart[1] + 8 * rootBranches))),
+                 "Branch elements but level 1 has");
+
+  // Surface-only volumes hold no Inside state anywhere.
+  const Volume so = smallVolume(true);
+  const std::vector<uint8_t> soBytes = bytesOf(so);
+  EXPECT_REFUSED(forge(soBytes,
+                       [&](HdtImage& im) {
+                         putLe32(im.sections[kElements].payload, 4 * findElement(so, ElementState::Empty, 0),
+                                 makeElement(ElementState::Full, 0));
+                       }),
+                 "Full element in a surface-only volume");
+  EXPECT_REFUSED(forge(soBytes,
+                       [&](HdtImage& im) {
+                         std::vector<uint8_t>& l = im.sections[kLeaves].payload;
+                         putLe32(l, 12, (getLe32(l, 12) & ~3u) | 1u);
+                       }),
+                 "Inside voxels in a surface-only volume");
+}
+
+TEST(HdtFileCorrupt, LeafValueThree) {
+  const Volume v = smallVolume();
+  const std::vector<uint8_t> valid = bytesOf(v);
+  const uint32_t perLeaf = leafWordCount(v.grid.leafSize);
+  EXPECT_REFUSED(forge(valid,
+                       [&](HdtImage& im) {
+                         std::vector<uint8_t>& l = im.sections[kLeaves].payload;
+                         const size_t word = perLeaf + 5; // leaf 1, word 5, voxel 7 of it
+                         putLe32(l, 4 * word, getLe32(l, 4 * word) | (3u << 14));
+                       }),
+                 "leaf 1 has a voxel in the invalid state 3 (word 5)");
+}
+
+TEST(HdtFileCorrupt, GridLevelTableAndStatistics) {
+  const Volume v = smallVolume();
+  const std::vector<uint8_t> valid = bytesOf(v);
+  auto gridU32 = [&](size_t at, uint32_t x) {
+    return forge(valid, [&](HdtImage& im) { putLe32(im.sections[kGrid].payload, at, x); });
+  };
+  auto gridF64 = [&](size_t at, double x) {
+    return forge(valid, [&](HdtImage& im) { putF64(im.sections[kGrid].payload, at, x); });
+  };
+  EXPECT_REFUSED(gridU32(0, uint32_t(v.grid.resolution) * 2), "is not R * 2^h * L");
+  EXPECT_REFUSED(gridU32(4, 0), "root grid 0");
+  EXPECT_REFUSED(gridU32(8, 12), "leaf size 12");
+  EXPECT_REFUSED(gridU32(8, 16), "is not R * 2^h * L");
+  EXPECT_REFUSED(gridU32(12, 17), "height 17");
+  EXPECT_REFUSED(gridU32(12, 0xFFFFFFFFu), "height");
+  EXPECT_REFUSED(gridU32(48, 2), "boolean");
+  EXPECT_REFUSED(gridU32(52, 0x100), "boolean");
+  EXPECT_REFUSED(gridF64(16, std::nan("")), "origin is not finite");
+  EXPECT_REFUSED(gridF64(32, -std::numeric_limits<double>::infinity()), "origin is not finite");
+  for (double s : {0.0, -1.0, std::numeric_limits<double>::infinity(), std::nan("")}) EXPECT_REFUSED(gridF64(40, s), "voxel size");
+  // N = 2 * 2^13 * 8 = 131072 > 65536, consistent otherwise (the level table length follows h).
+  EXPECT_REFUSED(forge(valid,
+                       [](HdtImage& im) {
+                         putLe32(im.sections[kGrid].payload, 0, 131072);
+                         putLe32(im.sections[kGrid].payload, 12, 13);
+                       }),
+                 "exceeds 65536");
+
+  auto levels = [&](size_t k, uint64_t x) {
+    return forge(valid, [&](HdtImage& im) { putLe64(im.sections[kLevels].payload, 8 * k, x); });
+  };
+  EXPECT_REFUSED(levels(0, 1), "level 0 must be");
+  EXPECT_REFUSED(levels(1, 7), "level 0 must be");
+  EXPECT_REFUSED(levels(2, v.levelStart[2] + 4), "not 8 per branch");
+  EXPECT_REFUSED(levels(2, v.levelStart[1] - 8), "decreasing");
+  EXPECT_REFUSED(levels(2, v.levelStart[2] + 8), "Branch elements but level 1 has");
+  EXPECT_REFUSED(levels(3, v.levelStart[3] + 8), "elements section");
+
+  auto stats = [&](const std::function<void(std::vector<uint8_t>&)>& edit) {
+    return forge(valid, [&](HdtImage& im) { edit(im.sections[kStats].payload); });
+  };
+  const size_t u64Fields[] = {16, 24, 32, 40, 48, 64, 72};
+  const char* names[] = {"tree elements", "leaf grids", "leaf voxels", "active voxels",
+                         "inside voxels", "topology bytes", "leaf bytes"};
+  for (size_t i = 0; i < 7; ++i) {
+    EXPECT_REFUSED(stats([&](std::vector<uint8_t>& s) { putLe64(s, u64Fields[i], getLe64(s, u64Fields[i]) + 1); }),
+                   std::string("statistics: ") + names[i]);
+  }
+  EXPECT_REFUSED(stats([](std::vector<uint8_t>& s) { putF64(s, 96, std::nan("")); }), "not finite");
+  EXPECT_REFUSED(stats([](std::vector<uint8_t>& s) { putF64(s, 56, -1.0); }), "negative");
+  EXPECT_REFUSED(stats([](std::vector<uint8_t>& s) { putLe32(s, 136, uint32_t(-3)); }), "negative thread count");
+  EXPECT_REFUSED(stats([](std::vector<uint8_t>& s) { s[144] = '\n'; }), "printable");
+  EXPECT_REFUSED(stats([](std::vector<uint8_t>& s) { s.resize(144 + 65, 'x'); putLe32(s, 140, 65); }),
+                 "statistics section: 209 bytes");
+}
+
+TEST(HdtFileCorrupt, ContainerStructure) {
+  const std::vector<uint8_t> valid = bytesOf(smallVolume());
+  std::vector<uint8_t> longer = valid;
+  longer.push_back(0);
+  EXPECT_REFUSED(longer, "1 bytes after the end of the leaf data section");
+
+  EXPECT_REFUSED(forge(valid, [](HdtImage& im) { std::swap(im.sections[kGrid], im.sections[kStats]); }),
+                 "expected the grid section (id 1) at byte 12, found id 2");
+  EXPECT_REFUSED(forge(valid, [](HdtImage& im) { im.sections[kLevels].id = 9; }), "expected the level table section");
+  EXPECT_REFUSED(forge(valid, [](HdtImage& im) { im.sections.pop_back(); }), "before the leaf data section header");
+  EXPECT_REFUSED(forge(valid, [](HdtImage& im) { im.sections.push_back(im.sections.back()); }), "bytes after the end");
+  EXPECT_REFUSED(forge(valid, [](HdtImage& im) { im.sections[kElements].encoding = 1; }),
+                 "elements section: invalid encoding 1");
+  EXPECT_REFUSED(forge(valid, [](HdtImage& im) { im.sections[kLeaves].encoding = 2; }), "invalid encoding 2");
+  EXPECT_REFUSED(forge(valid,
+                       [](HdtImage& im) {
+                         HdtSectionImage& s = im.sections[kGrid];
+                         s.keepHeader = true;
+                         s.raw = s.stored + 1;
+                       }),
+                 "raw section with");
+  EXPECT_REFUSED(forge(valid,
+                       [](HdtImage& im) {
+                         HdtSectionImage& s = im.sections[kElements];
+                         s.keepHeader = true;
+                         s.payload[0] ^= 4;
+                       }),
+                 "elements section: CRC-32 mismatch");
+  EXPECT_REFUSED(forge(valid, [](HdtImage& im) { im.sections[kGrid].payload.push_back(0); }),
+                 "grid section: 57 bytes, expected 56");
+}
+
+TEST(HdtFileCorrupt, ZstdFrames) {
+  if (!haveZstd()) GTEST_SKIP() << "built without zstd";
+  const Volume v = smallVolume();
+  const std::vector<uint8_t> valid = bytesOf(v, compressed());
+  auto leaves = [&](const std::function<void(std::vector<uint8_t>&)>& edit) {
+    return forge(valid, [&](HdtImage& im) { edit(im.sections[kLeaves].payload); });
+  };
+  EXPECT_REFUSED(leaves([](std::vector<uint8_t>& p) { p.push_back(0); }), "leaf data");
+  EXPECT_REFUSED(leaves([](std::vector<uint8_t>& p) { p.pop_back(); }), "leaf data");
+  EXPECT_REFUSED(leaves([](std::vector<uint8_t>& p) { p[0] ^= 1; }), "not a zstd frame");
+  EXPECT_REFUSED(leaves([](std::vector<uint8_t>& p) { p.insert(p.end(), p.begin(), p.end()); }),
+                 "not exactly one zstd frame");
+  // A well-formed frame of the right size but other contents: caught by the checks after decoding.
+  const std::vector<uint8_t> bad = forge(valid, [&](HdtImage& im) {
+    Volume ok = v;
+    std::fill(ok.leafWords.begin(), ok.leafWords.end(), 0xAAAAAAAAu);
+    computeStructureStatistics(ok);
+    im.sections[kLeaves].payload = parseHdtImage(bytesOf(ok, compressed())).sections[kLeaves].payload;
+  });
+  EXPECT_REFUSED(bad, "statistics: active voxels");
+}
+
+// ---- the writer and the file entry points ------------------------------------------
+
+TEST(HdtFileWrite, RefusesInconsistentVolumes) {
+  auto expectInvalid = [](const Volume& v, const char* fragment) {
+    try {
+      serializeHdt(v);
+      ADD_FAILURE() << "accepted: " << fragment;
+    } catch (const Error& e) {
+      EXPECT_EQ(e.kind(), ErrorKind::InvalidArgument) << e.what();
+      EXPECT_NE(std::string(e.what()).find(fragment), std::string::npos) << e.what();
+    }
+  };
+  const Volume good = smallVolume();
+  Volume v = good;
+  v.stats.activeVoxels += 1;
+  expectInvalid(v, "active voxels");
+  v = good;
+  v.leafWords.pop_back();
+  expectInvalid(v, "leaf words for");
+  v = good;
+  v.levelStart.pop_back();
+  expectInvalid(v, "level table");
+  v = good;
+  v.grid.leafSize = 16;
+  expectInvalid(v, "is not R * 2^h * L");
+  v = good;
+  v.stats.backend = std::string(65, 'x');
+  expectInvalid(v, "backend");
+  v = good;
+  v.leafWords[0] = 0xFFFFFFFFu;
+  expectInvalid(v, "invalid state 3");
+
+  // Nothing is left on disk for a refused volume.
+  const std::string path = tempPath("format_refused.hdt");
+  std::remove(path.c_str());
+  v = good;
+  v.elements[findElement(good, ElementState::Branch, 0)] += 4; // payload + 1
+  EXPECT_THROW(writeHdt(v, path), Error);
+  EXPECT_EQ(std::fopen(path.c_str(), "rb"), nullptr);
+
+  if (haveZstd()) {
+    HdtWriteOptions o;
+    o.zstdLevel = 1000;
+    EXPECT_THROW(serializeHdt(good, o), Error);
+  }
+}
+
+TEST(HdtFileRead, UnreadablePaths) {
+  auto expectBadInput = [](const std::string& path, const char* fragment) {
+    try {
+      readHdt(path);
+      ADD_FAILURE() << "read " << path;
+    } catch (const Error& e) {
+      EXPECT_EQ(e.kind(), ErrorKind::BadInput);
+      const std::string m = e.what();
+      EXPECT_EQ(m.rfind(path + ": ", 0), 0u) << m;
+      EXPECT_NE(m.find(fragment), std::string::npos) << m;
+    }
+  };
+  expectBadInput("/nonexistent/dir/x.hdt", "cannot open");
+  expectBadInput(tempPath(""), "not a regular file");
+  const std::string path = tempPath("format_truncated.hdt");
+  {
+    const std::vector<uint8_t> b = bytesOf(smallVolume());
+    std::ofstream out(path, std::ios::binary);
+    out.write(reinterpret_cast<const char*>(b.data()), std::streamsize(b.size() - 3));
+  }
+  expectBadInput(path, "leaf data section");
+  std::remove(path.c_str());
+}
+
+} // namespace
+} // namespace test
+} // namespace hdt

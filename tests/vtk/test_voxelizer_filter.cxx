@@ -1,0 +1,424 @@
+// vtkHDTVoxelizer as a VTK filter: inputs it must take (strips, quads, concave
+// polygons, composites), inputs it must refuse cleanly, backends, caching.
+#include "hdt_vtk_test_util.h"
+
+#include "vtkHDTMeshConversion.h"
+#include "vtkHDTVoxelizer.h"
+
+#include "hdt/builder.hpp"
+#include "hdt/mesh.hpp"
+#include "hdt/volume.hpp"
+
+#include "vtkAppendPolyData.h"
+#include "vtkCellArray.h"
+#include "vtkCellData.h"
+#include "vtkCubeSource.h"
+#include "vtkFieldData.h"
+#include "vtkHyperTreeGrid.h"
+#include "vtkImageData.h"
+#include "vtkMultiBlockDataSet.h"
+#include "vtkNew.h"
+#include "vtkPoints.h"
+#include "vtkPolyData.h"
+#include "vtkStringArray.h"
+#include "vtkStripper.h"
+#include "vtkUnsignedCharArray.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+
+namespace
+{
+
+std::string joined(const std::vector<std::string>& v)
+{
+  std::string s;
+  for (const auto& x : v)
+  {
+    s += "\n  " + x;
+  }
+  return s;
+}
+
+bool anyContains(const std::vector<std::string>& v, const std::string& needle)
+{
+  for (const auto& x : v)
+  {
+    if (x.find(needle) != std::string::npos)
+    {
+      return true;
+    }
+  }
+  return false;
+}
+
+// A filter with its messages recorded (so they are not printed) and small settings.
+struct Harness
+{
+  vtkNew<vtkHDTVoxelizer> Filter;
+  vtkNew<hdtvtk::MessageLog> Log;
+  Harness()
+  {
+    this->Filter->AddObserver(vtkCommand::ErrorEvent, this->Log);
+    this->Filter->AddObserver(vtkCommand::WarningEvent, this->Log);
+    this->Filter->SetResolution(64);
+    this->Filter->SetRootGridSize(4);
+    this->Filter->SetLeafGridSize(8);
+  }
+  vtkHyperTreeGrid* Run(vtkDataObject* input)
+  {
+    this->Log->Clear();
+    this->Filter->SetInputData(input);
+    this->Filter->Update();
+    return this->Filter->GetOutput();
+  }
+};
+
+std::vector<uint8_t> statesOf(vtkHyperTreeGrid* htg)
+{
+  auto* a = vtkUnsignedCharArray::SafeDownCast(htg->GetCellData()->GetArray("VoxelState"));
+  if (!a)
+  {
+    return {};
+  }
+  return std::vector<uint8_t>(a->GetPointer(0), a->GetPointer(0) + a->GetNumberOfTuples());
+}
+
+std::string backendOf(vtkHyperTreeGrid* htg)
+{
+  auto* a = vtkStringArray::SafeDownCast(htg->GetFieldData()->GetAbstractArray("Backend"));
+  return a ? a->GetValue(0) : std::string();
+}
+
+vtkSmartPointer<vtkPolyData> linesOnly()
+{
+  vtkNew<vtkPoints> points;
+  points->InsertNextPoint(0, 0, 0);
+  points->InsertNextPoint(1, 0, 0);
+  points->InsertNextPoint(1, 1, 0);
+  vtkNew<vtkCellArray> lines;
+  const vtkIdType line[3] = { 0, 1, 2 };
+  lines->InsertNextCell(3, line);
+  vtkNew<vtkCellArray> verts;
+  verts->InsertNextCell(1, line);
+  auto pd = vtkSmartPointer<vtkPolyData>::New();
+  pd->SetPoints(points);
+  pd->SetLines(lines);
+  pd->SetVerts(verts);
+  return pd;
+}
+
+// ---- inputs that must be refused ---------------------------------------------
+
+TEST(VoxelizerBadInput, EmptyPolyDataIsAnErrorAndEmptyOutput)
+{
+  Harness h;
+  vtkNew<vtkPolyData> empty;
+  vtkHyperTreeGrid* out = h.Run(empty);
+  ASSERT_EQ(h.Log->Errors.size(), 1u);
+  EXPECT_TRUE(anyContains(h.Log->Errors, "empty")) << joined(h.Log->Errors);
+  EXPECT_EQ(out->GetNumberOfCells(), 0);
+  EXPECT_FALSE(h.Filter->GetVolume());
+}
+
+TEST(VoxelizerBadInput, NaNPointIsAnError)
+{
+  Harness h;
+  vtkSmartPointer<vtkPolyData> sphere = hdtvtk::MakeSphere(16);
+  sphere->GetPoints()->SetPoint(5, std::numeric_limits<double>::quiet_NaN(), 0, 0);
+  vtkHyperTreeGrid* out = h.Run(sphere);
+  ASSERT_EQ(h.Log->Errors.size(), 1u);
+  EXPECT_TRUE(anyContains(h.Log->Errors, "non-finite")) << joined(h.Log->Errors);
+  EXPECT_EQ(out->GetNumberOfCells(), 0);
+}
+
+TEST(VoxelizerBadInput, InvalidResolutionNamesTheValidOnes)
+{
+  Harness h;
+  h.Filter->SetResolution(100); // R = 4, L = 8: valid are 32, 64, 128, ...
+  vtkHyperTreeGrid* out = h.Run(hdtvtk::MakeSphere(16));
+  ASSERT_EQ(h.Log->Errors.size(), 1u);
+  EXPECT_TRUE(anyContains(h.Log->Errors, "64 or 128")) << joined(h.Log->Errors);
+  EXPECT_EQ(out->GetNumberOfCells(), 0);
+
+  for (int bad : { 0, -64, 70000 })
+  {
+    h.Filter->SetResolution(bad);
+    out = h.Run(hdtvtk::MakeSphere(16));
+    EXPECT_EQ(h.Log->Errors.size(), 1u) << bad;
+    EXPECT_EQ(out->GetNumberOfCells(), 0) << bad;
+  }
+  h.Filter->SetResolution(64);
+  h.Filter->SetLeafGridSize(12);
+  h.Run(hdtvtk::MakeSphere(16));
+  EXPECT_TRUE(anyContains(h.Log->Errors, "leaf grid size")) << joined(h.Log->Errors);
+  h.Filter->SetLeafGridSize(8);
+  h.Filter->SetRootGridSize(0);
+  h.Run(hdtvtk::MakeSphere(16));
+  EXPECT_EQ(h.Log->Errors.size(), 1u);
+}
+
+TEST(VoxelizerBadInput, LinesOnlyWarnsOnceAndGivesEmptyOutput)
+{
+  Harness h;
+  vtkHyperTreeGrid* out = h.Run(linesOnly());
+  EXPECT_TRUE(h.Log->Errors.empty()) << joined(h.Log->Errors);
+  ASSERT_EQ(h.Log->Warnings.size(), 1u);
+  EXPECT_TRUE(anyContains(h.Log->Warnings, "1 vertex and 1 line")) << joined(h.Log->Warnings);
+  EXPECT_EQ(out->GetNumberOfCells(), 0);
+}
+
+TEST(VoxelizerBadInput, LinesBesidePolygonsWarnOnceAndAreIgnored)
+{
+  Harness h;
+  vtkNew<vtkAppendPolyData> append;
+  append->AddInputData(hdtvtk::MakeSphere(16));
+  append->AddInputData(linesOnly());
+  append->Update();
+  vtkHyperTreeGrid* out = h.Run(append->GetOutput());
+  EXPECT_TRUE(h.Log->Errors.empty()) << joined(h.Log->Errors);
+  EXPECT_EQ(h.Log->Warnings.size(), 1u) << joined(h.Log->Warnings);
+  EXPECT_GT(out->GetNumberOfCells(), 0);
+}
+
+TEST(VoxelizerBadInput, NegativeMaxDepthBelowMinusOneIsAnError)
+{
+  Harness h;
+  h.Filter->SetMaxDepth(-3);
+  vtkHyperTreeGrid* out = h.Run(hdtvtk::MakeSphere(16));
+  ASSERT_EQ(h.Log->Errors.size(), 1u);
+  EXPECT_TRUE(anyContains(h.Log->Errors, "MaxDepth")) << joined(h.Log->Errors);
+  EXPECT_EQ(out->GetNumberOfCells(), 0);
+}
+
+TEST(VoxelizerBadInput, NonPolyDataBlocksAreIgnoredWithAWarning)
+{
+  Harness h;
+  vtkNew<vtkMultiBlockDataSet> mb;
+  vtkNew<vtkImageData> image;
+  image->SetDimensions(2, 2, 2);
+  mb->SetBlock(0, image);
+  h.Run(mb);
+  EXPECT_EQ(h.Log->Errors.size(), 1u) << joined(h.Log->Errors);
+  EXPECT_TRUE(anyContains(h.Log->Warnings, "vtkImageData")) << joined(h.Log->Warnings);
+  mb->SetBlock(1, hdtvtk::MakeSphere(16));
+  vtkHyperTreeGrid* out = h.Run(mb);
+  EXPECT_TRUE(h.Log->Errors.empty()) << joined(h.Log->Errors);
+  EXPECT_EQ(h.Log->Warnings.size(), 1u);
+  EXPECT_GT(out->GetNumberOfCells(), 0);
+}
+
+// ---- backends ------------------------------------------------------------------
+
+TEST(VoxelizerBackend, AutoWorksAndSaysWhichDriverRan)
+{
+  Harness h;
+  h.Filter->SetBackend(vtkHDTVoxelizer::BACKEND_AUTO);
+  vtkHyperTreeGrid* out = h.Run(hdtvtk::MakeSphere(16));
+  EXPECT_TRUE(h.Log->Errors.empty()) << joined(h.Log->Errors);
+  ASSERT_GT(out->GetNumberOfCells(), 0);
+  if (hdt::cudaAvailable())
+  {
+    EXPECT_EQ(backendOf(out), "cuda");
+  }
+  else
+  {
+    EXPECT_EQ(backendOf(out), "cpu");
+    EXPECT_TRUE(h.Log->Warnings.empty()) << joined(h.Log->Warnings);
+  }
+}
+
+TEST(VoxelizerBackend, CudaWithoutADeviceIsAClearError)
+{
+  if (hdt::cudaAvailable())
+  {
+    GTEST_SKIP() << "a CUDA device is usable here; this test is for CPU-only builds/machines";
+  }
+  Harness h;
+  h.Filter->SetBackend(vtkHDTVoxelizer::BACKEND_CUDA);
+  vtkHyperTreeGrid* out = h.Run(hdtvtk::MakeSphere(16));
+  ASSERT_EQ(h.Log->Errors.size(), 1u);
+  EXPECT_TRUE(anyContains(h.Log->Errors, "CUDA")) << joined(h.Log->Errors);
+  EXPECT_EQ(out->GetNumberOfCells(), 0);
+}
+
+TEST(VoxelizerBackend, CpuAndAutoGiveTheSameVolume)
+{
+  Harness a, b;
+  a.Filter->SetBackend(vtkHDTVoxelizer::BACKEND_CPU);
+  b.Filter->SetBackend(vtkHDTVoxelizer::BACKEND_AUTO);
+  vtkSmartPointer<vtkPolyData> torus = hdtvtk::MakeTorus();
+  a.Filter->SetResolution(128);
+  b.Filter->SetResolution(128);
+  EXPECT_EQ(statesOf(a.Run(torus)), statesOf(b.Run(torus)));
+}
+
+// ---- inputs that must be taken ---------------------------------------------------
+
+TEST(VoxelizerInput, StripsGiveTheSameVolumeAsTriangles)
+{
+  vtkSmartPointer<vtkPolyData> sphere = hdtvtk::MakeSphere(24);
+  vtkNew<vtkStripper> stripper;
+  stripper->SetInputData(sphere);
+  stripper->Update();
+  ASSERT_GT(stripper->GetOutput()->GetNumberOfStrips(), 0);
+  Harness a, b;
+  const std::vector<uint8_t> tri = statesOf(a.Run(sphere));
+  const std::vector<uint8_t> strips = statesOf(b.Run(stripper->GetOutput()));
+  EXPECT_FALSE(tri.empty());
+  EXPECT_EQ(tri, strips);
+  EXPECT_TRUE(a.Log->Warnings.empty() && b.Log->Warnings.empty());
+}
+
+TEST(VoxelizerInput, MultiBlockIsOneMesh)
+{
+  vtkSmartPointer<vtkPolyData> s1 = hdtvtk::MakeSphere(24, 0.5, 0, 0, 0);
+  vtkSmartPointer<vtkPolyData> s2 = hdtvtk::MakeSphere(24, 0.3, 1.2, 0, 0);
+  vtkNew<vtkAppendPolyData> append;
+  append->AddInputData(s1);
+  append->AddInputData(s2);
+  append->Update();
+  vtkNew<vtkMultiBlockDataSet> inner, outer;
+  inner->SetBlock(0, s2);
+  outer->SetBlock(0, s1);
+  outer->SetBlock(1, inner); // nested
+  Harness a, b;
+  a.Filter->SetResolution(128);
+  b.Filter->SetResolution(128);
+  const std::vector<uint8_t> appended = statesOf(a.Run(append->GetOutput()));
+  const std::vector<uint8_t> blocks = statesOf(b.Run(outer));
+  EXPECT_FALSE(appended.empty());
+  EXPECT_EQ(appended, blocks);
+  EXPECT_TRUE(b.Log->Errors.empty()) << joined(b.Log->Errors);
+}
+
+// Quads (a cube) and a concave hexagon prism (ear-cut caps): the solid's
+// volume in voxels matches the analytic volume.
+double solidVoxels(vtkHDTVoxelizer* f)
+{
+  const hdt::Statistics& s = f->GetVolume()->stats;
+  return double(s.insideVoxels) + 0.5 * double(s.activeVoxels);
+}
+
+TEST(VoxelizerInput, QuadsAndConcavePolygons)
+{
+  {
+    vtkNew<vtkCubeSource> cube; // six quads
+    cube->SetBounds(0, 1, 0, 0.5, 0, 0.75);
+    cube->Update();
+    Harness h;
+    h.Filter->SetResolution(128);
+    h.Run(cube->GetOutput());
+    ASSERT_TRUE(h.Filter->GetVolume());
+    const double vs = h.Filter->GetVolume()->grid.voxelSize;
+    EXPECT_NEAR(solidVoxels(h.Filter) / (0.5 * 0.75 / (vs * vs * vs)), 1.0, 0.02);
+  }
+  {
+    // An L-shaped prism: the caps are concave hexagons, which a fan would get wrong.
+    const double xy[6][2] = { { 0, 0 }, { 1, 0 }, { 1, 0.4 }, { 0.4, 0.4 }, { 0.4, 1 }, { 0, 1 } };
+    vtkNew<vtkPoints> points;
+    for (double z : { 0.0, 0.5 })
+    {
+      for (const auto& p : xy)
+      {
+        points->InsertNextPoint(p[0], p[1], z);
+      }
+    }
+    vtkNew<vtkCellArray> polys;
+    // Start the caps at the reflex corner's neighbour so that a fan from
+    // vertex 0 would spill outside the L.
+    const vtkIdType bottom[6] = { 2, 1, 0, 5, 4, 3 };
+    const vtkIdType top[6] = { 8, 9, 10, 11, 6, 7 };
+    polys->InsertNextCell(6, bottom);
+    polys->InsertNextCell(6, top);
+    for (vtkIdType i = 0; i < 6; ++i)
+    {
+      const vtkIdType j = (i + 1) % 6;
+      const vtkIdType quad[4] = { i, j, j + 6, i + 6 };
+      polys->InsertNextCell(4, quad);
+    }
+    vtkNew<vtkPolyData> prism;
+    prism->SetPoints(points);
+    prism->SetPolys(polys);
+    Harness h;
+    h.Filter->SetResolution(128);
+    h.Run(prism);
+    ASSERT_TRUE(h.Filter->GetVolume()) << joined(h.Log->Errors);
+    EXPECT_TRUE(h.Filter->GetVolume()->closedMesh);
+    const double vs = h.Filter->GetVolume()->grid.voxelSize;
+    const double area = 1.0 - 0.6 * 0.6;
+    EXPECT_NEAR(solidVoxels(h.Filter) / (area * 0.5 / (vs * vs * vs)), 1.0, 0.02);
+  }
+}
+
+TEST(VoxelizerInput, MeshConversionCounts)
+{
+  hdt::TriangleMesh mesh;
+  vtkHDTMeshConversionInfo info;
+  vtkNew<vtkCubeSource> cube;
+  cube->Update();
+  vtkHDTMeshConversion::AppendPolyData(cube->GetOutput(), mesh, info);
+  EXPECT_EQ(info.Triangles, 12);
+  EXPECT_EQ(mesh.triangleCount(), 12u);
+  EXPECT_EQ(mesh.pointCount(), size_t(cube->GetOutput()->GetNumberOfPoints()));
+  vtkHDTMeshConversion::AppendPolyData(linesOnly(), mesh, info);
+  EXPECT_EQ(info.LineCells, 1);
+  EXPECT_EQ(info.VertexCells, 1);
+  EXPECT_EQ(mesh.triangleCount(), 12u);
+}
+
+// ---- pipeline behaviour ------------------------------------------------------------
+
+TEST(VoxelizerPipeline, RebuildsOnlyWhenNeeded)
+{
+  Harness h;
+  vtkSmartPointer<vtkPolyData> sphere = hdtvtk::MakeSphere(16);
+  h.Run(sphere);
+  auto first = h.Filter->GetVolume();
+  ASSERT_TRUE(first);
+  EXPECT_FALSE(h.Filter->GetLastRunReusedVolume());
+  EXPECT_GT(h.Filter->GetLastVoxelizationTime(), 0.0);
+
+  h.Filter->SetMaxDepth(1);
+  h.Filter->Update();
+  EXPECT_TRUE(h.Filter->GetLastRunReusedVolume());
+  EXPECT_EQ(h.Filter->GetVolume(), first);
+
+  h.Filter->SetSurfaceOnly(true); // a build property
+  h.Filter->Update();
+  EXPECT_FALSE(h.Filter->GetLastRunReusedVolume());
+  EXPECT_NE(h.Filter->GetVolume(), first);
+
+  auto second = h.Filter->GetVolume();
+  sphere->GetPoints()->SetPoint(0, 0.1, 0.1, 0.9); // the input changes
+  sphere->GetPoints()->Modified();
+  h.Filter->Update();
+  EXPECT_FALSE(h.Filter->GetLastRunReusedVolume());
+  EXPECT_NE(h.Filter->GetVolume(), second);
+}
+
+// Aborting through the progress callback ends quietly with an empty output.
+class AbortOnProgress : public vtkCommand
+{
+public:
+  static AbortOnProgress* New() { return new AbortOnProgress; }
+  void Execute(vtkObject* caller, unsigned long, void*) override
+  {
+    static_cast<vtkAlgorithm*>(caller)->SetAbortExecute(1);
+  }
+};
+
+TEST(VoxelizerPipeline, AbortGivesEmptyOutputWithoutError)
+{
+  Harness h;
+  vtkNew<AbortOnProgress> abort;
+  h.Filter->AddObserver(vtkCommand::ProgressEvent, abort);
+  vtkHyperTreeGrid* out = h.Run(hdtvtk::MakeSphere(16));
+  EXPECT_TRUE(h.Log->Errors.empty()) << joined(h.Log->Errors);
+  EXPECT_EQ(out->GetNumberOfCells(), 0);
+  EXPECT_FALSE(h.Filter->GetVolume());
+}
+
+} // namespace
