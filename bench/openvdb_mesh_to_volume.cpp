@@ -172,30 +172,30 @@ int main(int argc, char** argv) {
     const hdt::GridSpec& g = prepared.grid;
     const double s = g.voxelSize;
 
-    // Points relative to the grid origin (in double, then float), so float
-    // precision does not depend on where the mesh sits in world space. Index
-    // space: voxel i centred at (i + 1/2) s, as in the HDT.
+    // Points in HDT voxel units relative to the grid origin, (p - origin) / s,
+    // computed in double, then float: float precision does not depend on where
+    // the mesh sits in world space, and the transform is a unit scale (OpenVDB
+    // refuses scales whose determinant is near zero, e.g. s ~ 1e-5 on the
+    // millimetre-sized CAD parts at 8192). Index space is the HDT's: voxel i
+    // centred at i + 1/2. The grid keeps this voxel-unit transform (origin and
+    // voxel size are in the JSON line); distances are in voxels.
     std::vector<openvdb::Vec3s> points(mesh.pointCount());
     for (size_t p = 0; p < points.size(); ++p)
-      points[p] = openvdb::Vec3s(float(mesh.points[3 * p] - g.origin[0]), float(mesh.points[3 * p + 1] - g.origin[1]),
-                                 float(mesh.points[3 * p + 2] - g.origin[2]));
+      points[p] = openvdb::Vec3s(float((mesh.points[3 * p] - g.origin[0]) / s),
+                                 float((mesh.points[3 * p + 1] - g.origin[1]) / s),
+                                 float((mesh.points[3 * p + 2] - g.origin[2]) / s));
     std::vector<openvdb::Vec3I> triangles(mesh.triangleCount());
     for (size_t t = 0; t < triangles.size(); ++t)
       triangles[t] = openvdb::Vec3I(mesh.triangles[3 * t], mesh.triangles[3 * t + 1], mesh.triangles[3 * t + 2]);
     const std::vector<openvdb::Vec4I> quads;
-    openvdb::math::Transform::Ptr local = openvdb::math::Transform::createLinearTransform(s);
-    local->postTranslate(openvdb::Vec3d(0.5 * s, 0.5 * s, 0.5 * s));
+    openvdb::math::Transform::Ptr local = openvdb::math::Transform::createLinearTransform(1.0);
+    local->postTranslate(openvdb::Vec3d(0.5, 0.5, 0.5));
 
     const auto t0 = std::chrono::steady_clock::now();
     openvdb::FloatGrid::Ptr grid =
         openvdb::tools::meshToUnsignedDistanceField<openvdb::FloatGrid>(*local, points, triangles, quads, float(band));
     const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     const uint64_t peak = peakResidentBytes(); // before the optional check allocates more
-
-    // The same index space in world coordinates, for anyone who writes the grid out.
-    openvdb::math::Transform::Ptr world = openvdb::math::Transform::createLinearTransform(s);
-    world->postTranslate(openvdb::Vec3d(g.origin[0] + 0.5 * s, g.origin[1] + 0.5 * s, g.origin[2] + 0.5 * s));
-    grid->setTransform(world);
 
     std::ostringstream out;
     out.precision(17);

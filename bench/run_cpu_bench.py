@@ -84,6 +84,28 @@ def mem_available():
     return 0
 
 
+def cpu_idle(seconds=0.5):
+    """Fraction of all CPUs idle over a short sample (instantaneous, unlike loadavg)."""
+    def snap():
+        with open("/proc/stat") as f:
+            v = [int(x) for x in f.readline().split()[1:]]
+        return v[3] + v[4], sum(v)  # idle + iowait, total
+    i0, t0 = snap()
+    time.sleep(seconds)
+    i1, t1 = snap()
+    return (i1 - i0) / max(1, t1 - t0)
+
+
+def wait_quiet(threshold, max_wait):
+    """Waits (up to max_wait s) until the CPUs are at least `threshold` idle; returns the last idle fraction."""
+    deadline = time.time() + max_wait
+    idle = cpu_idle()
+    while idle < threshold and time.time() < deadline:
+        time.sleep(2)
+        idle = cpu_idle()
+    return idle
+
+
 def loadavg():
     try:
         with open("/proc/loadavg") as f:
@@ -118,9 +140,9 @@ def find_exe(build_dir, name):
 # ---- one measurement -----------------------------------------------------------
 
 def run_once(cmd, timeout):
-    """Runs cmd under /usr/bin/time; returns (json dict, wall_s, max_rss_bytes) or raises."""
+    """Runs cmd under /usr/bin/time; returns (json dict, wall_s, max_rss_bytes, cpu_s) or raises."""
     tfile = "/tmp/hdt-bench-time.%d" % os.getpid()
-    full = ["/usr/bin/time", "-f", "%e %M", "-o", tfile] + cmd
+    full = ["/usr/bin/time", "-f", "%e %M %U %S", "-o", tfile] + cmd
     if NICE:
         full = ["nice", "-n", str(NICE)] + full
     t0 = time.time()
@@ -132,15 +154,15 @@ def run_once(cmd, timeout):
     if not line:
         raise RuntimeError("no JSON line in output: %r" % p.stdout[-400:])
     data = json.loads(line[-1])
-    rss = None
+    rss = cpu = None
     try:
         with open(tfile) as f:
             parts = f.read().split()
-            wall, rss = float(parts[-2]), int(parts[-1]) * 1024
+            wall, rss, cpu = float(parts[-4]), int(parts[-3]) * 1024, float(parts[-2]) + float(parts[-1])
         os.unlink(tfile)
     except (OSError, ValueError, IndexError):
         pass
-    return data, wall, rss
+    return data, wall, rss, cpu
 
 
 class Bench:
@@ -152,6 +174,7 @@ class Bench:
         self.out = open(args.jsonl, "a")
         # (tool, mesh, mode, N) -> (median time s incl. process, max peak bytes), for estimates
         self.measured = {}
+        self.patience = args.quiet_wait  # shrinks to 5 s after a wait that timed out (a busy machine)
 
     def record(self, obj):
         obj.setdefault("session", self.session)
@@ -188,9 +211,13 @@ class Bench:
                 reps = 1
         times, peaks = [], []
         for rep in range(reps):
+            idle = None
+            if self.args.quiet_idle > 0:
+                idle = wait_quiet(self.args.quiet_idle, self.patience)
+                self.patience = self.args.quiet_wait if idle >= self.args.quiet_idle else 5
             load = loadavg()
             try:
-                data, wall, rss = run_once(cmd, self.args.run_timeout)
+                data, wall, rss, cpu = run_once(cmd, self.args.run_timeout)
             except subprocess.TimeoutExpired:
                 return self.skip(tool, mesh, mode, n, "timed out after %d s" % self.args.run_timeout)
             except (RuntimeError, ValueError) as e:
@@ -199,13 +226,16 @@ class Bench:
                              "skipped": "failed: %s" % e, "command": " ".join(map(shlex.quote, cmd))})
                 return
             data.update({"tool": tool, "mesh": mesh, "mesh_path": data.get("mesh"), "mode": mode, "rep": rep,
-                         "reps": reps, "nice": NICE, "wall_s": wall, "rss_max_bytes": rss, "loadavg_1m": load,
+                         "reps": reps, "nice": NICE, "wall_s": wall, "cpu_s": cpu,
+                         "cpu_util": (cpu / (wall * (data.get("threads") or 1))) if cpu and wall else None,
+                         "idle_before": idle, "rss_max_bytes": rss, "loadavg_1m": load,
                          "command": " ".join(map(shlex.quote, cmd))})
             self.record(data)
             t_ms = data["time_ms"]["total"] if isinstance(data.get("time_ms"), dict) else data.get("time_ms")
-            log("%-8s %-26s %-8s %5d rep %d: %8.1f ms build, %6.1f s wall, %7.0f MiB peak, load %.2f"
+            log("%-8s %-26s %-8s %5d rep %d: %8.1f ms build, %6.1f s wall, %7.0f MiB peak, load %.2f, "
+                "idle before %.2f, util %.2f"
                 % (tool, mesh, mode, n, rep, t_ms, wall, (rss or data.get("peak_host_bytes", 0)) / 2**20,
-                   load or 0))
+                   load or 0, idle if idle is not None else -1, data["cpu_util"] or -1))
             times.append(wall)
             peaks.append(rss or data.get("peak_host_bytes", 0))
         self.measured[(tool, mesh, mode, n)] = (statistics.median(times), max(peaks))
@@ -250,6 +280,9 @@ def run_all(args):
 # ---- the table -----------------------------------------------------------------
 
 def load_lines(path, session):
+    """Lines of the chosen session(s): "latest", one id, or ids joined by commas;
+    with several, a measurement (tool, mesh, mode, N) is taken from the last
+    listed session that has it (e.g. a quieter re-run of a few rows)."""
     rows = []
     with open(path) as f:
         for line in f:
@@ -259,9 +292,15 @@ def load_lines(path, session):
     sessions = sorted({r.get("session") for r in rows if r.get("tool") in ("hdt-cpu", "openvdb") and r.get("session")})
     if not sessions:
         return [], None
-    if session in (None, "latest"):
-        session = sessions[-1]
-    return [r for r in rows if r.get("session") == session], session
+    wanted = [sessions[-1]] if session in (None, "latest") else session.split(",")
+    key = lambda r: (r.get("tool"), r.get("mesh"), r.get("mode"), r.get("resolution"))
+    owner = {}
+    for sid in wanted:
+        for r in rows:
+            if r.get("session") == sid:
+                owner[key(r)] = sid
+    return [r for r in rows if r.get("session") in wanted and owner.get(key(r)) == r.get("session")], \
+        ",".join(wanted)
 
 
 def med(values):
@@ -338,6 +377,9 @@ def write_table(args, session=None):
         a["peak"] = med([r.get("rss_max_bytes") or r.get("peak_host_bytes") for r in g])
         a["wall"] = med([r.get("wall_s") for r in g])
         a["load"] = max((r.get("loadavg_1m") or 0) for r in g)
+        a["util"] = med([r.get("cpu_util") for r in g])
+        a["best"] = min(t for t in (total_ms(r) for r in g) if t is not None)
+        a["cpu"] = med([r.get("cpu_s") for r in g])
         return a
 
     machine = rows[0].get("machine", "?")
@@ -353,7 +395,7 @@ def write_table(args, session=None):
     w = L.append
     w("# HDT CPU builder vs OpenVDB meshToVolume: Table 1 on this machine")
     w("")
-    w("Generated by `bench/run_cpu_bench.py` from `bench/results/cpu-runs.jsonl` (session `%s`). "
+    w("Generated by `bench/run_cpu_bench.py` from `bench/results/cpu-runs.jsonl` (session(s) `%s`). "
       "Do not edit by hand; rerun `bench/run_cpu_bench.py --table-only` to regenerate." % session)
     w("")
     w("- **Machine**: %s" % machine)
@@ -369,8 +411,10 @@ def write_table(args, session=None):
       "**Peak** is the process's maximum resident set size (`/usr/bin/time`, each measurement its own process; "
       "it includes the mesh as read). Medians of the runs counted in column *runs*.")
     w("- **Ratios**: speed-up = OpenVDB time / HDT time; memory fraction = HDT peak / OpenVDB peak.")
-    w("- The machine is shared: *load* is the highest 1-minute load average seen before a run "
-      "(%d cores); a load above the core count means other work competed for the CPU." % (os.cpu_count() or 1))
+    w("- The machine is shared. Before each run the script waits (up to 90 s) for the CPUs to be 80 %% idle. "
+      "*CPU use* = process CPU time / (wall time x threads), median: near 1 means the run had the cores to "
+      "itself (minus its serial parts), well below 1 that it was starved. *load* is the highest 1-minute load "
+      "average seen before a run (%d cores)." % (os.cpu_count() or 1))
     w("")
 
     # ---- targets
@@ -386,8 +430,13 @@ def write_table(args, session=None):
             mf = h["peak"] / v["peak"]
             ok1, ok2 = sp >= 10, mf <= 0.25
             verdicts += [ok1, ok2]
-            w("| CPU build >= 10x faster than OpenVDB at 4096^3 | %s | %.1fx (%s ms vs %s ms) | %s |"
-              % (mesh, sp, fmt_ms(h["total"]), fmt_ms(v["total"]), "yes" if ok1 else "**no**"))
+            w("| CPU build >= 10x faster than OpenVDB at 4096^3 | %s | %.1fx (median %s ms vs %s ms; best runs "
+              "%s vs %s ms: %.1fx) | %s |"
+              % (mesh, sp, fmt_ms(h["total"]), fmt_ms(v["total"]), fmt_ms(h["best"]), fmt_ms(v["best"]),
+                 v["best"] / h["best"], "yes" if ok1 else "**no**"))
+            if h.get("cpu") and v.get("cpu"):
+                w("| (same, in CPU time: whole process, user + sys, insensitive to other load) | %s | %.1fx "
+                  "(%s s vs %s s) | |" % (mesh, v["cpu"] / h["cpu"], fmt_f(h["cpu"]), fmt_f(v["cpu"])))
             w("| CPU peak memory <= 1/4 of OpenVDB's at 4096^3 | %s | %.3f (%s MiB vs %s MiB) | %s |"
               % (mesh, mf, fmt_mib(h["peak"]), fmt_mib(v["peak"]), "yes" if ok2 else "**no**"))
         else:
@@ -460,8 +509,8 @@ def write_table(args, session=None):
         w("")
         w("| N | mode | runs | mapping | branching | leaf | classify | **HDT total** | HDT peak | OpenVDB runs | "
           "**OpenVDB time** | OpenVDB peak | OpenVDB active voxels | **speed-up** | **memory fraction** | "
-          "wall s HDT / OpenVDB | load |")
-        w("|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
+          "wall s HDT / OpenVDB | CPU use HDT / OpenVDB | load |")
+        w("|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
         for n in resolutions:
             for mode in ("solid", "surface"):
                 h = agg(("hdt-cpu", mesh, mode, n))
@@ -486,6 +535,7 @@ def write_table(args, session=None):
                               "%s / %s" % (fmt_f(h["wall"], 1), fmt_f(v["wall"], 1))]
                 else:
                     cells += ["–", "–", "–"]
+                cells.append("%s / %s" % (fmt_f(h.get("util") if h else None), fmt_f(v.get("util") if v else None)))
                 cells.append(fmt_f(max(h["load"] if h else 0, v["load"] if v else 0), 1))
                 w("| " + " | ".join(cells) + " |")
         w("")
@@ -524,9 +574,13 @@ def main():
     ap.add_argument("--nice", type=int, default=-10 if os.geteuid() == 0 else 0,
                     help="niceness of the measured processes (default -10 as root: the machine is shared, "
                          "and a higher priority keeps other people's builds from skewing the timings)")
+    ap.add_argument("--quiet-idle", type=float, default=0.8,
+                    help="before each run wait until this fraction of the CPUs is idle (0: do not wait)")
+    ap.add_argument("--quiet-wait", type=float, default=90, help="longest wait for --quiet-idle, seconds")
     ap.add_argument("--no-build", action="store_true")
     ap.add_argument("--table-only", action="store_true")
-    ap.add_argument("--session", default="latest", help="session id for --table-only")
+    ap.add_argument("--session", default="latest",
+                    help="--table-only: session id, or ids joined by commas (later ones replace the rows they have)")
     ap.add_argument("--hdt-exe", help="default: BUILD/apps/hdt-voxelize")
     ap.add_argument("--vdb-exe", help="default: BUILD/bench/openvdb_mesh_to_volume")
     args = ap.parse_args()

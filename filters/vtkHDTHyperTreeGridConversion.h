@@ -45,6 +45,16 @@ struct vtkHDTConversionOptions
   bool AddFieldData = true;
   // Worker threads: 0 = all cores, 1 = sequential (the benchmark's "one core").
   int Threads = 0;
+  // How VTK builds each tree from its breadth-first "refined" bits. Both give
+  // the same trees (tested). vtkHyperTree::InitializeForReader sizes the
+  // tree's child table once and measured about twice as fast as
+  // BuildFromBreadthFirstOrderDescriptor, which grows it bit by bit.
+  enum TreeBuildMethod
+  {
+    INITIALIZE_FOR_READER,
+    BREADTH_FIRST_DESCRIPTOR
+  };
+  TreeBuildMethod TreeBuild = INITIALIZE_FOR_READER;
 };
 
 struct vtkHDTConversionInfo
@@ -55,8 +65,12 @@ struct vtkHDTConversionInfo
   vtkIdType Trees = 0;       // = R^3
   int Depth = 0;             // deepest depth present
   std::vector<vtkIdType> CellsPerDepth;
-  double Milliseconds = 0;          // the whole conversion
-  double TreeBuildMilliseconds = 0; // of which VTK's BuildFromBreadthFirstOrderDescriptor
+  // Wall-clock milliseconds: the whole conversion and its parts.
+  double Milliseconds = 0;
+  double ContextMilliseconds = 0;   // checking the volume, surface flags of elements
+  double WalkMilliseconds = 0;      // the per-tree breadth-first walks
+  double PackMilliseconds = 0;      // codes -> VoxelState, descriptor and mask arrays
+  double TreeBuildMilliseconds = 0; // VTK's tree creation and BuildFromBreadthFirstOrderDescriptor
 };
 
 class HDTFILTERS_EXPORT vtkHDTToHyperTreeGrid

@@ -21,7 +21,6 @@
 #include "vtkNew.h"
 #include "vtkObjectFactory.h"
 #include "vtkSmartPointer.h"
-#include "vtkStringArray.h"
 
 #include <chrono>
 #include <new>

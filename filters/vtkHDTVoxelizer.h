@@ -151,6 +151,12 @@ public:
   vtkHyperTreeGrid* GetOutput();
   vtkHyperTreeGrid* GetOutput(int port);
 
+  /**
+   * Convenience for pipelines without an upstream algorithm: a vtkPolyData or
+   * a composite dataset (SetInputConnection works as for any algorithm).
+   */
+  void SetInputData(vtkDataObject* input) { this->SetInputDataObject(0, input); }
+
 #ifndef __VTK_WRAP__
   /**
    * The HDT of the last successful run (for writers); null after an error.

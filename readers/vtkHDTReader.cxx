@@ -15,6 +15,7 @@
 #include "vtkNew.h"
 #include "vtkObjectFactory.h"
 
+#include <cstdint>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -109,6 +110,14 @@ int vtkHDTReader::CanReadFile(const char* fileName)
     return 0;
   }
   return std::memcmp(magic, "HDT\0", 4) == 0 ? 1 : 0;
+}
+
+//------------------------------------------------------------------------------
+int vtkHDTReader::FillOutputPortInformation(int, vtkInformation* info)
+{
+  // The superclass declares vtkDataObject (its filters may output polydata).
+  info->Set(vtkDataObject::DATA_TYPE_NAME(), "vtkHyperTreeGrid");
+  return 1;
 }
 
 //------------------------------------------------------------------------------

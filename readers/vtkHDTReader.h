@@ -89,6 +89,7 @@ protected:
   ~vtkHDTReader() override;
 
   int RequestData(vtkInformation*, vtkInformationVector**, vtkInformationVector*) override;
+  int FillOutputPortInformation(int port, vtkInformation* info) override;
   // Unused: this is a source. vtkHyperTreeGridAlgorithm requires it.
   int ProcessTrees(vtkHyperTreeGrid*, vtkDataObject*) override { return 1; }
 

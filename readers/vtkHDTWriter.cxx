@@ -18,8 +18,54 @@
 #include <memory>
 #include <new>
 #include <string>
+#include <vector>
 
 vtkStandardNewMacro(vtkHDTWriter);
+
+namespace
+{
+bool sameCoordinates(vtkDataArray* a, vtkDataArray* b)
+{
+  if (a == b)
+  {
+    return true;
+  }
+  if (!a || !b || a->GetNumberOfTuples() != b->GetNumberOfTuples())
+  {
+    return false;
+  }
+  for (vtkIdType i = 0; i < a->GetNumberOfTuples(); ++i)
+  {
+    if (a->GetTuple1(i) != b->GetTuple1(i))
+    {
+      return false;
+    }
+  }
+  return true;
+}
+
+// The same hyper tree grid, or a shallow copy of it: a pass-through filter such
+// as the vtkPVPostFilter that ParaView puts after every source shares the cell
+// arrays (vtkHyperTreeGrid::ShallowCopy copies only the small coordinate
+// arrays), whereas a filter that changes the grid makes new ones.
+bool sameView(vtkHyperTreeGrid* a, vtkHyperTreeGrid* b)
+{
+  if (!a || !b)
+  {
+    return false;
+  }
+  if (a == b)
+  {
+    return true;
+  }
+  vtkDataArray* stateA = a->GetCellData()->GetArray("VoxelState");
+  return stateA && stateA == b->GetCellData()->GetArray("VoxelState") &&
+    a->GetNumberOfCells() == b->GetNumberOfCells() &&
+    sameCoordinates(a->GetXCoordinates(), b->GetXCoordinates()) &&
+    sameCoordinates(a->GetYCoordinates(), b->GetYCoordinates()) &&
+    sameCoordinates(a->GetZCoordinates(), b->GetZCoordinates());
+}
+} // namespace
 
 //------------------------------------------------------------------------------
 vtkHDTWriter::vtkHDTWriter() = default;
@@ -43,30 +89,6 @@ int vtkHDTWriter::FillInputPortInformation(int, vtkInformation* info)
   return 1;
 }
 
-namespace
-{
-// The same hyper tree grid, or a shallow copy of it: a pass-through filter such
-// as the vtkPVPostFilter that ParaView puts after every source shares the cell
-// arrays and coordinates instead of copying them. A filter that changes the
-// grid makes new ones.
-bool sameView(vtkHyperTreeGrid* a, vtkHyperTreeGrid* b)
-{
-  if (!a || !b)
-  {
-    return false;
-  }
-  if (a == b)
-  {
-    return true;
-  }
-  vtkDataArray* stateA = a->GetCellData()->GetArray("VoxelState");
-  return stateA && stateA == b->GetCellData()->GetArray("VoxelState") &&
-    a->GetNumberOfCells() == b->GetNumberOfCells() &&
-    a->GetXCoordinates() == b->GetXCoordinates() && a->GetYCoordinates() == b->GetYCoordinates() &&
-    a->GetZCoordinates() == b->GetZCoordinates();
-}
-} // namespace
-
 //------------------------------------------------------------------------------
 bool vtkHDTWriter::FindVolume(std::shared_ptr<const hdt::Volume>& volume, std::string& why)
 {
@@ -74,15 +96,24 @@ bool vtkHDTWriter::FindVolume(std::shared_ptr<const hdt::Volume>& volume, std::s
   // only a view; the volume is kept by the algorithm that made the grid. Walk
   // up single-input algorithms to it, then make sure the input still is its
   // output (possibly passed through shallow copies).
-  vtkHyperTreeGrid* input = this->GetInput();
+  struct Step
+  {
+    vtkAlgorithm* Algorithm;
+    int Port;
+    vtkHyperTreeGrid* Output() const
+    {
+      return vtkHyperTreeGrid::SafeDownCast(this->Algorithm->GetOutputDataObject(this->Port));
+    }
+  };
+  std::vector<Step> chain; // from the writer's producer upwards
   int port = 0;
   vtkAlgorithm* algorithm =
     this->GetNumberOfInputConnections(0) == 1 ? this->GetInputAlgorithm(0, 0, port) : nullptr;
-  vtkAlgorithm* below = this; // the algorithm fed by `algorithm`
-  for (int step = 0; algorithm && step < 32; ++step)
+  while (algorithm && chain.size() < 64)
   {
+    chain.push_back(Step{ algorithm, port });
     std::shared_ptr<const hdt::Volume> found;
-    const char* name = nullptr;
+    std::string name;
     if (auto* voxelizer = vtkHDTVoxelizer::SafeDownCast(algorithm))
     {
       found = voxelizer->GetVolume();
@@ -93,18 +124,29 @@ bool vtkHDTWriter::FindVolume(std::shared_ptr<const hdt::Volume>& volume, std::s
       found = reader->GetVolume();
       name = "HDT Reader";
     }
-    if (name)
+    if (!name.empty())
     {
-      if (!sameView(input, vtkHyperTreeGrid::SafeDownCast(algorithm->GetOutputDataObject(port))))
+      if (!sameView(this->GetInput(), chain.back().Output()))
       {
-        why = std::string("the input was changed by ") + below->GetClassName() + " after the " +
-          name + "; the .hdt file stores the " + name +
-          "'s volume, so save the " + name + "'s own output";
+        // Name the first algorithm below the producer that changed the grid
+        // (pass-through steps such as ParaView's vtkPVPostFilter do not count).
+        std::string changer = "a filter";
+        for (size_t i = chain.size() - 1; i-- > 0;)
+        {
+          if (!sameView(chain[i].Output(), chain[i + 1].Output()))
+          {
+            changer = chain[i].Algorithm->GetClassName();
+            break;
+          }
+        }
+        why = "the input is the " + name + "'s output changed by " + changer +
+          "; an .hdt file stores the " + name + "'s volume as it is: save the " + name +
+          "'s own output";
         return false;
       }
       if (!found)
       {
-        why = std::string("the ") + name + " upstream has no volume (its last run failed)";
+        why = "the " + name + " upstream has no volume (its last run failed)";
         return false;
       }
       volume = found;
@@ -114,7 +156,6 @@ bool vtkHDTWriter::FindVolume(std::shared_ptr<const hdt::Volume>& volume, std::s
     {
       break;
     }
-    below = algorithm;
     algorithm = algorithm->GetInputAlgorithm(0, 0, port);
   }
   std::string from;

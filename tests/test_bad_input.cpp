@@ -183,6 +183,10 @@ struct ResolutionCase {
   std::vector<std::string> mention; // the offending value and the nearest valid ones
 };
 
+void PrintTo(const ResolutionCase& c, std::ostream* os) {
+  *os << "N=" << c.n << " R=" << c.r << " L=" << c.l;
+}
+
 class BadResolution : public ::testing::TestWithParam<ResolutionCase> {};
 
 TEST_P(BadResolution, RefusedNamingTheNearestValidValues) {

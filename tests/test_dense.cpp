@@ -66,10 +66,10 @@ Volume knownVolume() {
 }
 
 uint8_t knownState(int x, int y, int z) {
-  if (x < 16 && y < 16 && z < 16) return 1;                              // root 0
-  if (x < 16 && y >= 16 && z >= 16) return 1;                            // root 6
-  if (x >= 16 && x < 24 && y < 8 && z < 8) return leaf0State(x - 16, y, z); // root 1, child 0
-  if (x >= 24 && y >= 8 && y < 16 && z < 8) return 1;                    // root 1, child 3
+  if (x < 16 && y < 16 && z < 16) return 1;                                      // root 0
+  if (x < 16 && y >= 16 && z >= 16) return 1;                                    // root 6
+  if (x >= 16 && x < 24 && y < 8 && z < 8) return leaf0State(x - 16, y, z);      // root 1, child 0
+  if (x >= 24 && y >= 8 && y < 16 && z < 8) return 1;                            // root 1, child 3
   if (x >= 24 && y < 8 && z >= 8 && z < 16) return leaf1State(x - 24, y, z - 8); // root 1, child 5
   return 0;
 }
@@ -87,8 +87,8 @@ void expectMatchesVoxelAt(const Volume& v, const std::vector<uint8_t>& dense, in
         if ((x * 31 + y * 17 + z) % stride != 0) continue;
         const uint8_t expected = uint8_t(voxelAt(v, x, y, z));
         if (dense[at(N, x, y, z)] != expected && mismatches++ < 5) {
-          ADD_FAILURE() << "voxel (" << x << ", " << y << ", " << z << "): dense " << int(dense[at(N, x, y, z)])
-                        << ", voxelAt " << int(expected);
+          ADD_FAILURE() << "voxel (" << x << ", " << y << ", " << z << "): dense "
+                        << int(dense[at(N, x, y, z)]) << ", voxelAt " << int(expected);
         }
       }
   EXPECT_EQ(mismatches, 0u);
@@ -106,12 +106,12 @@ TEST(Dense, KnownVoxels) {
           ADD_FAILURE() << "voxel (" << x << ", " << y << ", " << z << ")";
   EXPECT_EQ(mismatches, 0u);
   // A few by hand, x fastest.
-  EXPECT_EQ(dense[at(32, 16, 0, 0)], 2);     // leaf 0 (0,0,0)
-  EXPECT_EQ(dense[at(32, 19, 2, 1)], 2);     // leaf 0 (3,2,1)
-  EXPECT_EQ(dense[at(32, 23, 7, 7)], 1);     // leaf 0 (7,7,7)
-  EXPECT_EQ(dense[at(32, 21, 0, 0)], 1);     // leaf 0 (5,0,0)
-  EXPECT_EQ(dense[at(32, 0, 31, 31)], 1);    // root 6
-  EXPECT_EQ(dense[at(32, 31, 31, 31)], 0);   // root 7
+  EXPECT_EQ(dense[at(32, 16, 0, 0)], 2);   // leaf 0 (0,0,0)
+  EXPECT_EQ(dense[at(32, 19, 2, 1)], 2);   // leaf 0 (3,2,1)
+  EXPECT_EQ(dense[at(32, 23, 7, 7)], 1);   // leaf 0 (7,7,7)
+  EXPECT_EQ(dense[at(32, 21, 0, 0)], 1);   // leaf 0 (5,0,0)
+  EXPECT_EQ(dense[at(32, 0, 31, 31)], 1);  // root 6
+  EXPECT_EQ(dense[at(32, 31, 31, 31)], 0); // root 7
   expectMatchesVoxelAt(v, dense);
 }
 
@@ -121,8 +121,11 @@ TEST(Dense, RandomVolumesMatchVoxelAt) {
     bool surfaceOnly;
     double branch;
   };
-  const Case cases[] = {{1, 8, 3, false, 0.6}, {3, 8, 1, false, 0.5}, {2, 32, 0, false, 0.0},
-                        {1, 16, 2, true, 0.9}, {2, 8, 2, false, 0.3}};
+  const Case cases[] = {{1, 8, 3, false, 0.6},
+                        {3, 8, 1, false, 0.5},
+                        {2, 32, 0, false, 0.0},
+                        {1, 16, 2, true, 0.9},
+                        {2, 8, 2, false, 0.3}};
   for (const Case& c : cases) {
     RandomVolumeSpec spec;
     spec.rootGrid = c.R;

@@ -22,6 +22,10 @@ struct DeterminismCase {
   bool surfaceOnly;
 };
 
+void PrintTo(const DeterminismCase& c, std::ostream* os) {
+  *os << c.shape << " N=" << c.n << " R=" << c.r << " L=" << c.l << (c.surfaceOnly ? " surface-only" : " solid");
+}
+
 // Where two volumes first differ, or "" when they are the same bytes.
 std::string firstDifference(const Volume& a, const Volume& b) {
   std::ostringstream s;

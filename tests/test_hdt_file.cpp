@@ -98,11 +98,11 @@ bool refusedProperly(const std::string& m) {
          m.rfind("NOT AN", 0) != 0;
 }
 
-#define EXPECT_REFUSED(bytes, fragment)                                                            \
-  do {                                                                                             \
-    const std::string m_ = refusal(bytes);                                                         \
-    EXPECT_TRUE(refusedProperly(m_) && m_.find(fragment) != std::string::npos)                    \
-        << "expected a BadInput mentioning \"" << (fragment) << "\", got: " << m_;                 \
+#define EXPECT_REFUSED(bytes, fragment)                                                                      \
+  do {                                                                                                       \
+    const std::string m_ = refusal(bytes);                                                                   \
+    EXPECT_TRUE(refusedProperly(m_) && m_.find(fragment) != std::string::npos)                               \
+        << "expected a BadInput mentioning \"" << (fragment) << "\", got: " << m_;                           \
   } while (0)
 
 // Forges a file from a valid one: edit the image, reassemble with fresh CRCs.
@@ -390,7 +390,8 @@ TEST(HdtFileCorrupt, ForgedCountsAreRefusedBeforeAllocating) {
     }
   };
   const uint64_t forgedElements = (uint64_t(1) << 30) / 7; // (8^10 - 1) / 7
-  expectCheapRefusal(forge(base, geometricLevels), "elements section: 4 bytes, expected " + std::to_string(4 * forgedElements));
+  expectCheapRefusal(forge(base, geometricLevels),
+                     "elements section: 4 bytes, expected " + std::to_string(4 * forgedElements));
   expectCheapRefusal(forge(base,
                            [&](HdtImage& im) {
                              geometricLevels(im);
@@ -408,8 +409,9 @@ TEST(HdtFileCorrupt, ForgedCountsAreRefusedBeforeAllocating) {
                            }),
                      "remain in the file");
   // Level table claiming 2^40 elements.
-  expectCheapRefusal(forge(base, [](HdtImage& im) { putLe64(im.sections[kLevels].payload, 8 * 14, uint64_t(1) << 40); }),
-                     "level table");
+  expectCheapRefusal(
+      forge(base, [](HdtImage& im) { putLe64(im.sections[kLevels].payload, 8 * 14, uint64_t(1) << 40); }),
+      "level table");
   // R = 8192 (N = 65536 at h = 0): R^3 root elements exceed the element limit.
   expectCheapRefusal(forge(base,
                            [](HdtImage& im) {
@@ -421,8 +423,9 @@ TEST(HdtFileCorrupt, ForgedCountsAreRefusedBeforeAllocating) {
                            }),
                      "exceeds the element limit");
   // A backend name of 4 GiB.
-  expectCheapRefusal(forge(base, [](HdtImage& im) { putLe32(im.sections[kStats].payload, 140, 0xFFFFFFFFu); }),
-                     "backend name of 4294967295 bytes");
+  expectCheapRefusal(
+      forge(base, [](HdtImage& im) { putLe32(im.sections[kStats].payload, 140, 0xFFFFFFFFu); }),
+      "backend name of 4294967295 bytes");
   // Statistics section claiming a huge length.
   expectCheapRefusal(forge(base,
                            [](HdtImage& im) {
@@ -453,12 +456,15 @@ TEST(HdtFileCorrupt, InconsistentTrees) {
   const int h = v.grid.height;
 
   const uint64_t branch = findElement(v, ElementState::Branch, 1);
-  EXPECT_REFUSED(withElement(branch, makeElement(ElementState::Branch, elementPayload(v.elements[branch]) + 8)),
-                 "Branch points to");
-  EXPECT_REFUSED(withElement(branch, makeElement(ElementState::Branch, elementPayload(v.elements[branch]) - 1)),
-                 "Branch points to");
+  EXPECT_REFUSED(
+      withElement(branch, makeElement(ElementState::Branch, elementPayload(v.elements[branch]) + 8)),
+      "Branch points to");
+  EXPECT_REFUSED(
+      withElement(branch, makeElement(ElementState::Branch, elementPayload(v.elements[branch]) - 1)),
+      "Branch points to");
 
-  const uint64_t b0 = findElement(v, ElementState::Boundary, h, 0), b1 = findElement(v, ElementState::Boundary, h, 1);
+  const uint64_t b0 = findElement(v, ElementState::Boundary, h, 0),
+                 b1 = findElement(v, ElementState::Boundary, h, 1);
   EXPECT_REFUSED(forge(valid,
                        [&](HdtImage& im) {
                          putLe32(im.sections[kElements].payload, 4 * b0, v.elements[b1]);
@@ -467,7 +473,8 @@ TEST(HdtFileCorrupt, InconsistentTrees) {
                  "Boundary points to leaf 1, expected 0");
 
   const uint64_t emptyRoot = findElement(v, ElementState::Empty, 0);
-  EXPECT_REFUSED(withElement(emptyRoot, makeElement(ElementState::Boundary, 0)), "Boundary element above the leaf level");
+  EXPECT_REFUSED(withElement(emptyRoot, makeElement(ElementState::Boundary, 0)),
+                 "Boundary element above the leaf level");
   const uint64_t emptyLeafLevel = findElement(v, ElementState::Empty, h);
   EXPECT_REFUSED(withElement(emptyLeafLevel, makeElement(ElementState::Branch, uint32_t(v.elements.size()))),
                  "Branch at the leaf level");
@@ -481,8 +488,9 @@ TEST(HdtFileCorrupt, InconsistentTrees) {
   for (uint64_t i = 0; i < v.levelStart[1]; ++i)
     if (elementState(v.elements[i]) == ElementState::Branch) ++rootBranches, afterLast = i + 1;
   ASSERT_LT(afterLast, v.levelStart[1]) << "the test volume needs a root after its last Branch";
-  EXPECT_REFUSED(withElement(afterLast, makeElement(ElementState::Branch, uint32_t(v.levelStart[1] + 8 * rootBranches))),
-                 "Branch elements but level 1 has");
+  EXPECT_REFUSED(
+      withElement(afterLast, makeElement(ElementState::Branch, uint32_t(v.levelStart[1] + 8 * rootBranches))),
+      "Branch elements but level 1 has");
 
   // Surface-only volumes hold no Inside state anywhere.
   const Volume so = smallVolume(true);
@@ -533,7 +541,8 @@ TEST(HdtFileCorrupt, GridLevelTableAndStatistics) {
   EXPECT_REFUSED(gridU32(52, 0x100), "boolean");
   EXPECT_REFUSED(gridF64(16, std::nan("")), "origin is not finite");
   EXPECT_REFUSED(gridF64(32, -std::numeric_limits<double>::infinity()), "origin is not finite");
-  for (double s : {0.0, -1.0, std::numeric_limits<double>::infinity(), std::nan("")}) EXPECT_REFUSED(gridF64(40, s), "voxel size");
+  for (double s : {0.0, -1.0, std::numeric_limits<double>::infinity(), std::nan("")})
+    EXPECT_REFUSED(gridF64(40, s), "voxel size");
   // N = 2 * 2^13 * 8 = 131072 > 65536, consistent otherwise (the level table length follows h).
   EXPECT_REFUSED(forge(valid,
                        [](HdtImage& im) {
@@ -556,17 +565,22 @@ TEST(HdtFileCorrupt, GridLevelTableAndStatistics) {
     return forge(valid, [&](HdtImage& im) { edit(im.sections[kStats].payload); });
   };
   const size_t u64Fields[] = {16, 24, 32, 40, 48, 64, 72};
-  const char* names[] = {"tree elements", "leaf grids", "leaf voxels", "active voxels",
+  const char* names[] = {"tree elements", "leaf grids",     "leaf voxels", "active voxels",
                          "inside voxels", "topology bytes", "leaf bytes"};
   for (size_t i = 0; i < 7; ++i) {
-    EXPECT_REFUSED(stats([&](std::vector<uint8_t>& s) { putLe64(s, u64Fields[i], getLe64(s, u64Fields[i]) + 1); }),
-                   std::string("statistics: ") + names[i]);
+    EXPECT_REFUSED(
+        stats([&](std::vector<uint8_t>& s) { putLe64(s, u64Fields[i], getLe64(s, u64Fields[i]) + 1); }),
+        std::string("statistics: ") + names[i]);
   }
   EXPECT_REFUSED(stats([](std::vector<uint8_t>& s) { putF64(s, 96, std::nan("")); }), "not finite");
   EXPECT_REFUSED(stats([](std::vector<uint8_t>& s) { putF64(s, 56, -1.0); }), "negative");
-  EXPECT_REFUSED(stats([](std::vector<uint8_t>& s) { putLe32(s, 136, uint32_t(-3)); }), "negative thread count");
+  EXPECT_REFUSED(stats([](std::vector<uint8_t>& s) { putLe32(s, 136, uint32_t(-3)); }),
+                 "negative thread count");
   EXPECT_REFUSED(stats([](std::vector<uint8_t>& s) { s[144] = '\n'; }), "printable");
-  EXPECT_REFUSED(stats([](std::vector<uint8_t>& s) { s.resize(144 + 65, 'x'); putLe32(s, 140, 65); }),
+  EXPECT_REFUSED(stats([](std::vector<uint8_t>& s) {
+                   s.resize(144 + 65, 'x');
+                   putLe32(s, 140, 65);
+                 }),
                  "statistics section: 209 bytes");
 }
 
@@ -578,9 +592,12 @@ TEST(HdtFileCorrupt, ContainerStructure) {
 
   EXPECT_REFUSED(forge(valid, [](HdtImage& im) { std::swap(im.sections[kGrid], im.sections[kStats]); }),
                  "expected the grid section (id 1) at byte 12, found id 2");
-  EXPECT_REFUSED(forge(valid, [](HdtImage& im) { im.sections[kLevels].id = 9; }), "expected the level table section");
-  EXPECT_REFUSED(forge(valid, [](HdtImage& im) { im.sections.pop_back(); }), "before the leaf data section header");
-  EXPECT_REFUSED(forge(valid, [](HdtImage& im) { im.sections.push_back(im.sections.back()); }), "bytes after the end");
+  EXPECT_REFUSED(forge(valid, [](HdtImage& im) { im.sections[kLevels].id = 9; }),
+                 "expected the level table section");
+  EXPECT_REFUSED(forge(valid, [](HdtImage& im) { im.sections.pop_back(); }),
+                 "before the leaf data section header");
+  EXPECT_REFUSED(forge(valid, [](HdtImage& im) { im.sections.push_back(im.sections.back()); }),
+                 "bytes after the end");
   EXPECT_REFUSED(forge(valid, [](HdtImage& im) { im.sections[kElements].encoding = 1; }),
                  "elements section: invalid encoding 1");
   EXPECT_REFUSED(forge(valid, [](HdtImage& im) { im.sections[kLeaves].encoding = 2; }), "invalid encoding 2");

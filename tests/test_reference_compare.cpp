@@ -10,6 +10,7 @@
 
 #include <gtest/gtest.h>
 
+#include <functional>
 #include <map>
 #include <memory>
 #include <sstream>
@@ -52,6 +53,12 @@ std::vector<CompareCase> compareCases() {
     for (const GridCase& g : gridCases())
       for (bool surfaceOnly : {false, true}) out.push_back({s.name, g, surfaceOnly});
   return out;
+}
+
+// Readable parameters in failure lines (instead of gtest's byte dump).
+void PrintTo(const CompareCase& c, std::ostream* os) {
+  *os << c.shape << " N=" << c.grid.n << " R=" << c.grid.r << " L=" << c.grid.l
+      << (c.surfaceOnly ? " surface-only" : " solid");
 }
 
 std::string caseName(const ::testing::TestParamInfo<CompareCase>& info) {
@@ -370,6 +377,24 @@ TEST(ReferenceSelfCheck, SphereVolumeIsPlausible) {
   EXPECT_GT(double(ref.insideCount), 0.9 * volume);
 }
 
+TEST(ReferenceSelfCheck, TieRulesOfThePerturbation) {
+  // See openTiePlatesShape: every ray of Q0..Q2 passes exactly through a
+  // plate edge or corner that the (eps, eps^2) rule counts, Q3's through a
+  // corner it does not count.
+  for (int n : {32, 64}) {
+    const Shape shape = openTiePlatesShape(n);
+    const PreparedMesh mesh = prepareMesh(shape.mesh, shape.config(n, 4, 8, false));
+    ASSERT_FALSE(mesh.closed);
+    const ReferenceVoxels ref = referenceVoxelize(mesh, false);
+    for (int q = 0; q < 4; ++q) {
+      const int i = n / 2 - 9 + 6 * q;
+      const bool counted = q < 3;
+      EXPECT_EQ(int(ref.parity[ref.index(i, i, i)]), counted ? 7 : 0) << "N=" << n << " Q" << q;
+      EXPECT_EQ(ref.at(i, i, i), counted ? VoxelState::Inside : VoxelState::Outside) << "N=" << n << " Q" << q;
+    }
+  }
+}
+
 TEST(ReferenceSelfCheck, OpenMeshUsesMajorityVote) {
   // The single triangle spans the grid diagonally: some outside voxels see one
   // or two crossings ahead of them, so the three parities do disagree and the
@@ -389,6 +414,95 @@ TEST(ReferenceSelfCheck, OpenMeshUsesMajorityVote) {
   }
   EXPECT_EQ(inside, ref.insideCount);
   EXPECT_GT(inside, 0u);
+}
+
+// ---- the comparison itself must be able to fail -------------------------------------------
+
+struct Built {
+  PreparedMesh mesh;
+  ReferenceVoxels ref;
+  Volume volume;
+};
+
+Built buildFor(const Shape& shape, int n, int r, int l) {
+  Built b;
+  b.mesh = prepareMesh(shape.mesh, shape.config(n, r, l, false));
+  b.ref = referenceVoxelize(b.mesh, false);
+  BuildOptions options;
+  options.backend = Backend::Cpu;
+  b.volume = buildCpu(b.mesh, options);
+  return b;
+}
+
+// The comparison of a corrupted copy fails and its message contains `needle`.
+void expectCaught(const Built& b, const std::function<void(Volume&)>& corrupt, const std::string& needle) {
+  Volume v = b.volume;
+  corrupt(v);
+  const ::testing::AssertionResult r = volumeMatchesReference(v, walkVolume(v), b.ref);
+  EXPECT_FALSE(r) << "corruption not detected (expected a message with \"" << needle << "\")";
+  EXPECT_NE(std::string(r.message()).find(needle), std::string::npos) << r.message();
+}
+
+uint64_t firstElement(const Volume& v, ElementState s, uint64_t from = 0) {
+  for (uint64_t i = from; i < v.elements.size(); ++i)
+    if (elementState(v.elements[i]) == s) return i;
+  ADD_FAILURE() << "no " << stateName(s) << " element";
+  return 0;
+}
+
+TEST(ComparisonCanFail, CorruptedVolumesAreCaught) {
+  const Built b = buildFor(sphereShape(), 64, 4, 8); // height 1
+  ASSERT_TRUE(volumeMatchesReference(b.volume, walkVolume(b.volume), b.ref));
+  const int L = 8;
+  // A leaf voxel turned from Surface to Outside.
+  expectCaught(b, [&](Volume& v) {
+    const uint64_t e = firstElement(v, ElementState::Boundary);
+    uint32_t* w = v.leafWords.data() + uint64_t(elementPayload(v.elements[e])) * leafWordCount(L);
+    for (int i = 0; i < int(leafWordCount(L)); ++i)
+      if (w[i] & 0xAAAAAAAAu) {
+        const int bit = __builtin_ctz(w[i] & 0xAAAAAAAAu);
+        w[i] &= ~(1u << bit);
+        return;
+      }
+  }, "expected Surface, got Outside");
+  // A Full element made Empty.
+  expectCaught(b, [&](Volume& v) { v.elements[firstElement(v, ElementState::Full)] = makeElement(ElementState::Empty, 0); },
+               "expected Full");
+  // Two leaves swapped: same voxels, but not the canonical order any more.
+  expectCaught(b, [&](Volume& v) {
+    const uint64_t a = firstElement(v, ElementState::Boundary), c = firstElement(v, ElementState::Boundary, a + 1);
+    std::swap(v.elements[a], v.elements[c]);
+  }, "canonical order");
+  // A leaf grid dropped: its element made Empty.
+  expectCaught(b, [&](Volume& v) { v.elements[firstElement(v, ElementState::Boundary)] = makeElement(ElementState::Empty, 0); },
+               "used by no element");
+  // The invalid 2-bit value.
+  expectCaught(b, [&](Volume& v) { v.leafWords[0] |= 3u; }, "invalid 2-bit value 3");
+  // levelStart off by one.
+  expectCaught(b, [&](Volume& v) { v.levelStart[1] += 1; }, "levelStart[1]");
+  // A branch pointing at the wrong child block.
+  expectCaught(b, [&](Volume& v) {
+    const uint64_t e = firstElement(v, ElementState::Branch);
+    v.elements[e] = makeElement(ElementState::Branch, elementPayload(v.elements[e]) + 8);
+  }, "canonical breadth-first order");
+}
+
+TEST(ComparisonCanFail, OpenMeshUniformElementsAreChecked) {
+  // Open rule: a uniform element must carry its lowest-corner voxel's state.
+  const Built b = buildFor(openHemisphereShape(), 64, 4, 8);
+  ASSERT_FALSE(b.mesh.closed);
+  ASSERT_TRUE(volumeMatchesReference(b.volume, walkVolume(b.volume), b.ref));
+  bool flipped = false;
+  expectCaught(b, [&](Volume& v) {
+    for (uint64_t i = 0; i < v.elements.size() && !flipped; ++i) {
+      const ElementState s = elementState(v.elements[i]);
+      if (s == ElementState::Full || s == ElementState::Empty) {
+        v.elements[i] = makeElement(s == ElementState::Full ? ElementState::Empty : ElementState::Full, 0);
+        flipped = true;
+      }
+    }
+  }, "lowest-corner voxel");
+  EXPECT_TRUE(flipped);
 }
 
 } // namespace

@@ -29,7 +29,8 @@ struct FourVoxels {
 
 class DenseFill {
 public:
-  DenseFill(const Volume& v, uint8_t* out) : v_(v), out_(out), N_(size_t(v.grid.resolution)), L_(v.grid.leafSize) {}
+  DenseFill(const Volume& v, uint8_t* out)
+      : v_(v), out_(out), N_(size_t(v.grid.resolution)), L_(v.grid.leafSize) {}
 
   // Element `index` of `level`, whose block starts at voxel (x, y, z).
   void element(uint64_t index, int level, size_t x, size_t y, size_t z) const {
@@ -43,7 +44,8 @@ public:
       const size_t half = edge / 2;
       const uint64_t first = elementPayload(w);
       auto child = [&](int c) {
-        element(first + uint64_t(c), level + 1, x + (c & 1) * half, y + ((c >> 1) & 1) * half, z + ((c >> 2) & 1) * half);
+        element(first + uint64_t(c), level + 1, x + (c & 1) * half, y + ((c >> 1) & 1) * half,
+                z + ((c >> 2) & 1) * half);
       };
       // Large subtrees in parallel (so R = 1 is not serial), small ones inline.
       if (half >= 64) {
@@ -99,9 +101,9 @@ std::vector<uint8_t> denseStates(const Volume& volume) {
   const GridSpec& g = volume.grid;
   const int N = g.resolution;
   if (N > kMaxDenseResolution) {
-    throw Error(ErrorKind::InvalidArgument, "dense export needs N^3 bytes and is limited to N <= " +
-                                                std::to_string(kMaxDenseResolution) + " (this volume has N = " +
-                                                std::to_string(N) + ")");
+    throw Error(ErrorKind::InvalidArgument,
+                "dense export needs N^3 bytes and is limited to N <= " + std::to_string(kMaxDenseResolution) +
+                    " (this volume has N = " + std::to_string(N) + ")");
   }
   const uint64_t R = uint64_t(g.rootGrid);
   if (N < 1 || R < 1 || g.leafSize % 4 != 0 || volume.levelStart.size() != size_t(g.height) + 2 ||
@@ -130,6 +132,7 @@ void writeNrrd(const Volume& volume, const std::string& path) {
   // Field order matters to strict readers: "dimension" before the per-axis
   // fields, "space dimension" before "space directions" / "space origin".
   // Values must not contain blanks inside the parentheses (VTK splits there).
+  // clang-format off
   const std::string header = "NRRD0004\n"
                              "# HDT voxel states: 0 outside, 1 inside, 2 surface\n"
                              "type: uint8\n"
@@ -142,6 +145,7 @@ void writeNrrd(const Volume& volume, const std::string& path) {
                              "encoding: raw\n"
                              "space origin: (" + origin + ")\n"
                              "\n";
+  // clang-format on
 
   struct Close {
     void operator()(std::FILE* f) const { std::fclose(f); }

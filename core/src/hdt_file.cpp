@@ -7,15 +7,16 @@
 // entry points turn into hdt::Error naming the file.
 //
 // The writer runs the same checks on the volume first (it must never produce a
-// file the reader refuses) and then streams the sections; the bulk (elements,
-// leaf words) goes from the volume's own arrays to the output without a copy
-// on little-endian hosts, or through zstd.
+// file the reader refuses), computes every section header, then writes; the
+// bulk (elements, leaf words) goes from the volume's own arrays to the output
+// without an intermediate copy on little-endian hosts, or through zstd.
 #include "hdt/hdt_file.hpp"
 
 #include "hdt/error.hpp"
 #include "hdt/lattice.hpp"
 
 #include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
 #include <zlib.h>
 #if defined(HDT_HAVE_ZSTD)
@@ -88,10 +89,26 @@ uint32_t crc32Update(uint32_t crc, const void* data, size_t size) {
   return static_cast<uint32_t>(c);
 }
 
+// CRC-32 of a whole buffer. Large buffers are split into pieces checksummed
+// in parallel and joined with crc32_combine: one core does only ~2-3 GB/s.
+uint32_t crc32Of(const void* data, size_t size) {
+  constexpr size_t kPiece = size_t(4) << 20;
+  if (size <= 2 * kPiece) return crc32Update(0, data, size);
+  const uint8_t* p = static_cast<const uint8_t*>(data);
+  const size_t pieces = (size + kPiece - 1) / kPiece;
+  std::vector<uint32_t> crcs(pieces);
+  tbb::parallel_for(size_t(0), pieces, [&](size_t i) {
+    crcs[i] = crc32Update(0, p + i * kPiece, std::min(kPiece, size - i * kPiece));
+  });
+  uLong crc = crcs[0];
+  for (size_t i = 1; i < pieces; ++i)
+    crc = crc32_combine(crc, crcs[i], z_off_t(std::min(kPiece, size - i * kPiece)));
+  return static_cast<uint32_t>(crc);
+}
+
 // Calls fn(bytes, size) over the little-endian encoding of `words`, in order.
 // On little-endian hosts that is the array itself, in one call and no copy.
-template <class Fn>
-void forEachLittleEndianChunk(const uint32_t* words, size_t count, Fn&& fn) {
+template <class Fn> void forEachLittleEndianChunk(const uint32_t* words, size_t count, Fn&& fn) {
   if (count == 0) return;
   if (kLittleEndianHost) {
     fn(reinterpret_cast<const uint8_t*>(words), count * 4);
@@ -103,6 +120,15 @@ void forEachLittleEndianChunk(const uint32_t* words, size_t count, Fn&& fn) {
     for (size_t j = 0; j < n; ++j) chunk[j] = __builtin_bswap32(words[i + j]);
     fn(reinterpret_cast<const uint8_t*>(chunk.data()), n * 4);
   }
+}
+
+// CRC-32 of the little-endian encoding of `words`.
+uint32_t crcOfWords(const std::vector<uint32_t>& words) {
+  if (kLittleEndianHost) return crc32Of(words.data(), words.size() * 4);
+  uint32_t crc = 0;
+  forEachLittleEndianChunk(words.data(), words.size(),
+                           [&](const uint8_t* p, size_t n) { crc = crc32Update(crc, p, n); });
+  return crc;
 }
 
 // Words just read in little-endian order -> host order, in place.
@@ -198,19 +224,21 @@ void checkStatisticsFields(const Statistics& s) {
   for (char c : s.backend)
     if (c < 0x20 || c > 0x7E) invalid("statistics: backend name is not printable ASCII");
   if (s.threads < 0) invalid("statistics: negative thread count");
-  const double values[] = {s.paperBitsPerActiveVoxel, s.time.mapping, s.time.branching,
-                           s.time.leaf, s.time.classify, s.time.total};
+  const double values[] = {s.paperBitsPerActiveVoxel, s.time.mapping, s.time.branching, s.time.leaf,
+                           s.time.classify,           s.time.total};
   for (double v : values)
     if (!std::isfinite(v) || v < 0) invalid("statistics: a time or ratio is negative or not finite");
 }
 
 // levelStart: h + 2 entries; see docs/hdt-format.md rule 13.
 void checkLevelTable(const std::vector<uint64_t>& ls, const GridSpec& g) {
-  if (ls.size() != size_t(g.height) + 2) invalid("level table: " + str(ls.size()) + " entries, expected h + 2");
+  if (ls.size() != size_t(g.height) + 2)
+    invalid("level table: " + str(ls.size()) + " entries, expected h + 2");
   const uint64_t R = uint64_t(g.rootGrid);
   const uint64_t roots = R * R * R;
   if (roots > kMaxElementPayload) invalid("level table: R^3 = " + str(roots) + " exceeds the element limit");
-  if (ls[0] != 0 || ls[1] != roots) invalid("level table: level 0 must be the R^3 = " + str(roots) + " root elements");
+  if (ls[0] != 0 || ls[1] != roots)
+    invalid("level table: level 0 must be the R^3 = " + str(roots) + " root elements");
   for (size_t k = 1; k + 1 < ls.size(); ++k) {
     if (ls[k + 1] < ls[k] || ls[k + 1] > kMaxElementPayload) {
       invalid("level table: start of level " + str(k + 1) + " (" + str(ls[k + 1]) +
@@ -218,8 +246,8 @@ void checkLevelTable(const std::vector<uint64_t>& ls, const GridSpec& g) {
     }
     const uint64_t size = ls[k + 1] - ls[k], parents = ls[k] - ls[k - 1];
     if (size % 8 != 0 || size > 8 * parents) {
-      invalid("level table: level " + str(k) + " has " + str(size) +
-              " elements, not 8 per branch of the " + str(parents) + " elements above");
+      invalid("level table: level " + str(k) + " has " + str(size) + " elements, not 8 per branch of the " +
+              str(parents) + " elements above");
     }
   }
 }
@@ -268,8 +296,9 @@ TreeCounts checkElements(const std::vector<ElementWord>& elements, const std::ve
       }
     }
     if (!leafLevel && nextChild != ls[k + 2]) {
-      invalid("level " + std::to_string(k) + " has " + str((nextChild - ls[k + 1]) / 8) + " Branch elements but level " +
-              std::to_string(k + 1) + " has " + str(ls[k + 2] - ls[k + 1]) + " elements");
+      invalid("level " + std::to_string(k) + " has " + str((nextChild - ls[k + 1]) / 8) +
+              " Branch elements but level " + std::to_string(k + 1) + " has " + str(ls[k + 2] - ls[k + 1]) +
+              " elements");
     }
   }
   return counts;
@@ -316,7 +345,8 @@ LeafCounts checkLeaves(const std::vector<uint32_t>& words, int leafSize, bool su
             str(word % perLeaf) + ")");
   }
   // Inside and Surface are exclusive states, so the popcounts above count voxels.
-  if (surfaceOnly && c.inside != 0) invalid("leaf data: " + str(c.inside) + " Inside voxels in a surface-only volume");
+  if (surfaceOnly && c.inside != 0)
+    invalid("leaf data: " + str(c.inside) + " Inside voxels in a surface-only volume");
   return c;
 }
 
@@ -337,7 +367,8 @@ void checkStructure(const Statistics& s, const Volume& v, const TreeCounts& tree
   };
   for (const auto& f : fields) {
     if (f.stored != f.actual) {
-      invalid(std::string("statistics: ") + f.name + " is " + str(f.stored) + " but the volume has " + str(f.actual));
+      invalid(std::string("statistics: ") + f.name + " is " + str(f.stored) + " but the volume has " +
+              str(f.actual));
     }
   }
 }
@@ -369,7 +400,8 @@ struct DCtxFree {
 };
 
 void zstdCheck(size_t code, const char* what) {
-  if (ZSTD_isError(code)) throw Error(ErrorKind::OutOfResources, std::string("zstd ") + what + ": " + ZSTD_getErrorName(code));
+  if (ZSTD_isError(code))
+    throw Error(ErrorKind::OutOfResources, std::string("zstd ") + what + ": " + ZSTD_getErrorName(code));
 }
 
 // One zstd frame stating its content size. The output buffer has room for the
@@ -399,7 +431,8 @@ Compressed compressLeaves(const std::vector<uint32_t>& words, int level) {
   ZSTD_outBuffer dst{out.data.get(), capacity, 0};
   forEachLittleEndianChunk(words.data(), words.size(), [&](const uint8_t* p, size_t n) {
     ZSTD_inBuffer src{p, n, 0};
-    while (src.pos < src.size) zstdCheck(ZSTD_compressStream2(cctx.get(), &dst, &src, ZSTD_e_continue), "compress");
+    while (src.pos < src.size)
+      zstdCheck(ZSTD_compressStream2(cctx.get(), &dst, &src, ZSTD_e_continue), "compress");
   });
   ZSTD_inBuffer none{nullptr, 0, 0};
   size_t left;
@@ -428,7 +461,8 @@ void decompressLeaves(const uint8_t* src, size_t srcSize, uint8_t* dst, size_t d
   // needs no window buffer of its own, whatever the frame header claims.
   const size_t n = ZSTD_decompressDCtx(dctx.get(), dstSize ? dst : &none, dstSize, src, srcSize);
   if (ZSTD_isError(n)) invalid(std::string("leaf data: zstd: ") + ZSTD_getErrorName(n));
-  if (n != dstSize) invalid("leaf data: the zstd frame decoded to " + str(n) + " bytes, expected " + str(dstSize));
+  if (n != dstSize)
+    invalid("leaf data: the zstd frame decoded to " + str(n) + " bytes, expected " + str(dstSize));
 }
 #endif
 
@@ -524,26 +558,25 @@ EncodedVolume encode(const Volume& v, const HdtWriteOptions& options) {
     for (uint64_t x : v.levelStart) w.u64(x);
     e.levels = w.bytes();
   }
-  forEachLittleEndianChunk(v.elements.data(), v.elements.size(),
-                           [&](const uint8_t* p, size_t n) { e.elementsCrc = crc32Update(e.elementsCrc, p, n); });
+  e.elementsCrc = crcOfWords(v.elements);
 
   e.leafRawBytes = uint64_t(v.leafWords.size()) * 4;
 #if defined(HDT_HAVE_ZSTD)
   if (options.compressLeaves && !v.leafWords.empty()) {
     e.leafEncoding = Encoding::Zstd;
     e.compressed = compressLeaves(v.leafWords, options.zstdLevel);
-    e.leafCrc = crc32Update(0, e.compressed.data.get(), e.compressed.size);
+    e.leafCrc = crc32Of(e.compressed.data.get(), e.compressed.size);
     return e;
   }
 #else
   (void)options;
 #endif
-  forEachLittleEndianChunk(v.leafWords.data(), v.leafWords.size(),
-                           [&](const uint8_t* p, size_t n) { e.leafCrc = crc32Update(e.leafCrc, p, n); });
+  e.leafCrc = crcOfWords(v.leafWords);
   return e;
 }
 
-void writeSectionHeader(Sink& out, Section id, Encoding encoding, uint64_t stored, uint64_t raw, uint32_t crc) {
+void writeSectionHeader(Sink& out, Section id, Encoding encoding, uint64_t stored, uint64_t raw,
+                        uint32_t crc) {
   ByteWriter w;
   w.u32(uint32_t(id));
   w.u32(uint32_t(encoding));
@@ -554,7 +587,8 @@ void writeSectionHeader(Sink& out, Section id, Encoding encoding, uint64_t store
 }
 
 void writeSmallSection(Sink& out, Section id, const std::vector<uint8_t>& payload) {
-  writeSectionHeader(out, id, Encoding::Raw, payload.size(), payload.size(), crc32Update(0, payload.data(), payload.size()));
+  writeSectionHeader(out, id, Encoding::Raw, payload.size(), payload.size(),
+                     crc32Of(payload.data(), payload.size()));
   out.write(payload.data(), payload.size());
 }
 
@@ -576,7 +610,8 @@ void emit(const EncodedVolume& e, const Volume& v, Sink& out) {
 
   const uint64_t elementBytes = uint64_t(v.elements.size()) * 4;
   writeSectionHeader(out, Section::Elements, Encoding::Raw, elementBytes, elementBytes, e.elementsCrc);
-  forEachLittleEndianChunk(v.elements.data(), v.elements.size(), [&](const uint8_t* p, size_t n) { out.write(p, n); });
+  forEachLittleEndianChunk(v.elements.data(), v.elements.size(),
+                           [&](const uint8_t* p, size_t n) { out.write(p, n); });
 
   writeSectionHeader(out, Section::LeafData, e.leafEncoding, e.leafStoredBytes(), e.leafRawBytes, e.leafCrc);
 #if defined(HDT_HAVE_ZSTD)
@@ -585,16 +620,18 @@ void emit(const EncodedVolume& e, const Volume& v, Sink& out) {
     return;
   }
 #endif
-  forEachLittleEndianChunk(v.leafWords.data(), v.leafWords.size(), [&](const uint8_t* p, size_t n) { out.write(p, n); });
+  forEachLittleEndianChunk(v.leafWords.data(), v.leafWords.size(),
+                           [&](const uint8_t* p, size_t n) { out.write(p, n); });
 }
 
 // Checks the volume and the options, then encodes; throws hdt::Error.
 EncodedVolume prepare(const Volume& v, const HdtWriteOptions& options, const std::string& name) {
 #if defined(HDT_HAVE_ZSTD)
-  if (options.compressLeaves && (options.zstdLevel < ZSTD_minCLevel() || options.zstdLevel > ZSTD_maxCLevel())) {
-    throw Error(ErrorKind::InvalidArgument, "zstd level " + std::to_string(options.zstdLevel) + " is out of range [" +
-                                                std::to_string(ZSTD_minCLevel()) + ", " +
-                                                std::to_string(ZSTD_maxCLevel()) + "]");
+  if (options.compressLeaves &&
+      (options.zstdLevel < ZSTD_minCLevel() || options.zstdLevel > ZSTD_maxCLevel())) {
+    throw Error(ErrorKind::InvalidArgument, "zstd level " + std::to_string(options.zstdLevel) +
+                                                " is out of range [" + std::to_string(ZSTD_minCLevel()) +
+                                                ", " + std::to_string(ZSTD_maxCLevel()) + "]");
   }
 #endif
   try {
@@ -604,6 +641,8 @@ EncodedVolume prepare(const Volume& v, const HdtWriteOptions& options, const std
   }
   try {
     return encode(v, options);
+  } catch (const Error& e) { // zstd failures
+    throw Error(e.kind(), name + ": " + e.what());
   } catch (const std::bad_alloc&) {
     throw Error(ErrorKind::OutOfResources, name + ": out of memory while encoding the volume");
   }
@@ -656,7 +695,8 @@ public:
 private:
   void doRead(void* dst, size_t n) override {
     if (n && std::fread(dst, 1, n, f_) != n) {
-      invalid(std::string("read error at byte ") + str(pos_) + (std::ferror(f_) ? ": " + std::string(std::strerror(errno)) : ": the file shrank"));
+      invalid(std::string("read error at byte ") + str(pos_) +
+              (std::ferror(f_) ? ": " + std::string(std::strerror(errno)) : ": the file shrank"));
     }
   }
   const uint8_t* doView(size_t n, std::vector<uint8_t>& scratch) override {
@@ -679,7 +719,8 @@ SectionHeader readSectionHeader(Source& in, Section expected) {
   const std::string name = sectionName(expected);
   const uint64_t at = in.position();
   if (in.remaining() < kSectionHeaderBytes) {
-    invalid("the file ends at byte " + str(at + in.remaining()) + ", before the " + name + " section header is complete");
+    invalid("the file ends at byte " + str(at + in.remaining()) + ", before the " + name +
+            " section header is complete");
   }
   uint8_t bytes[kSectionHeaderBytes];
   in.read(bytes, kSectionHeaderBytes);
@@ -700,7 +741,8 @@ SectionHeader readSectionHeader(Source& in, Section expected) {
             " remain in the file (truncated?)");
   }
   if (h.encoding == Encoding::Raw && h.raw != h.stored) {
-    invalid(name + " section: raw section with " + str(h.stored) + " bytes stored but " + str(h.raw) + " decoded");
+    invalid(name + " section: raw section with " + str(h.stored) + " bytes stored but " + str(h.raw) +
+            " decoded");
   }
   return h;
 }
@@ -725,14 +767,14 @@ void checkCrc(const SectionHeader& h, uint32_t actual) {
 std::vector<uint8_t> readSmallSection(Source& in, const SectionHeader& h) {
   std::vector<uint8_t> bytes(size_t(h.stored));
   in.read(bytes.data(), bytes.size());
-  checkCrc(h, crc32Update(0, bytes.data(), bytes.size()));
+  checkCrc(h, crc32Of(bytes.data(), bytes.size()));
   return bytes;
 }
 
 // Words of a raw section, straight into `words` (already sized to h.stored / 4).
 void readWordSection(Source& in, const SectionHeader& h, std::vector<uint32_t>& words) {
   in.read(words.data(), size_t(h.stored));
-  checkCrc(h, crc32Update(0, words.data(), size_t(h.stored)));
+  checkCrc(h, crc32Of(words.data(), size_t(h.stored)));
   littleEndianToHost(words.data(), words.size());
 }
 
@@ -747,13 +789,15 @@ Volume readVolume(Source& in) {
 
   // File header (rules 1-3).
   uint8_t header[kFileHeaderBytes];
-  if (in.remaining() < kFileHeaderBytes) invalid("too short for an .hdt file (" + str(in.remaining()) + " bytes)");
+  if (in.remaining() < kFileHeaderBytes)
+    invalid("too short for an .hdt file (" + str(in.remaining()) + " bytes)");
   in.read(header, kFileHeaderBytes);
   if (std::memcmp(header, kMagic, 4) != 0) invalid("not an .hdt file (bad magic)");
   ByteReader hr(header + 4, kFileHeaderBytes - 4);
   const uint32_t version = hr.u32(), flags = hr.u32();
   if (version != kVersion) {
-    invalid("unsupported .hdt format version " + str(version) + " (this reader supports " + str(kVersion) + ")");
+    invalid("unsupported .hdt format version " + str(version) + " (this reader supports " + str(kVersion) +
+            ")");
   }
   if (flags & ~kFlagLeafZstd) invalid("unknown flags " + str(flags) + " in the file header");
 #if !defined(HDT_HAVE_ZSTD)
@@ -802,13 +846,15 @@ Volume readVolume(Source& in) {
     s.paperBitsPerActiveVoxel = r.f64();
     s.topologyBytes = r.u64();
     s.leafBytes = r.u64();
-    for (double* t : {&s.time.mapping, &s.time.branching, &s.time.leaf, &s.time.classify, &s.time.total}) *t = r.f64();
+    for (double* t : {&s.time.mapping, &s.time.branching, &s.time.leaf, &s.time.classify, &s.time.total})
+      *t = r.f64();
     s.peakHostBytes = r.u64();
     s.peakDeviceBytes = r.u64();
     s.threads = r.i32();
     const uint32_t length = r.u32();
     if (length != bytes.size() - kStatsFixedBytes) {
-      invalid("statistics section: backend name of " + str(length) + " bytes in a section of " + str(bytes.size()));
+      invalid("statistics section: backend name of " + str(length) + " bytes in a section of " +
+              str(bytes.size()));
     }
     s.backend.assign(reinterpret_cast<const char*>(r.bytes(length)), length);
     checkStatisticsFields(s);
@@ -851,8 +897,9 @@ Volume readVolume(Source& in) {
 #if defined(HDT_HAVE_ZSTD)
       std::vector<uint8_t> scratch;
       const uint8_t* stored = in.view(size_t(h.stored), scratch);
-      checkCrc(h, crc32Update(0, stored, size_t(h.stored)));
-      decompressLeaves(stored, size_t(h.stored), reinterpret_cast<uint8_t*>(v.leafWords.data()), size_t(h.raw));
+      checkCrc(h, crc32Of(stored, size_t(h.stored)));
+      decompressLeaves(stored, size_t(h.stored), reinterpret_cast<uint8_t*>(v.leafWords.data()),
+                       size_t(h.raw));
       littleEndianToHost(v.leafWords.data(), v.leafWords.size());
 #endif
     }
@@ -902,7 +949,8 @@ void writeHdt(const Volume& volume, const std::string& path, const HdtWriteOptio
     FileSink sink(f.get(), path);
     emit(e, volume, sink);
     std::FILE* raw = f.release();
-    if (std::fclose(raw) != 0) throw Error(ErrorKind::BadInput, path + ": cannot write: " + std::strerror(errno));
+    if (std::fclose(raw) != 0)
+      throw Error(ErrorKind::BadInput, path + ": cannot write: " + std::strerror(errno));
   } catch (...) {
     f.reset();
     std::remove(path.c_str()); // no half-written file that looks like a volume

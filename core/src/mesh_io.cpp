@@ -113,6 +113,21 @@ bool endsWithEndsolid(std::FILE* f, uint64_t size) {
   return end.compare(first, 8, "endsolid") == 0;
 }
 
+// An .stl that is not a well-formed binary STL must be a complete ASCII STL:
+// "solid" at the start and "endsolid" at the end (assimp stops quietly where
+// a text file is cut off). Otherwise it is a damaged binary STL, whose header
+// count `n` disagrees with its size.
+void requireCompleteAsciiStl(const std::string& path, std::FILE* f, uint64_t size, uint32_t n) {
+  if (!startsWithSolid(f)) {
+    fail(path, size < kStlHeader
+                   ? "too short for a binary STL (" + std::to_string(size) + " bytes) and not ASCII STL"
+                   : "truncated or corrupt binary STL: the header says " + std::to_string(n) +
+                         " triangles, which take " + std::to_string(kStlHeader + kStlRecord * uint64_t(n)) +
+                         " bytes, but the file has " + std::to_string(size));
+  }
+  if (!endsWithEndsolid(f, size)) fail(path, "truncated ASCII STL: no 'endsolid' at the end");
+}
+
 TriangleMesh readBinaryStl(const std::string& path, std::FILE* f, uint32_t n) {
   if (n == 0) fail(path, "binary STL with no triangles");
   if (uint64_t(n) * 3 > UINT32_MAX) fail(path, "too many triangles for 32-bit indices");
@@ -236,7 +251,9 @@ private:
     char* end = nullptr;
     const double v = std::strtod(begin, &end);
     if (end == begin || (*end != '\0' && !std::isspace(static_cast<unsigned char>(*end)))) {
-      fail(path_, std::string("not a number in ") + what + ": '" + std::string(begin, std::min<size_t>(16, data_.size() - pos_)) + "'");
+      size_t token = 0;
+      while (token < 32 && begin[token] != '\0' && !std::isspace(static_cast<unsigned char>(begin[token]))) ++token;
+      fail(path_, std::string("not a number in ") + what + ": '" + std::string(begin, token) + "'");
     }
     pos_ += size_t(end - begin);
     return v;
@@ -371,8 +388,8 @@ TriangleMesh readPly(const std::string& path, std::FILE* f, uint64_t size) {
   return mesh;
 }
 
+// ---- ASCII STL and OBJ, through assimp ------------------------------------------------
 #if defined(HDT_HAVE_ASSIMP)
-// ---- everything else, through assimp ---------------------------------------------
 
 void appendNode(const aiScene& scene, const aiNode& node, const aiMatrix4x4& parent, TriangleMesh& out) {
   const aiMatrix4x4 transform = parent * node.mTransformation;
@@ -411,6 +428,11 @@ TriangleMesh readWithAssimp(const std::string& path) {
   }
   return mesh;
 }
+#else
+TriangleMesh readWithAssimp(const std::string& path) {
+  fail(path, "this build reads only binary STL and PLY (it was built without assimp; install "
+             "libassimp-dev and reconfigure to read ASCII STL and OBJ)");
+}
 #endif
 
 } // namespace
@@ -440,25 +462,9 @@ TriangleMesh readMesh(const std::string& path) {
   } else if (ext == ".stl" && binaryStlCount(f.get(), size, n)) {
     mesh = readBinaryStl(path, f.get(), n);
   } else {
-    // ASCII STL or OBJ. Not a well-formed binary STL: ASCII STL starts with
-    // "solid"; anything else is a binary STL whose size disagrees with its count.
-    if (ext == ".stl" && !startsWithSolid(f.get())) {
-      fail(path, size < kStlHeader
-                     ? "too short for a binary STL (" + std::to_string(size) + " bytes) and not ASCII STL"
-                     : "truncated or corrupt binary STL: the header says " + std::to_string(n) +
-                           " triangles, which take " + std::to_string(kStlHeader + kStlRecord * uint64_t(n)) +
-                           " bytes, but the file has " + std::to_string(size));
-    }
-    // assimp stops quietly where a text file is cut off; "endsolid" at the
-    // end is how ASCII STL tells us it is complete.
-    if (ext == ".stl" && !endsWithEndsolid(f.get(), size)) fail(path, "truncated ASCII STL: no 'endsolid' at the end");
+    if (ext == ".stl") requireCompleteAsciiStl(path, f.get(), size, n);
     f.reset();
-#if defined(HDT_HAVE_ASSIMP)
     mesh = readWithAssimp(path);
-#else
-    fail(path, "this build reads only binary STL and PLY (it was built without assimp; install "
-               "libassimp-dev and reconfigure to read ASCII STL and OBJ)");
-#endif
   }
   if (mesh.triangleCount() == 0) fail(path, "no triangles in the file");
   return mesh;

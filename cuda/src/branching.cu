@@ -105,6 +105,45 @@ __global__ void levelTotalsKernel(uint32_t n, const uint32_t* rank, const uint8_
   if (masks) out[1] = uint64_t(offsets[n - 1]) + __popc(masks[n - 1]);
 }
 
+__global__ void taskCountKernel(uint32_t leaves, const uint32_t* pairStart, uint32_t* counts) {
+  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= leaves) return;
+  const uint32_t pairs = pairStart[i + 1] - pairStart[i];
+  counts[i] = pairs <= kTaskPairs ? 1u : (pairs + kTaskPairs - 1) / kTaskPairs;
+}
+
+__global__ void taskWriteKernel(uint32_t leaves, const uint32_t* pairStart, const uint32_t* counts,
+                                const uint32_t* offsets, LeafTask* tasks, uint32_t* taskCount) {
+  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= leaves) return;
+  const uint32_t n = counts[i], o = offsets[i], p0 = pairStart[i], p1 = pairStart[i + 1];
+  for (uint32_t k = 0; k < n; ++k) {
+    const uint32_t first = p0 + k * kTaskPairs;
+    tasks[o + k] = LeafTask{i, first, min(p1, first + kTaskPairs),
+                            n == 1 ? 0u : (kTaskSplit | (k == 0 ? kTaskFirst : 0u))};
+  }
+  if (i == leaves - 1) *taskCount = o + n;
+}
+
+// The warps' work list over the leaves (see LeafTask).
+void planLeafTasks(DeviceMemory& mem, Leaves& lf, uint32_t leafPairs) {
+  const cudaStream_t s = mem.stream();
+  lf.taskBound = lf.count + leafPairs / kTaskPairs + 1;
+  lf.tasks = DeviceBuffer<LeafTask>(mem, lf.taskBound);
+  lf.taskCount = DeviceBuffer<uint32_t>(mem, 1);
+  HDT_CUDA_CHECK(cudaMemsetAsync(lf.taskCount.data(), 0, sizeof(uint32_t), s));
+  if (lf.count == 0) return;
+  DeviceBuffer<uint32_t> counts(mem, lf.count), offsets(mem, lf.count);
+  taskCountKernel<<<blocksFor(lf.count, kBlock), kBlock, 0, s>>>(lf.count, lf.pairStart.data(), counts.data());
+  HDT_CUDA_CHECK_LAUNCH("taskCountKernel");
+  runCub(mem, [&](void* temp, size_t& bytes) {
+    return cub::DeviceScan::ExclusiveSum(temp, bytes, counts.data(), offsets.data(), lf.count, s);
+  });
+  taskWriteKernel<<<blocksFor(lf.count, kBlock), kBlock, 0, s>>>(lf.count, lf.pairStart.data(), counts.data(),
+                                                                offsets.data(), lf.tasks.data(), lf.taskCount.data());
+  HDT_CUDA_CHECK_LAUNCH("taskWriteKernel");
+}
+
 void checkElementLimit(uint64_t nextLevelStart, uint64_t touched, int level) {
   // Same test and message as the CPU driver's appendLevel.
   if (nextLevelStart + 8 * touched > kMaxElementPayload) {
@@ -169,6 +208,8 @@ Tree buildTree(DeviceMemory& mem, HostScalars& scalars, const DeviceMesh& mesh, 
         HDT_CUDA_CHECK(cudaMemsetAsync(lf.pairStart.data(), 0, sizeof(uint32_t), s));
       }
       lf.triangle = std::move(pairs.triangle);
+      rank.reset();
+      planLeafTasks(mem, lf, n);
       return tree;
     }
 

@@ -88,6 +88,34 @@ __device__ __forceinline__ void warpForEachPairItem(uint32_t p0, uint32_t p1, Co
   }
 }
 
+// The same distribution, warp-synchronous: item(p, k, active) is called by
+// every lane in every round (active = false for lanes without an item), so
+// the callee may use warp collectives (ballots, shuffles, __syncwarp).
+template <class Count, class Item>
+__device__ __forceinline__ void warpForEachPairItemSync(uint32_t p0, uint32_t p1, Count count, Item item) {
+  const int lane = threadIdx.x & 31;
+  for (uint32_t base = p0; base < p1; base += 32) {
+    const int c = base + lane < p1 ? count(base + lane) : 0;
+    int incl = c;
+#pragma unroll
+    for (int o = 1; o < 32; o <<= 1) {
+      const int v = __shfl_up_sync(kFullMask, incl, o);
+      if (lane >= o) incl += v;
+    }
+    const int total = __shfl_sync(kFullMask, incl, 31);
+    for (int t0 = 0; t0 < total; t0 += 32) {
+      const int t = t0 + lane;
+      int owner = 0;
+#pragma unroll
+      for (int step = 16; step > 0; step >>= 1) {
+        if (__shfl_sync(kFullMask, incl, owner + step - 1) <= t) owner += step;
+      }
+      const int first = __shfl_sync(kFullMask, incl - c, owner);
+      item(base + owner, t - first, t < total);
+    }
+  }
+}
+
 // ---- leaf words from row masks ------------------------------------------------------
 //
 // Leaf layout (types.hpp): voxel v = x + L (y + L z) is 2-bit field v % 16 of
@@ -99,6 +127,25 @@ __device__ __forceinline__ uint32_t wordBitsFromRows(const uint32_t* rows, int w
   if (L == 16) return rows[w] & 0xFFFFu;
   if (L == 8) return (rows[2 * w] & 0xFFu) | ((rows[2 * w + 1] & 0xFFu) << 8);
   return (rows[w >> 1] >> ((w & 1) * 16)) & 0xFFFFu; // L == 32
+}
+
+// The 16 voxel bits of one 2-bit plane of a leaf word (inverse of spreadBits16).
+__device__ __forceinline__ uint32_t planeBits16(uint32_t word, int plane) {
+  uint32_t m = (word >> plane) & 0x55555555u;
+  m = (m | (m >> 1)) & 0x33333333u;
+  m = (m | (m >> 2)) & 0x0F0F0F0Fu;
+  m = (m | (m >> 4)) & 0x00FF00FFu;
+  return (m | (m >> 8)) & 0x0000FFFFu;
+}
+
+// One bit per leaf row (rowBits[r / 32] bit r % 32) widened to the 16 voxel
+// bits of word w: every voxel of a row gets the row's bit.
+template <int L>
+__device__ __forceinline__ uint32_t rowBitsToWordBits(const uint32_t* rowBits, int w) {
+  auto bit = [rowBits](int r) { return (rowBits[r >> 5] >> (r & 31)) & 1u; };
+  if (L == 16) return bit(w) ? 0xFFFFu : 0u;
+  if (L == 8) return (bit(2 * w) ? 0x00FFu : 0u) | (bit(2 * w + 1) ? 0xFF00u : 0u);
+  return bit(w >> 1) ? 0xFFFFu : 0u; // L == 32
 }
 
 } // namespace cuda

@@ -1,5 +1,8 @@
 #include "device_memory.hpp"
 
+#include "hdt/cuda_build.hpp"
+
+#include <atomic>
 #include <mutex>
 #include <vector>
 
@@ -15,6 +18,8 @@ struct PoolRegistry {
   std::vector<int> state; // 0 unknown, 1 pool created, -1 pools unsupported
   std::vector<cudaMemPool_t> pools;
 };
+
+std::atomic<uint64_t> g_retainedBytes{uint64_t(2) << 30};
 
 PoolRegistry& registry() {
   static PoolRegistry r;
@@ -58,7 +63,7 @@ DeviceMemory::~DeviceMemory() {
   // Every buffer is released by now (they are owned by objects that die
   // first); once the stream has run the frees, hand back what the pool holds
   // beyond what the next build will likely want again.
-  if (pool_ && cudaStreamSynchronize(stream_) == cudaSuccess) cudaMemPoolTrimTo(pool_, kRetainedBytes);
+  if (pool_ && cudaStreamSynchronize(stream_) == cudaSuccess) cudaMemPoolTrimTo(pool_, g_retainedBytes.load());
 }
 
 uint64_t DeviceMemory::obtainable(int device) {
@@ -107,4 +112,7 @@ void DeviceMemory::reserve(size_t bytes) {
 }
 
 } // namespace cuda
+
+void setCudaPoolRetention(uint64_t bytes) { cuda::g_retainedBytes.store(bytes); }
+
 } // namespace hdt

@@ -6,8 +6,8 @@
 // already holds (no driver call, no device synchronisation), and frees are
 // ordered on the build's stream, so a buffer can be released while kernels
 // that read it are still queued. The pool keeps what it holds between builds
-// up to kRetainedBytes (repeated builds, benchmarks); the rest goes back to
-// the driver at the end of each build.
+// up to a retention size (repeated builds, benchmarks); the rest goes back to
+// the driver at the end of each build (setCudaPoolRetention).
 //
 // Why a budget: BuildOptions::deviceMemoryBudget (or the free memory) caps
 // live bytes. An allocation beyond it throws DeviceMemoryExhausted before it
@@ -28,9 +28,6 @@ namespace cuda {
 
 class DeviceMemory {
 public:
-  // kRetainedBytes: what the pool may keep after a build.
-  static constexpr uint64_t kRetainedBytes = uint64_t(2) << 30;
-
   DeviceMemory(int device, cudaStream_t stream, uint64_t budget);
   ~DeviceMemory();
   DeviceMemory(const DeviceMemory&) = delete;

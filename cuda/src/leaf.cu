@@ -1,14 +1,23 @@
 // T3: the surface voxels of every leaf grid.
 //
-// One warp per leaf. The leaf's row masks (one L-bit mask per row y + L z)
-// live in the warp's slice of shared memory; the warp shares out the leaf's
-// (triangle, z-slice) items (warpForEachPairItem), and each item clips the
-// slice's rows with the triangle's row-interval clipper (build_steps.hpp:
-// clipRowsOfSlice, clipRow, rowBits; the same calls and the same order of
-// narrowing as the CPU driver) and ORs the row bits in with shared-memory
-// atomics (OR commutes: the result does not depend on scheduling). Finally
-// the warp writes every word of the leaf exactly once, coalesced: no global
-// atomics, no read-modify-write, no zero fill beforehand.
+// One warp per leaf task (a leaf, or a part of a leaf with very many pairs:
+// LeafTask); the leaf's row masks (one L-bit mask per row y + L z) live in
+// the warp's slice of shared memory. The task's (leaf, triangle) pairs are
+// taken B at a time, in three warp-wide steps that follow the CPU driver's
+// loops exactly (build_steps.hpp; same calls, same narrowing):
+//   1. one lane per pair: the triangle's voxel ranges in the leaf and its
+//      RowClipper (makeRowClipper), kept in shared memory for the batch;
+//   2. one lane per (pair, z slice): clipRowsOfSlice, the rows of the slice
+//      that can meet the triangle;
+//   3. one lane per (pair, row): clipRow + rowBits, ORed into the row mask
+//      with a shared-memory atomic (OR commutes: scheduling cannot show).
+// Flattening to rows keeps all 32 lanes busy with the expensive step (each
+// clipRow is ~14 exact divisions) however unevenly the triangles cover the
+// leaf; with the clipper in shared memory, a lane holds no clipper in
+// registers, which is what limited occupancy. Finally the warp writes every
+// word of the leaf exactly once, coalesced: no global atomics, no
+// read-modify-write, no zero fill beforehand (the parts of a split leaf OR
+// their words into zeroed ones instead).
 #include "device_common.cuh"
 #include "phases.hpp"
 
@@ -19,15 +28,29 @@ namespace cuda {
 namespace {
 
 constexpr int kWarpsPerBlock = 4;
+// 8 blocks of 4 warps per SM caps registers at 64: a few spills, but 32
+// warps instead of 24 hide more of clipRow's latency (measured: 8.0 vs 8.75 ms).
+#ifndef HDT_CUDA_T3_MIN_BLOCKS
+#define HDT_CUDA_T3_MIN_BLOCKS 8
+#endif
 
 struct LeafArgs {
   const LatticeTriangle* tris;
   const uint64_t* leafCoord;
-  const uint32_t* pairStart;
   const uint32_t* pairTri;
-  uint32_t leafCount;
+  const LeafTask* tasks;
+  const uint32_t* taskCount;
   int64_t resolution;
 };
+
+// Warp per split-leaf first part: zero the leaf's slice of `data`.
+__global__ void zeroSplitKernel(const LeafTask* tasks, const uint32_t* taskCount, uint32_t* data, uint32_t perLeaf) {
+  const uint32_t t = (blockIdx.x * blockDim.x + threadIdx.x) >> 5;
+  if (t >= *taskCount) return;
+  const LeafTask task = tasks[t];
+  if (!(task.flags & kTaskFirst)) return;
+  for (uint32_t i = threadIdx.x & 31; i < perLeaf; i += 32) data[size_t(task.leaf) * perLeaf + i] = 0;
+}
 
 // Voxel ranges of triangle t clamped to the leaf at v0: the CPU driver's
 // cellRange on the voxel lattice, then the leaf's extent.
@@ -44,65 +67,108 @@ __device__ __forceinline__ void leafVoxelRanges(const LatticeTriangle& t, const 
   }
 }
 
+constexpr int kBatch = 8; // pairs whose clippers are in shared memory at once
+
 template <int L>
-__global__ void __launch_bounds__(32 * kWarpsPerBlock) leafSurfaceKernel(LeafArgs a, uint32_t* words) {
-  __shared__ uint32_t shared[kWarpsPerBlock][L * L];
+struct SurfaceWarp {
+  RowClipper clip[kBatch];
+  int32_t x0[kBatch], x1[kBatch], y0[kBatch], y1[kBatch], z0[kBatch], nz[kBatch]; // leaf-relative
+  int8_t sliceY0[kBatch][L];  // shadow rows of each slice, leaf-relative
+  uint8_t sliceRows[kBatch][L];
+  uint32_t rows[L * L];
+};
+
+template <int L>
+__global__ void __launch_bounds__(32 * kWarpsPerBlock, HDT_CUDA_T3_MIN_BLOCKS) leafSurfaceKernel(LeafArgs a, uint32_t* words) {
+  __shared__ SurfaceWarp<L> shared[kWarpsPerBlock];
   const int warp = threadIdx.x >> 5, lane = threadIdx.x & 31;
-  const uint32_t leaf = blockIdx.x * kWarpsPerBlock + warp;
-  if (leaf >= a.leafCount) return; // warp-uniform
-  uint32_t* rows = shared[warp];
-  for (int r = lane; r < L * L; r += 32) rows[r] = 0;
-  __syncwarp();
+  const uint32_t t = blockIdx.x * kWarpsPerBlock + warp;
+  if (t >= *a.taskCount) return; // warp-uniform
+  const LeafTask task = a.tasks[t];
+  const uint32_t leaf = task.leaf;
+  SurfaceWarp<L>& sh = shared[warp];
+  for (int r = lane; r < L * L; r += 32) sh.rows[r] = 0;
 
   const uint64_t c = a.leafCoord[leaf];
   const int64_t v0[3] = {int64_t(unpackCoord(c, 0)) * L, int64_t(unpackCoord(c, 1)) * L,
                          int64_t(unpackCoord(c, 2)) * L};
-  warpForEachPairItem(
-      a.pairStart[leaf], a.pairStart[leaf + 1],
-      [&](uint32_t p) { // items: the z slices of the triangle's box in the leaf
-        int64_t first[3], last[3];
-        leafVoxelRanges<L>(a.tris[a.pairTri[p]], v0, a.resolution, first, last);
-        return last[2] >= first[2] ? int(last[2] - first[2] + 1) : 0;
-      },
-      [&](uint32_t p, int k) {
-        const LatticeTriangle t = a.tris[a.pairTri[p]];
-        int64_t first[3], last[3];
-        leafVoxelRanges<L>(t, v0, a.resolution, first, last);
-        RowClipper clipper;
-        makeRowClipper(t, clipper);
-        const int64_t z = first[2] + k;
-        int64_t y0 = first[1], y1 = last[1];
-        clipRowsOfSlice(clipper, z, y0, y1);
-        for (int64_t y = y0; y <= y1; ++y) {
-          int64_t f = first[0], l = last[0];
-          clipRow(clipper, y, z, f, l);
+  const uint32_t p1 = task.end;
+  for (uint32_t base = task.first; base < p1; base += kBatch) {
+    const int nb = int(min(uint32_t(kBatch), p1 - base));
+    __syncwarp(); // the previous batch is done with the shared clippers
+    if (lane < nb) {
+      const LatticeTriangle t = a.tris[a.pairTri[base + lane]];
+      int64_t first[3], last[3];
+      leafVoxelRanges<L>(t, v0, a.resolution, first, last);
+      makeRowClipper(t, sh.clip[lane]);
+      sh.x0[lane] = int32_t(first[0] - v0[0]);
+      sh.x1[lane] = int32_t(last[0] - v0[0]);
+      sh.y0[lane] = int32_t(first[1] - v0[1]);
+      sh.y1[lane] = int32_t(last[1] - v0[1]);
+      sh.z0[lane] = int32_t(first[2] - v0[2]);
+      sh.nz[lane] = last[2] >= first[2] ? int32_t(last[2] - first[2] + 1) : 0;
+    }
+    __syncwarp();
+    warpForEachPairItem(
+        0, nb, [&](uint32_t j) { return sh.nz[j]; },
+        [&](uint32_t j, int s) {
+          int64_t ya = v0[1] + sh.y0[j], yb = v0[1] + sh.y1[j];
+          clipRowsOfSlice(sh.clip[j], v0[2] + sh.z0[j] + s, ya, yb);
+          sh.sliceY0[j][s] = int8_t(ya <= yb ? ya - v0[1] : 0);
+          sh.sliceRows[j][s] = uint8_t(ya <= yb ? yb - ya + 1 : 0);
+        });
+    __syncwarp();
+    warpForEachPairItem(
+        0, uint32_t(nb) * L,
+        [&](uint32_t e) { return int(e % L) < sh.nz[e / L] ? int(sh.sliceRows[e / L][e % L]) : 0; },
+        [&](uint32_t e, int r) {
+          const uint32_t j = e / L, s = e % L;
+          const int64_t y = v0[1] + sh.sliceY0[j][s] + r, z = v0[2] + sh.z0[j] + s;
+          int64_t f = v0[0] + sh.x0[j], l = v0[0] + sh.x1[j];
+          clipRow(sh.clip[j], y, z, f, l);
           const uint32_t bits = rowBits(v0[0], f, l);
-          if (bits) atomicOr(&rows[(y - v0[1]) + L * (z - v0[2])], bits);
-        }
-      });
+          if (bits) atomicOr(&sh.rows[(y - v0[1]) + L * (z - v0[2])], bits);
+        });
+  }
   __syncwarp();
 
   uint32_t* out = words + size_t(leaf) * leafWordCount(L);
-  for (int w = lane; w < int(leafWordCount(L)); w += 32) out[w] = spreadBits16(wordBitsFromRows<L>(rows, w)) << 1;
+  for (int w = lane; w < int(leafWordCount(L)); w += 32) {
+    const uint32_t v = spreadBits16(wordBitsFromRows<L>(sh.rows, w)) << 1;
+    if (!(task.flags & kTaskSplit)) {
+      out[w] = v;
+    } else if (v) {
+      atomicOr(&out[w], v);
+    }
+  }
 }
 
 template <int L>
-void launchLeafSurface(const LeafArgs& a, uint32_t* words, cudaStream_t s) {
-  leafSurfaceKernel<L><<<blocksFor(a.leafCount, kWarpsPerBlock), 32 * kWarpsPerBlock, 0, s>>>(a, words);
+void launchLeafSurface(const LeafArgs& a, uint32_t taskBound, uint32_t* words, cudaStream_t s) {
+  leafSurfaceKernel<L><<<blocksFor(taskBound, kWarpsPerBlock), 32 * kWarpsPerBlock, 0, s>>>(a, words);
   HDT_CUDA_CHECK_LAUNCH("leafSurfaceKernel");
 }
 
 } // namespace
 
+void zeroSplitLeaves(DeviceMemory& mem, const Leaves& leaves, uint32_t* data, uint32_t perLeaf) {
+  if (leaves.count == 0) return;
+  zeroSplitKernel<<<blocksFor(uint64_t(leaves.taskBound) * 32, 256), 256, 0, mem.stream()>>>(
+      leaves.tasks.data(), leaves.taskCount.data(), data, perLeaf);
+  HDT_CUDA_CHECK_LAUNCH("zeroSplitKernel");
+}
+
 void writeLeafSurfaces(DeviceMemory& mem, const DeviceMesh& mesh, const GridSpec& grid, const Leaves& leaves,
                        uint32_t* words) {
   if (leaves.count == 0) return;
-  const LeafArgs a{mesh.triangles, leaves.coord.data(), leaves.pairStart.data(), leaves.triangle.data(),
-                   leaves.count, grid.resolution};
+  zeroSplitLeaves(mem, leaves, words, leafWordCount(grid.leafSize));
+  const LeafArgs a{mesh.triangles, leaves.coord.data(), leaves.triangle.data(), leaves.tasks.data(),
+                   leaves.taskCount.data(), grid.resolution};
+  const uint32_t bound = leaves.taskBound;
   switch (grid.leafSize) {
-  case 8: launchLeafSurface<8>(a, words, mem.stream()); break;
-  case 16: launchLeafSurface<16>(a, words, mem.stream()); break;
-  case 32: launchLeafSurface<32>(a, words, mem.stream()); break;
+  case 8: launchLeafSurface<8>(a, bound, words, mem.stream()); break;
+  case 16: launchLeafSurface<16>(a, bound, words, mem.stream()); break;
+  case 32: launchLeafSurface<32>(a, bound, words, mem.stream()); break;
   default: throw Error(ErrorKind::InvalidArgument, "leaf size must be 8, 16 or 32");
   }
 }

@@ -59,11 +59,26 @@ struct Level {
   DeviceBuffer<uint64_t> coords;   // packed cell coordinates at this level
 };
 
+// A warp's share of the per-leaf work (T3, classification pass 1): the pairs
+// [first, end) of one leaf. A leaf with more than kTaskPairs pairs (a dense
+// cluster of small triangles: thousands in one leaf at 1024^3 on some scans)
+// is split over several tasks so that it does not serialise one warp; the
+// parts of a split leaf merge their results with atomics into outputs zeroed
+// beforehand (flags: kTaskSplit on every part, kTaskFirst on the first).
+struct LeafTask {
+  uint32_t leaf, first, end, flags;
+};
+constexpr uint32_t kTaskPairs = 32;
+constexpr uint32_t kTaskSplit = 1, kTaskFirst = 2;
+
 struct Leaves {
   uint32_t count = 0;
   DeviceBuffer<uint64_t> coord;     // packed leaf coordinates (leaf units)
   DeviceBuffer<uint32_t> pairStart; // count + 1 offsets into triangle
   DeviceBuffer<uint32_t> triangle;  // triangles of the (leaf, triangle) pairs
+  DeviceBuffer<LeafTask> tasks;     // in leaf order
+  DeviceBuffer<uint32_t> taskCount; // one device scalar: tasks in use
+  uint32_t taskBound = 0;           // host upper bound of taskCount (grid sizes)
 };
 
 // ---- T1 (mapping.cu) ---------------------------------------------------------
@@ -88,6 +103,10 @@ Tree buildTree(DeviceMemory& mem, HostScalars& scalars, const DeviceMesh& mesh, 
                uint64_t firstCell, uint64_t endCell, PairList rootPairs, bool unchunked,
                const std::function<void(int)>& afterLevel);
 
+// Zeroes `perLeaf` elements at leaf * perLeaf of every split leaf (before
+// its parts merge into them with atomics). In leaf.cu.
+void zeroSplitLeaves(DeviceMemory& mem, const Leaves& leaves, uint32_t* data, uint32_t perLeaf);
+
 // ---- T3 (leaf.cu) -------------------------------------------------------------
 // Writes every word of every leaf grid once: the surface plane (plane 1).
 void writeLeafSurfaces(DeviceMemory& mem, const DeviceMesh& mesh, const GridSpec& grid, const Leaves& leaves,
@@ -97,10 +116,13 @@ void writeLeafSurfaces(DeviceMemory& mem, const DeviceMesh& mesh, const GridSpec
 // Words of one bit per leaf row: L * L / 32.
 inline int rowWordsFor(int leafSize) { return leafSize * leafSize / 32; }
 
-// Pass 1: per leaf and row along each ray axis, the parity of the crossings
-// inside the leaf; parity[a] holds leaves * rowWords words.
-void leafRowParity(DeviceMemory& mem, const DeviceMesh& mesh, const GridSpec& grid, const Leaves& leaves,
-                   int axes, uint32_t* const parity[3]);
+// Pass 1: per leaf, ray axis and row, the crossings inside the leaf:
+// parity[a] (leaves * rowWords, one bit per row; skipped when null) and,
+// when `words` is given, the XOR of the crossings' "voxels before" masks per
+// row, pass 2's geometry: axis 0's into plane 0 of the leaf words (the x
+// rows), axes 1 and 2's (open meshes) into masks[a] (leaves * L * L).
+void leafCrossings(DeviceMemory& mem, const DeviceMesh& mesh, const GridSpec& grid, const Leaves& leaves, int axes,
+                   uint32_t* const parity[3], uint32_t* words, uint32_t* const masks[3]);
 
 // The leaves of a chunk sorted by line along one axis, with the entry parity
 // of every leaf. Turns parity[a] (pass 1) into the exit parity in place.
@@ -111,9 +133,10 @@ struct LineTable {
 };
 LineTable lineParity(DeviceMemory& mem, const GridSpec& grid, const Leaves& leaves, int axis, uint32_t* parity);
 
-// Pass 2: inside bits (plane 0) of every leaf voxel that is not surface.
-void writeLeafInside(DeviceMemory& mem, const DeviceMesh& mesh, const GridSpec& grid, const Leaves& leaves,
-                     int axes, const uint32_t* const exitParity[3], uint32_t* words);
+// Pass 2: inside bits (plane 0) of every leaf voxel that is not surface,
+// from the exit parity and pass 1's masks; no geometry.
+void writeLeafInside(DeviceMemory& mem, const GridSpec& grid, const Leaves& leaves, int axes,
+                     const uint32_t* const exitParity[3], const uint32_t* const masks[3], uint32_t* words);
 
 // Uniform elements of one level: Empty -> Full where the majority of the
 // axes' parities at the element's lowest-corner voxel centre is odd.

@@ -52,7 +52,7 @@ Volume randomVolume(uint32_t seed, const RandomVolumeSpec& spec) {
   for (uint32_t& w : v.leafWords) {
     w = 0;
     for (int i = 0; i < 16; ++i) {
-      uint32_t state = rng() % 3;                  // Outside, Inside, Surface
+      uint32_t state = rng() % 3; // Outside, Inside, Surface
       if (spec.surfaceOnly && state == 1) state = 2;
       w |= state << (2 * i);
     }

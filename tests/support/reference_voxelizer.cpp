@@ -369,6 +369,8 @@ TreeView walkVolume(const Volume& v) {
     e.edge = g.rootCellVoxels();
   }
   uint64_t boundaryOrdinal = 0;
+  // An order violation shifts everything after it: report the first only.
+  int leafOrderReported = 0;
   for (int k = 0; k <= h; ++k) {
     const uint64_t start = v.levelStart[k], end = v.levelStart[k + 1];
     if (current.size() != end - start) {
@@ -381,6 +383,7 @@ TreeView walkVolume(const Volume& v) {
     std::vector<ElementInfo> next(nextEnd - nextStart);
     std::vector<uint8_t> claimed(next.size(), 0);
     uint64_t branchOrdinal = 0;
+    int branchOrderReported = 0;
     for (uint64_t i = 0; i < current.size(); ++i) {
       ElementInfo e = current[i];
       e.index = start + i;
@@ -402,9 +405,10 @@ TreeView walkVolume(const Volume& v) {
           break;
         }
         const uint64_t expected = nextStart + 8 * branchOrdinal++;
-        if (payload != expected)
+        if (payload != expected && !branchOrderReported++)
           problems.add(describeElement(e) + " has children at " + std::to_string(payload) +
-                       ", canonical breadth-first order puts them at " + std::to_string(expected));
+                       ", canonical breadth-first order puts them at " + std::to_string(expected) +
+                       " (first violation on this level)");
         if (payload < nextStart || uint64_t(payload) + 8 > nextEnd || (payload - nextStart) % 8 != 0) {
           problems.add(describeElement(e) + " has child block " + std::to_string(payload) + " outside level " +
                        std::to_string(k + 1) + " [" + std::to_string(nextStart) + ", " + std::to_string(nextEnd) +
@@ -431,9 +435,10 @@ TreeView walkVolume(const Volume& v) {
           problems.add(describeElement(e) + " is a Boundary above the last level");
           break;
         }
-        if (payload != boundaryOrdinal)
+        if (payload != boundaryOrdinal && !leafOrderReported++)
           problems.add(describeElement(e) + " uses leaf " + std::to_string(payload) +
-                       ", canonical order (leaves in element order) says " + std::to_string(boundaryOrdinal));
+                       ", canonical order (leaves in element order) says " + std::to_string(boundaryOrdinal) +
+                       " (first violation; later ones not listed)");
         ++boundaryOrdinal;
         if (payload >= leafCount) {
           problems.add(describeElement(e) + " uses leaf " + std::to_string(payload) + " of " +

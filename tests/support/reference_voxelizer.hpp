@@ -92,8 +92,10 @@ struct TreeView {
 
 // Walks the tree level by level, validates its structure (levelStart, payload
 // ranges, every child block and every leaf used exactly once, the canonical
-// breadth-first order, no Boundary above / Branch at the last level, no 2-bit
-// value 3 in a leaf) and builds the dense view. Does not use hdt::voxelAt.
+// order of docs/hdt-format.md: i-th Branch of a level -> children at
+// levelStart[k+1] + 8 i, i-th Boundary -> leaf i, Empty/Full payload 0; no
+// Boundary above / Branch at the last level; no 2-bit value 3 in a leaf) and
+// builds the dense view. Does not use hdt::voxelAt.
 TreeView walkVolume(const Volume& volume);
 
 // Where a voxel lives in the tree, for failure messages ("level 2 element

@@ -6,6 +6,7 @@
 #include "vtkHDTVoxelizer.h"
 
 #include "hdt/config.hpp"
+#include "hdt/dense.hpp"
 #include "hdt/error.hpp"
 #include "hdt/volume.hpp"
 
@@ -89,6 +90,8 @@ TEST_P(Conversion, EveryCellMatchesTheVolume)
   EXPECT_EQ(int(htg->GetNumberOfLevels()), fullDepth + 1);
 
   const std::vector<uint8_t> dense = hdtvtk::DenseStates(*volume);
+  // The core's two ways of reading voxels agree (tree walk vs dense export).
+  EXPECT_TRUE(dense == hdt::denseStates(*volume));
   const hdtvtk::WalkResult walk = hdtvtk::WalkAndCheck(htg, *volume, dense, fullDepth, true);
   EXPECT_TRUE(walk.Problems.empty()) << joined(walk.Problems);
 
@@ -259,6 +262,41 @@ TEST(ConversionThreads, SequentialEqualsParallel)
   ASSERT_EQ(sa->GetNumberOfTuples(), sb->GetNumberOfTuples());
   EXPECT_TRUE(std::equal(sa->GetPointer(0), sa->GetPointer(0) + sa->GetNumberOfTuples(), sb->GetPointer(0)));
   EXPECT_EQ(a->GetNumberOfLeaves(), b->GetNumberOfLeaves());
+}
+
+// Both ways of building VTK's trees give the same, correct grid.
+TEST(ConversionTreeBuild, InitializeForReaderEqualsBreadthFirstDescriptor)
+{
+  vtkNew<vtkHDTVoxelizer> filter;
+  filter->SetInputData(hdtvtk::MakeTorus());
+  filter->SetResolution(128);
+  filter->SetRootGridSize(4);
+  filter->SetLeafGridSize(16); // height 1
+  filter->Update();
+  std::shared_ptr<const hdt::Volume> volume = filter->GetVolume();
+  ASSERT_TRUE(volume);
+  const std::vector<uint8_t> dense = hdtvtk::DenseStates(*volume);
+  const int fullDepth = vtkHDTToHyperTreeGrid::FullDepth(*volume);
+  for (int cut : { -1, 2 })
+  {
+    vtkHDTConversionOptions a, b;
+    a.TreeBuild = vtkHDTConversionOptions::INITIALIZE_FOR_READER;
+    b.TreeBuild = vtkHDTConversionOptions::BREADTH_FIRST_DESCRIPTOR;
+    a.MaxDepth = b.MaxDepth = cut;
+    vtkNew<vtkHyperTreeGrid> ha, hb;
+    vtkHDTToHyperTreeGrid::Convert(*volume, a, ha);
+    vtkHDTToHyperTreeGrid::Convert(*volume, b, hb);
+    const int depth = cut < 0 ? fullDepth : cut;
+    const hdtvtk::WalkResult wa = hdtvtk::WalkAndCheck(ha, *volume, dense, depth, true);
+    const hdtvtk::WalkResult wb = hdtvtk::WalkAndCheck(hb, *volume, dense, depth, true);
+    EXPECT_TRUE(wa.Problems.empty()) << joined(wa.Problems);
+    EXPECT_TRUE(wb.Problems.empty()) << joined(wb.Problems);
+    EXPECT_EQ(wa.CellsPerDepth, wb.CellsPerDepth);
+    EXPECT_EQ(ha->GetNumberOfCells(), hb->GetNumberOfCells());
+    EXPECT_EQ(ha->GetNumberOfLeaves(), hb->GetNumberOfLeaves());
+    EXPECT_EQ(ha->GetNumberOfLevels(), hb->GetNumberOfLevels());
+    EXPECT_EQ(int(ha->GetNumberOfLevels()), depth + 1);
+  }
 }
 
 // A damaged volume is refused with hdt::Error, never a crash.

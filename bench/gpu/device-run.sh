@@ -1,0 +1,160 @@
+#!/usr/bin/env bash
+# Everything the CUDA driver needs a GPU for, in one script, for the GPU
+# machine of the `run` tool (see bench/gpu/README.md). Run from the
+# repository root with .devdeps/ carried along:
+#
+#   bench/gpu/device-run.sh STEP...
+#     info      GPU, driver, toolkit
+#     build     configure + build (arch 90) in build-device/, unless
+#               .devdeps/bin holds binaries built elsewhere for this machine
+#     buildsrc  configure + build from source even then (checks the build)
+#     quick     a few GPU-vs-CPU tests
+#     tests     all CUDA tests (hdt_cuda_tests)
+#     sanitize  compute-sanitizer memcheck and racecheck on a reduced filter
+#     bench     hdt_gpu_bench over all meshes, 1K..32K, surface and solid,
+#               and the >= 1M-triangle 32768^3 run
+#     profile   ncu on one 8192^3 build
+#
+# Logs and results go to $OUT (the run tool brings back at most 8 files).
+# .devdeps/ holds what the bare machine lacks: googletest sources, oneTBB,
+# zlib and zstd headers and libraries, and the shared meshes as binary PLY
+# (the machine's build has no assimp for OBJ and ASCII STL).
+set -u -o pipefail
+ROOT=$(pwd)
+DEPS=$ROOT/.devdeps
+OUT=${OUT:-$ROOT/device-out}
+mkdir -p "$OUT"
+export LD_LIBRARY_PATH=$DEPS/lib/x86_64-linux-gnu:/usr/local/cuda/lib64:${LD_LIBRARY_PATH:-}
+export HDT_MESHES_DIR=$DEPS/meshes
+export PATH=/usr/local/cuda/bin:$PATH
+if [ -x "$DEPS/bin/hdt_cuda_tests" ]; then BIN=$DEPS/bin; else BIN=$ROOT/build-device/bin; fi
+TESTS=$BIN/hdt_cuda_tests
+BENCH=$BIN/hdt_gpu_bench
+SUMMARY=$OUT/summary.txt
+
+say() { echo "== $*" | tee -a "$SUMMARY"; }
+
+step_info() {
+  { nvidia-smi; nvcc --version; cmake --version | head -1; nproc; free -g; date -u; } > "$OUT/info.txt" 2>&1
+  say "info: $(nvidia-smi --query-gpu=name,memory.total,driver_version --format=csv,noheader)"
+}
+
+step_build() {
+  if [ "$BIN" = "$DEPS/bin" ]; then say "build: using prebuilt binaries in .devdeps/bin"; return 0; fi
+  step_buildsrc
+}
+
+step_buildsrc() {
+  local t0=$SECONDS
+  {
+    cmake -S "$ROOT" -B "$ROOT/build-device" -G Ninja -DCMAKE_BUILD_TYPE=Release \
+      -DHDT_BUILD_PARAVIEW=OFF -DCMAKE_CUDA_ARCHITECTURES=90-real \
+      -DCMAKE_PREFIX_PATH="$DEPS" -DTBB_DIR="$DEPS/lib/x86_64-linux-gnu/cmake/TBB" \
+      -DZLIB_ROOT="$DEPS" -DHDT_GTEST_SOURCE_DIR="$DEPS/googletest" &&
+      ninja -C "$ROOT/build-device" hdt_cuda_tests hdt_gpu_bench &&
+      mkdir -p "$ROOT/build-device/bin" &&
+      cp "$ROOT/build-device/tests/hdt_cuda_tests" "$ROOT/build-device/bench/gpu/hdt_gpu_bench" "$ROOT/build-device/bin/"
+  } > "$OUT/build.log" 2>&1
+  local rc=$?
+  say "build: rc=$rc in $((SECONDS - t0)) s"
+  [ $rc -eq 0 ] || { tail -40 "$OUT/build.log"; exit 1; }
+}
+
+run_tests() { # name filter timeout
+  local t0=$SECONDS
+  timeout "$3" "$TESTS" --gtest_filter="$2" --gtest_color=no > "$OUT/$1.log" 2>&1
+  local rc=$?
+  say "$1: rc=$rc in $((SECONDS - t0)) s: $(grep -E '^\[  (PASSED|FAILED|SKIPPED) ' "$OUT/$1.log" | tr '\n' ' ')"
+  grep -E '^\[  FAILED  \]|Failure|error' "$OUT/$1.log" | head -20 | tee -a "$SUMMARY"
+}
+
+step_minibench() { # MINIBENCH_BIN (default the bench), MINIBENCH_MESHES, MINIBENCH_RES, MINIBENCH_TAG
+  local t0=$SECONDS tag=${MINIBENCH_TAG:-minibench} args=()
+  for m in ${MINIBENCH_MESHES:-stanford-dragon-100k.ply nefertiti.ply}; do args+=(--mesh "$m"); done
+  timeout 200 "${MINIBENCH_BIN:-$BENCH}" --meshes "$DEPS/meshes" "${args[@]}" --res "${MINIBENCH_RES:-1024,8192}" \
+    --runs 3 --out "$OUT/$tag.jsonl" > "$OUT/$tag.log" 2>&1
+  say "$tag: rc=$? in $((SECONDS - t0)) s"
+  cat "$OUT/$tag.log" | tee -a "$SUMMARY"
+}
+
+step_variant() { # the same minibench with .devdeps/bin/hdt_gpu_bench_$VARIANT
+  MINIBENCH_BIN=$BIN/hdt_gpu_bench_${VARIANT:-mb8} MINIBENCH_TAG=variant step_minibench
+}
+
+step_quick() {
+  run_tests quick '*CudaShapes*/sphere_*:*CudaShapes*/open_hemisphere_*:*CudaShapes*/grid_aligned_box_R16*:CudaDriver.*' 300
+}
+
+step_tests() { run_tests tests '*' "${TESTS_TIMEOUT:-540}"; }
+
+step_sanitize() { # every CUDA test but the large shared-mesh ones under memcheck; a reduced set under the others
+  local t0=$SECONDS
+  timeout 300 compute-sanitizer --tool memcheck --error-exitcode 9 "$TESTS" \
+    --gtest_filter='-*CudaSharedMeshes*N2048*:*CudaSharedMeshes*N4096*' > "$OUT/memcheck.log" 2>&1
+  say "memcheck: rc=$? in $((SECONDS - t0)) s: $(grep -E 'ERROR SUMMARY|^\[  (PASSED|FAILED) ' "$OUT/memcheck.log" | tr '\n' ' ')"
+  local filter='*CudaDense*:*CudaShapes*/two_bodies_R16_L16_*:*CudaShapes*/open_hemisphere_R8_L32_solid:*CudaShapes*/grid_aligned_box_R16_L8_*:*CudaChunked*/open_hemisphere*'
+  for tool in initcheck synccheck; do
+    t0=$SECONDS
+    timeout 150 compute-sanitizer --tool $tool --error-exitcode 9 "$TESTS" --gtest_filter="$filter" > "$OUT/$tool.log" 2>&1
+    say "$tool: rc=$? in $((SECONDS - t0)) s: $(grep -E 'SUMMARY|^\[  (PASSED|FAILED) ' "$OUT/$tool.log" | tr '\n' ' ')"
+  done
+}
+
+step_racecheck() { # shared-memory hazards; slow (every shared access tracked): a small set
+  local t0=$SECONDS
+  timeout 200 compute-sanitizer --tool racecheck --racecheck-report hazard --error-exitcode 9 "$TESTS" \
+    --gtest_filter='*CudaDense*/closed_L16_solid:*CudaDense*/open_L8_solid:*CudaShapes*/two_bodies_R16_L16_*:*CudaShapes*/open_hemisphere_R8_L32_solid:*CudaShapes*/grid_aligned_box_R16_L8_*' \
+    > "$OUT/racecheck.log" 2>&1
+  say "racecheck: rc=$? in $((SECONDS - t0)) s: $(grep -E 'SUMMARY|^\[  (PASSED|FAILED) ' "$OUT/racecheck.log" | tr '\n' ' ')"
+}
+
+step_bench() { # BENCH_MESHES (default all), BENCH_RES, BENCH_MODES, BENCH_RUNS, BENCH_TIMEOUT, BENCH_TAG; BIG=1 adds the 1.6M-triangle run
+  local t0=$SECONDS tag=${BENCH_TAG:-gpu-runs} args=()
+  for m in ${BENCH_MESHES:-}; do args+=(--mesh "$m"); done
+  timeout "${BENCH_TIMEOUT:-420}" "$BENCH" --meshes "$DEPS/meshes" "${args[@]}" --res "${BENCH_RES:-1024,2048,4096,8192,16384,32768}" \
+    --modes "${BENCH_MODES:-surface,solid}" --runs "${BENCH_RUNS:-5}" --out "$OUT/$tag.jsonl" > "$OUT/$tag.log" 2>&1
+  say "bench $tag: rc=$? in $((SECONDS - t0)) s"
+  if [ "${BIG:-0}" = 1 ]; then
+    t0=$SECONDS
+    timeout 120 "$BENCH" --meshes "$DEPS/meshes" --mesh stanford-dragon-100k.ply --subdivide 2 --res 32768 \
+      --modes surface,solid --runs 3 --out "$OUT/$tag.jsonl" >> "$OUT/$tag.log" 2>&1
+    say "bench 1.6M triangles at 32768: rc=$? in $((SECONDS - t0)) s"
+  fi
+  cat "$OUT/$tag.log"
+}
+
+step_profile() { # PROFILE_MESH, PROFILE_RES, PROFILE_MODE, PROFILE_KERNELS, PROFILE_COUNT, PROFILE_TAG
+  local t0=$SECONDS tag=${PROFILE_TAG:-profile}
+  timeout "${PROFILE_TIMEOUT:-300}" ncu --set full -k "regex:${PROFILE_KERNELS:-leafSurface|childTest|leafInside|leafCrossings|lineSuffix|uniform|rootCount|Onesweep}" \
+    -c "${PROFILE_COUNT:-24}" -o /tmp/$tag -f "$BENCH" --meshes "$DEPS/meshes" --mesh "${PROFILE_MESH:-stanford-dragon-100k.ply}" \
+    --res "${PROFILE_RES:-8192}" --modes "${PROFILE_MODE:-solid}" --runs 1 --out /tmp/profile-runs.jsonl > "$OUT/$tag.log" 2>&1
+  say "$tag: rc=$? in $((SECONDS - t0)) s"
+  ncu --import /tmp/$tag.ncu-rep --page details > "$OUT/$tag-details.txt" 2>&1
+  ncu --import /tmp/$tag.ncu-rep --print-summary per-kernel >> "$OUT/$tag.log" 2>&1
+}
+
+step_profile2() { # a second mesh in the same call
+  PROFILE_MESH=${PROFILE2_MESH:-ogre.ply} PROFILE_TAG=profile2 step_profile
+}
+
+step_sass() { # the kernels' SASS instruction mix (cuobjdump is on the GPU machine only)
+  cuobjdump -sass "$BENCH" > /tmp/sass.txt 2>&1
+  python3 - /tmp/sass.txt > "$OUT/sass-mix.txt" <<'PY'
+import re, sys, collections
+cur=None; mix=collections.defaultdict(collections.Counter)
+for line in open(sys.argv[1]):
+    m=re.search(r'Function : (\S+)', line)
+    if m: cur=m.group(1); continue
+    m=re.match(r'\s+/\*[0-9a-f]{4}\*/\s+(@!?U?P\w+\s+)?([A-Z][A-Z0-9_.]+)', line)
+    if m and cur: mix[cur][m.group(2).split('.')[0]]+=1
+for f,c in mix.items():
+    if any(k in f for k in ('leafSurface','leafCrossings','leafInside','childTest')):
+        print(f[:120], sum(c.values())); print('   ', c.most_common(25))
+PY
+  say "sass: $(wc -l < "$OUT/sass-mix.txt") lines"
+}
+
+: > "$SUMMARY"
+for s in "$@"; do "step_$s"; done
+echo
+cat "$SUMMARY"

@@ -1,0 +1,457 @@
+// Classification: inside/outside by ray parity, the CPU driver's method on
+// the GPU (see cpu_builder.cpp, "classification").
+//
+//   pass 1   one warp per leaf and ray axis: every ray of every (leaf,
+//            triangle) pair is tested with rayHitsTriangle by one lane; the
+//            hits (about 1 in 5) are queued in shared memory and resolved 32
+//            at a time with rowCrossing, so the expensive exact crossing
+//            (128-bit products and division) runs with all lanes busy. Each
+//            crossing flips the row's parity bit and XORs its "voxels before
+//            the crossing" mask into the row's mask; both are XORs, so
+//            scheduling cannot show. The parity bits go to parity[a]; the
+//            masks (pass 2's geometry, computed once) go to plane 0 of the
+//            leaf words for axis 0 (the x rows: free room) and to masks[a]
+//            for the other axes of open meshes;
+//   lines    per axis, the leaves sorted by line key (w, u, along) with a
+//            radix sort on 3 log2(N/L) bits; one warp per line runs a suffix
+//            XOR scan (shuffles, 32 leaves a step) that turns the pass-1
+//            parity into the exit parity in place, and records the entry
+//            parity of row 0 for the uniform elements;
+//   pass 2   no geometry left: a row is inside where (exit parity of the row)
+//            XOR (its mask); closed meshes use the x rows, open ones the
+//            majority of the 3 axes per voxel; plane 0 = inside and not
+//            surface. One read and one write per leaf word;
+//   uniform  one thread per Empty element: binary search of the first leaf
+//            beyond it on its line, per axis; majority -> Full.
+#include "device_common.cuh"
+#include "phases.hpp"
+
+#include "hdt/build_steps.hpp"
+
+namespace hdt {
+namespace cuda {
+namespace {
+
+struct LeafArgs {
+  const LatticeTriangle* tris;
+  const uint64_t* leafCoord;
+  const uint32_t* pairTri;
+  const LeafTask* tasks;
+  const uint32_t* taskCount;
+};
+
+LeafArgs leafArgs(const DeviceMesh& mesh, const Leaves& leaves) {
+  return LeafArgs{mesh.triangles, leaves.coord.data(), leaves.triangle.data(), leaves.tasks.data(),
+                  leaves.taskCount.data()};
+}
+
+__device__ __forceinline__ void leafOrigin(uint64_t c, int L, int64_t (&v0)[3]) {
+  for (int a = 0; a < 3; ++a) v0[a] = int64_t(unpackCoord(c, a)) * L;
+}
+
+// ---- pass 1 -----------------------------------------------------------------------
+constexpr int kCrossWarps = 4;
+
+template <int L>
+struct CrossingWarp {
+  LatticeTriangle tri[32];                     // the batch's triangles
+  int32_t u0[32], nu[32], w0[32], nw[32];      // their ray ranges, leaf-relative
+  uint32_t nuMagic[32];                        // ceil(2^32 / nu): k / nu as one __umulhi
+  uint32_t queue[64];                          // hits: pair (5 bits), u (5), w (5)
+  uint32_t masks[L * L];                       // XOR of before-masks per row
+  uint32_t parity[L * L / 32];                 // one bit per row
+};
+
+__device__ __forceinline__ uint32_t beforeMask(int before) {
+  return before >= 32 ? 0xFFFFFFFFu : ((1u << before) - 1u);
+}
+
+// Resolves the first n queued hits, one per lane.
+template <int L, int AXIS, bool MASKS>
+__device__ __forceinline__ void resolveHits(CrossingWarp<L>& sh, int n, const int64_t (&v0)[3]) {
+  constexpr int U = rayAxisU(AXIS), W = rayAxisW(AXIS);
+  const int lane = threadIdx.x & 31;
+  if (lane < n) {
+    const uint32_t e = sh.queue[lane];
+    const int j = int(e >> 10), u = int((e >> 5) & 31u), w = int(e & 31u);
+    int before;
+    if (rowCrossing(sh.tri[j], AXIS, v0[U] + u, v0[W] + w, v0[AXIS], L, before)) {
+      const int row = u + L * w;
+      atomicXor(&sh.parity[row >> 5], 1u << (row & 31));
+      if (MASKS) atomicXor(&sh.masks[row], beforeMask(before));
+    }
+  }
+  __syncwarp();
+}
+
+template <int L, int AXIS, bool MASKS>
+__device__ __forceinline__ void crossingsAlong(const LeafArgs& a, const LeafTask& task, const int64_t (&v0)[3],
+                                               CrossingWarp<L>& sh) {
+  constexpr int U = rayAxisU(AXIS), W = rayAxisW(AXIS);
+  const int lane = threadIdx.x & 31;
+  const uint32_t p1 = task.end;
+  for (uint32_t base = task.first; base < p1; base += 32) {
+    const int nb = int(min(32u, p1 - base));
+    __syncwarp(); // the previous batch is resolved
+    if (lane < nb) {
+      const LatticeTriangle t = a.tris[a.pairTri[base + lane]];
+      int64_t lo[3], hi[3], u0, u1, w0, w1;
+      triangleBounds(t, lo, hi);
+      centreRange(lo[U], hi[U], v0[U], L, u0, u1);
+      centreRange(lo[W], hi[W], v0[W], L, w0, w1);
+      sh.tri[lane] = t;
+      const bool any = u1 >= u0 && w1 >= w0;
+      sh.u0[lane] = any ? int32_t(u0 - v0[U]) : 0;
+      sh.w0[lane] = any ? int32_t(w0 - v0[W]) : 0;
+      sh.nu[lane] = any ? int32_t(u1 - u0 + 1) : 0;
+      sh.nw[lane] = any ? int32_t(w1 - w0 + 1) : 0;
+      // floor(k / nu) = umulhi(k, magic) when k * (magic * nu - 2^32) < 2^32,
+      // true for k < 2^27 (here k < L * L); nu = 1 has no 32-bit magic.
+      sh.nuMagic[lane] = any && u1 > u0 ? uint32_t(((uint64_t(1) << 32) + uint64_t(u1 - u0)) / uint64_t(u1 - u0 + 1)) : 0;
+    }
+    __syncwarp();
+    int queued = 0; // warp-uniform
+    warpForEachPairItemSync(
+        0, nb, [&](uint32_t j) { return sh.nu[j] * sh.nw[j]; },
+        [&](uint32_t j, int k, bool active) {
+          bool hit = false;
+          uint32_t entry = 0;
+          if (active) {
+            const int q = sh.nu[j] == 1 ? k : int(__umulhi(uint32_t(k), sh.nuMagic[j])); // k / nu
+            const int u = sh.u0[j] + k - q * sh.nu[j], w = sh.w0[j] + q;
+            hit = rayHitsTriangle(sh.tri[j], AXIS, latticeOfVoxelCentre(v0[U] + u), latticeOfVoxelCentre(v0[W] + w));
+            entry = (j << 10) | (uint32_t(u) << 5) | uint32_t(w);
+          }
+          const unsigned hits = __ballot_sync(kFullMask, hit);
+          if (hit) sh.queue[queued + __popc(hits & ((1u << lane) - 1u))] = entry;
+          queued += __popc(hits);
+          __syncwarp();
+          if (queued >= 32) {
+            resolveHits<L, AXIS, MASKS>(sh, 32, v0);
+            const uint32_t rest = lane < queued - 32 ? sh.queue[32 + lane] : 0u;
+            __syncwarp();
+            if (lane < queued - 32) sh.queue[lane] = rest;
+            queued -= 32;
+            __syncwarp();
+          }
+        });
+    resolveHits<L, AXIS, MASKS>(sh, queued, v0);
+  }
+}
+
+// Per task and axis: parity[a] (when given) and, when MASKS, axis 0's masks
+// into plane 0 of the leaf words and the other axes' into masks[a]. The
+// parts of a split leaf XOR theirs into zeroed outputs (XOR commutes).
+template <int L, int AXIS, bool MASKS>
+__device__ __forceinline__ void leafCrossingsAxis(const LeafArgs& a, const LeafTask& task, const int64_t (&v0)[3],
+                                                  CrossingWarp<L>& sh, uint32_t* parity, uint32_t* words,
+                                                  uint32_t* masks) {
+  constexpr int RW = L * L / 32;
+  const int lane = threadIdx.x & 31;
+  const bool split = task.flags & kTaskSplit;
+  const size_t leaf = task.leaf;
+  __syncwarp();
+  for (int i = lane; i < RW; i += 32) sh.parity[i] = 0;
+  if (MASKS)
+    for (int r = lane; r < L * L; r += 32) sh.masks[r] = 0;
+  crossingsAlong<L, AXIS, MASKS>(a, task, v0, sh);
+  __syncwarp();
+  if (parity) {
+    for (int i = lane; i < RW; i += 32) {
+      if (!split) parity[leaf * RW + i] = sh.parity[i];
+      else if (sh.parity[i]) atomicXor(&parity[leaf * RW + i], sh.parity[i]);
+    }
+  }
+  if (MASKS && AXIS == 0) { // plane 0 is zero since T3
+    uint32_t* out = words + leaf * leafWordCount(L);
+    for (int w = lane; w < int(leafWordCount(L)); w += 32) {
+      const uint32_t v = spreadBits16(wordBitsFromRows<L>(sh.masks, w));
+      if (!split) out[w] |= v;
+      else if (v) atomicXor(&out[w], v);
+    }
+  } else if (MASKS) {
+    for (int r = lane; r < L * L; r += 32) {
+      if (!split) masks[leaf * L * L + r] = sh.masks[r];
+      else if (sh.masks[r]) atomicXor(&masks[leaf * L * L + r], sh.masks[r]);
+    }
+  }
+}
+
+// One launch per axis: the three axes in one kernel made it too large for
+// the instruction cache (ncu: warps stalled on instruction fetch).
+template <int L, int AXIS, bool MASKS>
+__global__ void __launch_bounds__(32 * kCrossWarps) leafCrossingsKernel(LeafArgs a, uint32_t* parity, uint32_t* words,
+                                                                        uint32_t* masks) {
+  __shared__ CrossingWarp<L> shared[kCrossWarps];
+  const int warp = threadIdx.x >> 5;
+  const uint32_t t = blockIdx.x * kCrossWarps + warp;
+  if (t >= *a.taskCount) return; // warp-uniform
+  const LeafTask task = a.tasks[t];
+  int64_t v0[3];
+  leafOrigin(a.leafCoord[task.leaf], L, v0);
+  leafCrossingsAxis<L, AXIS, MASKS>(a, task, v0, shared[warp], parity, words, masks);
+}
+
+// ---- lines ----------------------------------------------------------------------------
+__global__ void lineKeysKernel(uint32_t n, const uint64_t* coord, int axis, int b, uint64_t* keys, uint32_t* leafOf) {
+  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= n) return;
+  const uint64_t c = coord[i];
+  keys[i] = (uint64_t(unpackCoord(c, rayAxisW(axis))) << (2 * b)) |
+            (uint64_t(unpackCoord(c, rayAxisU(axis))) << b) | unpackCoord(c, axis);
+  leafOf[i] = i;
+}
+
+// One warp per group of 32 sorted positions; each line is handled by the warp
+// holding its last leaf, which walks it backwards 32 leaves at a time.
+template <int L>
+__global__ void lineSuffixKernel(uint32_t n, const uint64_t* keys, const uint32_t* leafOf, int b, uint32_t* parity,
+                                 uint8_t* entry) {
+  constexpr int RW = L * L / 32;
+  const int lane = threadIdx.x & 31;
+  const uint64_t group = (uint64_t(blockIdx.x) * blockDim.x + threadIdx.x) >> 5;
+  const uint64_t pos = group * 32 + lane;
+  const bool isEnd = pos < n && (pos + 1 == n || (keys[pos + 1] >> b) != (keys[pos] >> b));
+  unsigned ends = __ballot_sync(kFullMask, isEnd);
+  while (ends) {
+    const uint64_t last = group * 32 + (__ffs(ends) - 1);
+    ends &= ends - 1;
+    const uint64_t line = keys[last] >> b;
+    uint32_t carry[RW];
+#pragma unroll
+    for (int k = 0; k < RW; ++k) carry[k] = 0;
+    for (int64_t top = int64_t(last);; top -= 32) {
+      const int64_t idx = top - lane; // lane 0 is the farthest along the ray
+      const bool valid = idx >= 0 && (keys[idx] >> b) == line;
+      const uint32_t leaf = valid ? leafOf[idx] : 0;
+#pragma unroll
+      for (int k = 0; k < RW; ++k) {
+        const uint32_t v = valid ? parity[size_t(leaf) * RW + k] : 0u;
+        uint32_t incl = v; // XOR of this leaf and those beyond it in the step
+#pragma unroll
+        for (int o = 1; o < 32; o <<= 1) {
+          const uint32_t x = __shfl_up_sync(kFullMask, incl, o);
+          if (lane >= o) incl ^= x;
+        }
+        if (valid) {
+          parity[size_t(leaf) * RW + k] = carry[k] ^ incl ^ v; // exit: beyond the leaf
+          if (k == 0) entry[leaf] = uint8_t((carry[0] ^ incl) & 1u);
+        }
+        carry[k] ^= __shfl_sync(kFullMask, incl, 31);
+      }
+      if (!__all_sync(kFullMask, valid)) break; // passed the line's first leaf
+    }
+  }
+}
+
+// ---- pass 2 -----------------------------------------------------------------------------
+// Closed meshes: one thread per leaf word, inside = exit parity of the row
+// XOR the row's mask (plane 0 of the word since pass 1).
+template <int L>
+__global__ void leafInsideClosedKernel(uint64_t wordCount, const uint32_t* exitParity, uint32_t* words) {
+  constexpr int RW = L * L / 32;
+  constexpr uint32_t kWords = leafWordCount(L);
+  const uint64_t g = uint64_t(blockIdx.x) * blockDim.x + threadIdx.x;
+  if (g >= wordCount) return;
+  const uint64_t leaf = g / kWords;
+  const int w = int(g % kWords);
+  const uint32_t old = words[g];
+  const uint32_t inside = rowBitsToWordBits<L>(exitParity + leaf * RW, w) ^ planeBits16(old, 0);
+  // plane 0 where inside and not surface (the surface bit is plane 1)
+  words[g] = (old & 0xAAAAAAAAu) | (spreadBits16(inside) & ~(old >> 1) & 0x55555555u);
+}
+
+// Open meshes: one warp per leaf; the majority of the three axes per voxel.
+// Axis a's rows run along a, row (u, w) = u + L w with (u, w) the cyclic
+// other axes: voxel (x, y, z) is bit x of x-row y + L z, bit y of y-row
+// z + L x and bit z of z-row x + L y.
+constexpr int kOpenWarps = 2;
+
+template <int L>
+struct OpenWarp {
+  uint32_t m1[L * L], m2[L * L];
+  uint32_t e[3][L * L / 32];
+};
+
+template <int L>
+__global__ void __launch_bounds__(32 * kOpenWarps) leafInsideOpenKernel(uint32_t leafCount, const uint32_t* e0,
+                                                                        const uint32_t* e1, const uint32_t* e2,
+                                                                        const uint32_t* m1, const uint32_t* m2,
+                                                                        uint32_t* words) {
+  constexpr int RW = L * L / 32;
+  __shared__ OpenWarp<L> shared[kOpenWarps];
+  const int warp = threadIdx.x >> 5, lane = threadIdx.x & 31;
+  const uint32_t leaf = blockIdx.x * kOpenWarps + warp;
+  if (leaf >= leafCount) return; // warp-uniform
+  OpenWarp<L>& sh = shared[warp];
+  for (int r = lane; r < L * L; r += 32) {
+    sh.m1[r] = m1[size_t(leaf) * L * L + r];
+    sh.m2[r] = m2[size_t(leaf) * L * L + r];
+  }
+  for (int i = lane; i < RW; i += 32) {
+    sh.e[0][i] = e0[size_t(leaf) * RW + i];
+    sh.e[1][i] = e1[size_t(leaf) * RW + i];
+    sh.e[2][i] = e2[size_t(leaf) * RW + i];
+  }
+  __syncwarp();
+  auto exitBit = [&sh](int a, int r) { return (sh.e[a][r >> 5] >> (r & 31)) & 1u; };
+  uint32_t* out = words + size_t(leaf) * leafWordCount(L);
+  for (int w = lane; w < int(leafWordCount(L)); w += 32) {
+    const uint32_t old = out[w];
+    const uint32_t inside0 = rowBitsToWordBits<L>(sh.e[0], w) ^ planeBits16(old, 0);
+    uint32_t m = 0;
+#pragma unroll
+    for (int j = 0; j < 16; ++j) {
+      const int v = 16 * w + j;
+      const int x = v % L, y = (v / L) % L, z = v / (L * L);
+      const uint32_t ry = z + L * x, rz = x + L * y;
+      const uint32_t votes = ((inside0 >> j) & 1u) + (exitBit(1, ry) ^ ((sh.m1[ry] >> y) & 1u)) +
+                             (exitBit(2, rz) ^ ((sh.m2[rz] >> z) & 1u));
+      m |= uint32_t(votes >= 2) << j;
+    }
+    out[w] = (old & 0xAAAAAAAAu) | (spreadBits16(m) & ~(old >> 1) & 0x55555555u);
+  }
+}
+
+// ---- uniform elements -------------------------------------------------------------------
+struct LineView {
+  const uint64_t* key;
+  const uint32_t* leaf;
+  const uint8_t* entry;
+};
+
+__global__ void uniformKernel(uint32_t count, ElementWord* words, const uint64_t* coords, uint64_t leavesPerElement,
+                              uint64_t leavesPerAxis, int b, int axes, LineView t0, LineView t1, LineView t2,
+                              uint32_t leafCount) {
+  const uint32_t j = blockIdx.x * blockDim.x + threadIdx.x;
+  if (j >= count || elementState(words[j]) != ElementState::Empty) return;
+  const uint64_t c = coords[j];
+  const LineView tables[3] = {t0, t1, t2};
+  int votes = 0;
+  for (int axis = 0; axis < axes; ++axis) {
+    const uint64_t u = unpackCoord(c, rayAxisU(axis)) * leavesPerElement;
+    const uint64_t w = unpackCoord(c, rayAxisW(axis)) * leavesPerElement;
+    const uint64_t along = (unpackCoord(c, axis) + 1) * leavesPerElement;
+    if (along >= leavesPerAxis) continue; // nothing beyond: parity 0
+    const uint64_t key = (w << (2 * b)) | (u << b) | along;
+    const LineView& t = tables[axis];
+    uint32_t lo = 0, hi = leafCount; // lower_bound
+    while (lo < hi) {
+      const uint32_t mid = (lo + hi) >> 1;
+      if (t.key[mid] < key) lo = mid + 1; else hi = mid;
+    }
+    if (lo < leafCount && (t.key[lo] >> b) == (key >> b)) votes += t.entry[t.leaf[lo]];
+  }
+  if (2 * votes > axes) words[j] = makeElement(ElementState::Full, 0);
+}
+
+template <int L, int AXIS>
+void launchCrossingsAxis(const LeafArgs& a, uint32_t taskBound, uint32_t* parity, uint32_t* words, uint32_t* masks,
+                         cudaStream_t s) {
+  const unsigned blocks = blocksFor(taskBound, kCrossWarps), threads = 32 * kCrossWarps;
+  if (words)
+    leafCrossingsKernel<L, AXIS, true><<<blocks, threads, 0, s>>>(a, parity, words, masks);
+  else
+    leafCrossingsKernel<L, AXIS, false><<<blocks, threads, 0, s>>>(a, parity, nullptr, nullptr);
+  HDT_CUDA_CHECK_LAUNCH("leafCrossingsKernel");
+}
+
+template <int L>
+void launchCrossings(const LeafArgs& a, uint32_t bound, int axes, uint32_t* const parity[3], uint32_t* words,
+                     uint32_t* const masks[3], cudaStream_t s) {
+  launchCrossingsAxis<L, 0>(a, bound, parity[0], words, nullptr, s);
+  if (axes == 3) {
+    launchCrossingsAxis<L, 1>(a, bound, parity[1], words, masks[1], s);
+    launchCrossingsAxis<L, 2>(a, bound, parity[2], words, masks[2], s);
+  }
+}
+
+template <int L>
+void launchInside(uint32_t leafCount, int axes, const uint32_t* const e[3], const uint32_t* const masks[3],
+                  uint32_t* words, cudaStream_t s) {
+  if (axes == 1) {
+    const uint64_t n = uint64_t(leafCount) * leafWordCount(L);
+    leafInsideClosedKernel<L><<<blocksFor(n, 256), 256, 0, s>>>(n, e[0], words);
+  } else {
+    leafInsideOpenKernel<L><<<blocksFor(leafCount, kOpenWarps), 32 * kOpenWarps, 0, s>>>(leafCount, e[0], e[1], e[2],
+                                                                                        masks[1], masks[2], words);
+  }
+  HDT_CUDA_CHECK_LAUNCH("leafInsideKernel");
+}
+
+template <int L>
+void launchSuffix(uint32_t n, const uint64_t* keys, const uint32_t* leafOf, int b, uint32_t* parity, uint8_t* entry,
+                  cudaStream_t s) {
+  const unsigned block = 128;
+  lineSuffixKernel<L><<<blocksFor(uint64_t(blocksFor(n, 32)) * 32, block), block, 0, s>>>(n, keys, leafOf, b, parity,
+                                                                                          entry);
+  HDT_CUDA_CHECK_LAUNCH("lineSuffixKernel");
+}
+
+} // namespace
+
+void leafCrossings(DeviceMemory& mem, const DeviceMesh& mesh, const GridSpec& grid, const Leaves& leaves, int axes,
+                   uint32_t* const parity[3], uint32_t* words, uint32_t* const masks[3]) {
+  if (leaves.count == 0) return;
+  // Split leaves merge with XOR: their parity and masks start from zero
+  // (plane 0 of the words is zero since T3).
+  const int L = grid.leafSize;
+  for (int a = 0; a < axes; ++a) {
+    if (parity[a]) zeroSplitLeaves(mem, leaves, parity[a], uint32_t(rowWordsFor(L)));
+    if (words && a > 0) zeroSplitLeaves(mem, leaves, masks[a], uint32_t(L * L));
+  }
+  const LeafArgs a = leafArgs(mesh, leaves);
+  const uint32_t bound = leaves.taskBound;
+  switch (L) {
+  case 8: launchCrossings<8>(a, bound, axes, parity, words, masks, mem.stream()); break;
+  case 16: launchCrossings<16>(a, bound, axes, parity, words, masks, mem.stream()); break;
+  default: launchCrossings<32>(a, bound, axes, parity, words, masks, mem.stream()); break;
+  }
+}
+
+LineTable lineParity(DeviceMemory& mem, const GridSpec& grid, const Leaves& leaves, int axis, uint32_t* parity) {
+  const cudaStream_t s = mem.stream();
+  const uint32_t n = leaves.count;
+  const int b = lineFieldBits(grid);
+  LineTable t;
+  t.key = DeviceBuffer<uint64_t>(mem, n);
+  t.leaf = DeviceBuffer<uint32_t>(mem, n);
+  t.entry = DeviceBuffer<uint8_t>(mem, n);
+  if (n == 0) return t;
+  lineKeysKernel<<<blocksFor(n, 256), 256, 0, s>>>(n, leaves.coord.data(), axis, b, t.key.data(), t.leaf.data());
+  HDT_CUDA_CHECK_LAUNCH("lineKeysKernel");
+  sortPairs(mem, t.key, t.leaf, n, 3 * b);
+  switch (grid.leafSize) {
+  case 8: launchSuffix<8>(n, t.key.data(), t.leaf.data(), b, parity, t.entry.data(), s); break;
+  case 16: launchSuffix<16>(n, t.key.data(), t.leaf.data(), b, parity, t.entry.data(), s); break;
+  default: launchSuffix<32>(n, t.key.data(), t.leaf.data(), b, parity, t.entry.data(), s); break;
+  }
+  return t;
+}
+
+void writeLeafInside(DeviceMemory& mem, const GridSpec& grid, const Leaves& leaves, int axes,
+                     const uint32_t* const exitParity[3], const uint32_t* const masks[3], uint32_t* words) {
+  if (leaves.count == 0) return;
+  switch (grid.leafSize) {
+  case 8: launchInside<8>(leaves.count, axes, exitParity, masks, words, mem.stream()); break;
+  case 16: launchInside<16>(leaves.count, axes, exitParity, masks, words, mem.stream()); break;
+  default: launchInside<32>(leaves.count, axes, exitParity, masks, words, mem.stream()); break;
+  }
+}
+
+void classifyUniform(DeviceMemory& mem, const GridSpec& grid, int level, Level& lv, int axes,
+                     const LineTable* const tables[3], uint32_t leafCount) {
+  if (lv.count == 0) return;
+  const uint64_t leavesPerElement = uint64_t(grid.elementVoxels(level)) / uint64_t(grid.leafSize);
+  const uint64_t leavesPerAxis = uint64_t(grid.resolution / grid.leafSize);
+  LineView v[3] = {};
+  for (int a = 0; a < axes; ++a) v[a] = LineView{tables[a]->key.data(), tables[a]->leaf.data(), tables[a]->entry.data()};
+  uniformKernel<<<blocksFor(lv.count, 256), 256, 0, mem.stream()>>>(lv.count, lv.words.data(), lv.coords.data(),
+                                                                   leavesPerElement, leavesPerAxis,
+                                                                   lineFieldBits(grid), axes, v[0], v[1], v[2],
+                                                                   leafCount);
+  HDT_CUDA_CHECK_LAUNCH("uniformKernel");
+}
+
+} // namespace cuda
+} // namespace hdt

@@ -1,0 +1,148 @@
+// buildCuda: sets up the device session, uploads the triangles, runs T1 and
+// decides from its counts whether the build fits in one piece (the fast
+// path: everything stays on the device until the final copy) or must be
+// built in chunks of root cells (chunked.cpp).
+#include "chunked.hpp"
+#include "pipeline.hpp"
+#include "session.hpp"
+
+#include "hdt/cuda_build.hpp"
+#include "hdt/error.hpp"
+
+#include <sys/resource.h>
+
+#include <chrono>
+#include <string>
+
+namespace hdt {
+namespace cuda {
+cudaError_t probeKernelImage(); // probe.cu
+} // namespace cuda
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+uint64_t peakResidentBytes() {
+  struct rusage usage {};
+  if (getrusage(RUSAGE_SELF, &usage) != 0) return 0;
+  return uint64_t(usage.ru_maxrss) * 1024; // Linux: kilobytes
+}
+
+uint64_t mib(uint64_t bytes) { return (bytes + (uint64_t(1) << 20) - 1) >> 20; }
+
+Volume build(const PreparedMesh& mesh, const BuildOptions& options, CudaBuildReport& report, bool keepResult) {
+  using namespace cuda;
+  const auto wall0 = Clock::now();
+  const GridSpec& g = mesh.grid;
+  if (mesh.triangles.empty()) throw Error(ErrorKind::BadInput, "the mesh has no triangles");
+  const uint64_t cells = uint64_t(g.rootGrid) * g.rootGrid * g.rootGrid;
+  if (cells > kMaxElementPayload) { // the CPU driver's limit, before allocating the root grid
+    throw Error(ErrorKind::OutOfResources, "the tree would exceed 2^30 elements at level 1; lower the resolution");
+  }
+
+  Session s(mesh, options);
+  report.device = s.device;
+  report.deviceName = s.deviceName;
+  report.budgetBytes = s.memory.budget();
+  s.progress(0.0, "mapping");
+
+  s.clock.start();
+  const uint32_t triangleCount = uint32_t(mesh.triangles.size());
+  try {
+    s.triangles = DeviceBuffer<LatticeTriangle>(s.memory, triangleCount);
+  } catch (const DeviceMemoryExhausted& e) {
+    throw Error(ErrorKind::OutOfResources, "the mesh needs " + std::to_string(mib(e.neededBytes())) +
+                                               " MiB of device memory for its triangles, " +
+                                               std::to_string(mib(s.memory.budget())) + " MiB available");
+  }
+  HDT_CUDA_CHECK(cudaMemcpyAsync(s.triangles.data(), mesh.triangles.data(), s.triangles.bytes(),
+                                 cudaMemcpyHostToDevice, s.stream.get()));
+  s.clock.mark(kUpload);
+  s.deviceMesh = DeviceMesh{s.triangles.data(), triangleCount};
+
+  Volume v;
+  bool whole = false;
+  try {
+    RootMapping root = mapTrianglesToRootCells(s.memory, s.scalars, s.deviceMesh, g, 0, cells, true);
+    report.estimatedBytes = fixedBytes(mesh) + estimateBytes(mesh, root.area, root.pairs.count, cells);
+    if (report.estimatedBytes <= s.memory.budget()) {
+      v = buildWhole(s, std::move(root), keepResult);
+      whole = true;
+    }
+  } catch (const DeviceMemoryExhausted&) {
+    // Did not fit after all: everything it held is released; chunk it.
+  }
+  if (!whole) {
+    s.sync();
+    s.clock.collect(s.ms);
+    try {
+      v = buildChunked(s, report);
+      if (options.log) {
+        options.log("CUDA driver: built the root grid in " + std::to_string(report.chunks) +
+                    " chunks (device memory budget " + std::to_string(mib(s.memory.budget())) +
+                    " MiB, one-piece estimate " + std::to_string(mib(report.estimatedBytes)) + " MiB)");
+      }
+    } catch (const DeviceMemoryExhausted& e) { // the whole-mesh parts (T1) do not fit
+      throw Error(ErrorKind::OutOfResources,
+                  "resolution " + std::to_string(g.resolution) + " needs at least " +
+                      std::to_string(mib(e.neededBytes() ? e.neededBytes() : s.memory.live())) +
+                      " MiB of device memory, " + std::to_string(mib(s.memory.budget())) + " MiB available");
+    }
+  }
+
+  const auto host0 = Clock::now();
+  if (keepResult || !whole) computeStructureStatistics(v);
+  Statistics& st = v.stats;
+  st.triangles = mesh.triangles.size();
+  st.degenerateTriangles = mesh.degenerateTriangles;
+  st.time.mapping = s.ms[kMapping];
+  st.time.branching = s.ms[kBranching];
+  st.time.leaf = s.ms[kLeaf];
+  st.time.classify = s.ms[kClassify];
+  st.time.total = st.time.mapping + st.time.branching + st.time.leaf + st.time.classify;
+  st.backend = "cuda";
+  st.threads = 0;
+  st.peakDeviceBytes = s.memory.peak();
+  st.peakHostBytes = peakResidentBytes();
+  report.uploadMs = s.ms[kUpload];
+  report.downloadMs = s.ms[kDownload];
+  s.progress(1.0, "done");
+  report.hostMs = std::chrono::duration<double, std::milli>(Clock::now() - host0).count();
+  report.wallMs = std::chrono::duration<double, std::milli>(Clock::now() - wall0).count();
+  return v;
+}
+
+} // namespace
+
+bool cudaAvailable(std::string* why) {
+  int count = 0;
+  cudaError_t e = cudaGetDeviceCount(&count);
+  if (e == cudaSuccess && count == 0) e = cudaErrorNoDevice;
+  if (e == cudaSuccess) e = cuda::probeKernelImage(); // kernels built for this GPU?
+  if (e != cudaSuccess) {
+    cudaGetLastError();
+    if (why) *why = std::string("no usable CUDA device: ") + cudaGetErrorString(e);
+    return false;
+  }
+  return true;
+}
+
+Volume buildCudaWithReport(const PreparedMesh& mesh, const BuildOptions& options, CudaBuildReport* report,
+                           bool keepResult) {
+  CudaBuildReport local;
+  try {
+    Volume v = build(mesh, options, report ? *report : local, keepResult);
+    return v;
+  } catch (const cuda::DeviceMemoryExhausted& e) { // never escapes: say what was missing
+    throw Error(ErrorKind::OutOfResources, "out of device memory (needed at least " +
+                                               std::to_string(mib(e.neededBytes())) + " MiB, " +
+                                               std::to_string(mib(e.availableBytes())) + " MiB available)");
+  }
+}
+
+Volume buildCuda(const PreparedMesh& mesh, const BuildOptions& options) {
+  return buildCudaWithReport(mesh, options, nullptr, true);
+}
+
+} // namespace hdt

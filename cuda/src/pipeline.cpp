@@ -1,0 +1,201 @@
+#include "pipeline.hpp"
+
+#include "hdt/error.hpp"
+
+#include <string>
+
+namespace hdt {
+namespace cuda {
+namespace {
+
+int axesFor(const PreparedMesh& mesh) { return mesh.closed ? 1 : 3; }
+
+template <class T>
+void download(Session& s, T* host, const DeviceBuffer<T>& d, size_t count) {
+  if (count) HDT_CUDA_CHECK(cudaMemcpyAsync(host, d.data(), count * sizeof(T), cudaMemcpyDeviceToHost, s.stream.get()));
+}
+
+template <class T>
+void upload(Session& s, DeviceBuffer<T>& d, const T* host, size_t count) {
+  if (count) HDT_CUDA_CHECK(cudaMemcpyAsync(d.data(), host, count * sizeof(T), cudaMemcpyHostToDevice, s.stream.get()));
+}
+
+std::function<void(int)> branchingProgress(Session& s) {
+  return [&s](int level) { s.progress(0.1 + 0.3 * double(level + 1) / double(s.grid.height + 1), "branching"); };
+}
+
+// Buffers of pass 1 that pass 2 reads: per-axis masks for open meshes.
+struct AxisMasks {
+  DeviceBuffer<uint32_t> buffer[3];
+  uint32_t* ptr[3] = {nullptr, nullptr, nullptr};
+  AxisMasks(Session& s, uint32_t leaves, int axes) {
+    const size_t perLeaf = size_t(s.grid.leafSize) * s.grid.leafSize;
+    for (int a = 1; a < axes; ++a) {
+      buffer[a] = DeviceBuffer<uint32_t>(s.memory, leaves * perLeaf);
+      ptr[a] = buffer[a].data();
+    }
+  }
+};
+
+// Pass 1, lines, pass 2 and the uniform elements, all on the device.
+void classifyWhole(Session& s, Tree& tree, uint32_t* words) {
+  const int axes = axesFor(s.mesh);
+  const size_t rowWords = size_t(rowWordsFor(s.grid.leafSize));
+  DeviceBuffer<uint32_t> parity[3];
+  uint32_t* p[3] = {nullptr, nullptr, nullptr};
+  for (int a = 0; a < axes; ++a) {
+    parity[a] = DeviceBuffer<uint32_t>(s.memory, tree.leaves.count * rowWords);
+    p[a] = parity[a].data();
+  }
+  AxisMasks masks(s, tree.leaves.count, axes);
+  leafCrossings(s.memory, s.deviceMesh, s.grid, tree.leaves, axes, p, words, masks.ptr);
+  LineTable tables[3];
+  for (int a = 0; a < axes; ++a) {
+    tables[a] = lineParity(s.memory, s.grid, tree.leaves, a, p[a]);
+    s.progress(0.7 + 0.1 * double(a + 1) / axes, "classification");
+  }
+  const uint32_t* exitParity[3] = {p[0], p[1], p[2]};
+  const uint32_t* m[3] = {masks.ptr[0], masks.ptr[1], masks.ptr[2]};
+  writeLeafInside(s.memory, s.grid, tree.leaves, axes, exitParity, m, words);
+  const LineTable* t[3] = {&tables[0], &tables[1], &tables[2]};
+  for (size_t level = 0; level < tree.levels.size(); ++level)
+    classifyUniform(s.memory, s.grid, int(level), tree.levels[level], axes, t, tree.leaves.count);
+}
+
+} // namespace
+
+Volume buildWhole(Session& s, RootMapping root, bool keepResult) {
+  const GridSpec& g = s.grid;
+  const uint64_t cells = uint64_t(g.rootGrid) * g.rootGrid * g.rootGrid;
+  s.clock.mark(kMapping);
+  s.progress(0.1, "branching");
+  Tree tree = buildTree(s.memory, s.scalars, s.deviceMesh, g, 0, cells, std::move(root.pairs), true,
+                        branchingProgress(s));
+  s.clock.mark(kBranching);
+
+  s.progress(0.4, "leaf processing");
+  const size_t wordCount = size_t(tree.leaves.count) * leafWordCount(g.leafSize);
+  DeviceBuffer<uint32_t> words(s.memory, wordCount);
+  writeLeafSurfaces(s.memory, s.deviceMesh, g, tree.leaves, words.data());
+  s.clock.mark(kLeaf);
+
+  s.progress(0.7, "classification");
+  if (!s.mesh.surfaceOnly) classifyWhole(s, tree, words.data());
+  s.clock.mark(kClassify);
+
+  Volume v;
+  v.grid = g;
+  v.surfaceOnly = s.mesh.surfaceOnly;
+  v.closedMesh = s.mesh.closed;
+  if (!keepResult) {
+    s.sync();
+    s.clock.collect(s.ms);
+    return v;
+  }
+  uint64_t total = 0;
+  for (const Level& lv : tree.levels) {
+    v.levelStart.push_back(total);
+    total += lv.count;
+  }
+  v.levelStart.push_back(total);
+  v.elements.resize(total);
+  for (size_t k = 0; k < tree.levels.size(); ++k)
+    download(s, v.elements.data() + v.levelStart[k], tree.levels[k].words, tree.levels[k].count);
+  v.leafWords.resize(wordCount);
+  download(s, v.leafWords.data(), words, wordCount);
+  s.clock.mark(kDownload);
+  s.sync();
+  s.clock.collect(s.ms);
+  return v;
+}
+
+ChunkTree buildChunkTree(Session& s, uint64_t firstCell, uint64_t endCell) {
+  const GridSpec& g = s.grid;
+  s.clock.start();
+  RootMapping root = mapTrianglesToRootCells(s.memory, s.scalars, s.deviceMesh, g, firstCell, endCell, false);
+  s.clock.mark(kMapping);
+  Tree tree = buildTree(s.memory, s.scalars, s.deviceMesh, g, firstCell, endCell, std::move(root.pairs), false, {});
+  s.clock.mark(kBranching);
+
+  ChunkTree out;
+  const uint32_t leaves = tree.leaves.count;
+  const size_t wordCount = size_t(leaves) * leafWordCount(g.leafSize);
+  if (s.mesh.surfaceOnly) {
+    DeviceBuffer<uint32_t> words(s.memory, wordCount);
+    writeLeafSurfaces(s.memory, s.deviceMesh, g, tree.leaves, words.data());
+    s.clock.mark(kLeaf);
+    out.leafWords.resize(wordCount);
+    download(s, out.leafWords.data(), words, wordCount);
+  } else {
+    // Phase B allocates the leaf grids and the open-mesh masks for real.
+    const int axesB = axesFor(s.mesh);
+    Reservation room(s.memory, (wordCount + size_t(axesB - 1) * leaves * g.leafSize * g.leafSize) * sizeof(uint32_t));
+    const int axes = axesFor(s.mesh);
+    const size_t rowWords = size_t(rowWordsFor(g.leafSize));
+    DeviceBuffer<uint32_t> parity[3];
+    uint32_t* p[3] = {nullptr, nullptr, nullptr};
+    for (int a = 0; a < axes; ++a) {
+      parity[a] = DeviceBuffer<uint32_t>(s.memory, leaves * rowWords);
+      p[a] = parity[a].data();
+    }
+    uint32_t* const noMasks[3] = {nullptr, nullptr, nullptr};
+    leafCrossings(s.memory, s.deviceMesh, g, tree.leaves, axes, p, nullptr, noMasks);
+    s.clock.mark(kClassify);
+    for (int a = 0; a < axes; ++a) {
+      out.parity[a].resize(leaves * rowWords);
+      download(s, out.parity[a].data(), parity[a], leaves * rowWords);
+    }
+    out.leafCoord.resize(leaves);
+    download(s, out.leafCoord.data(), tree.leaves.coord, leaves);
+  }
+  out.levelWords.resize(tree.levels.size());
+  for (size_t k = 0; k < tree.levels.size(); ++k) {
+    out.levelWords[k].resize(tree.levels[k].count);
+    download(s, out.levelWords[k].data(), tree.levels[k].words, tree.levels[k].count);
+  }
+  s.clock.mark(kDownload);
+  s.sync();
+  s.clock.collect(s.ms);
+  return out;
+}
+
+void buildChunkLeaves(Session& s, uint64_t firstCell, uint64_t endCell, uint32_t leafCount,
+                      const uint32_t* const exitParity[3], uint32_t* leafWords) {
+  const GridSpec& g = s.grid;
+  s.clock.start();
+  RootMapping root = mapTrianglesToRootCells(s.memory, s.scalars, s.deviceMesh, g, firstCell, endCell, false);
+  s.clock.mark(kMapping);
+  Tree tree = buildTree(s.memory, s.scalars, s.deviceMesh, g, firstCell, endCell, std::move(root.pairs), false, {});
+  s.clock.mark(kBranching);
+  if (tree.leaves.count != leafCount) {
+    throw Error(ErrorKind::OutOfResources, "CUDA driver: chunk rebuilt with " + std::to_string(tree.leaves.count) +
+                                               " leaves instead of " + std::to_string(leafCount));
+  }
+  const size_t wordCount = size_t(leafCount) * leafWordCount(g.leafSize);
+  DeviceBuffer<uint32_t> words(s.memory, wordCount);
+  writeLeafSurfaces(s.memory, s.deviceMesh, g, tree.leaves, words.data());
+  s.clock.mark(kLeaf);
+
+  const int axes = axesFor(s.mesh);
+  const size_t rowWords = size_t(rowWordsFor(g.leafSize));
+  DeviceBuffer<uint32_t> exitBuf[3];
+  for (int a = 0; a < axes; ++a) {
+    exitBuf[a] = DeviceBuffer<uint32_t>(s.memory, leafCount * rowWords);
+    upload(s, exitBuf[a], exitParity[a], leafCount * rowWords);
+  }
+  s.clock.mark(kUpload);
+  AxisMasks masks(s, leafCount, axes);
+  uint32_t* const noParity[3] = {nullptr, nullptr, nullptr};
+  leafCrossings(s.memory, s.deviceMesh, g, tree.leaves, axes, noParity, words.data(), masks.ptr);
+  const uint32_t* e[3] = {exitBuf[0].data(), exitBuf[1].data(), exitBuf[2].data()};
+  const uint32_t* m[3] = {masks.ptr[0], masks.ptr[1], masks.ptr[2]};
+  writeLeafInside(s.memory, g, tree.leaves, axes, e, m, words.data());
+  s.clock.mark(kClassify);
+  download(s, leafWords, words, wordCount);
+  s.clock.mark(kDownload);
+  s.sync();
+  s.clock.collect(s.ms);
+}
+
+} // namespace cuda
+} // namespace hdt

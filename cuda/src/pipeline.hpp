@@ -1,0 +1,41 @@
+// The device pipeline, put together: the whole grid in one piece, or one
+// chunk of root cells at a time (chunked.cpp joins the chunks).
+#pragma once
+
+#include "phases.hpp"
+#include "session.hpp"
+
+#include "hdt/volume.hpp"
+
+#include <cstdint>
+#include <vector>
+
+namespace hdt {
+namespace cuda {
+
+// T2..classification and the download for the whole grid, continuing from
+// the root pairs of T1. Throws DeviceMemoryExhausted when it does not fit.
+// keepResult = false skips the copy back (timing runs).
+Volume buildWhole(Session& s, RootMapping root, bool keepResult);
+
+// Phase A of a chunk [firstCell, endCell): its tree (chunk-local payloads),
+// leaf coordinates and, for solid builds, the pass-1 row parity of its leaves
+// (with room for its leaf grids reserved, so that phase B will fit); for
+// surface-only builds, its finished leaf grids instead.
+struct ChunkTree {
+  std::vector<std::vector<ElementWord>> levelWords; // per level
+  std::vector<uint64_t> leafCoord;
+  std::vector<uint32_t> parity[3];                  // leaves * rowWords per axis
+  std::vector<uint32_t> leafWords;                  // surface-only
+};
+ChunkTree buildChunkTree(Session& s, uint64_t firstCell, uint64_t endCell);
+
+// Phase B of a chunk (solid builds): rebuilds its tree on the device (cheaper
+// than moving it), writes its leaf grids with the exit parity the host joined
+// over all chunks (exitParity[a]: the chunk's leaves * rowWords), and copies
+// them to `leafWords`.
+void buildChunkLeaves(Session& s, uint64_t firstCell, uint64_t endCell, uint32_t leafCount,
+                      const uint32_t* const exitParity[3], uint32_t* leafWords);
+
+} // namespace cuda
+} // namespace hdt

@@ -1,0 +1,120 @@
+#!/usr/bin/env bash
+# Command-line tests of hdt-voxelize, one ctest case per function below.
+#   cli_cases.sh CASE /path/to/hdt-voxelize WORKDIR
+# Each case runs the tool, then checks the exit code, what it printed and what
+# it wrote. A failed check prints what was expected and what came out.
+set -euo pipefail
+
+case_name=$1
+tool=$2
+work=$3
+rm -rf "$work"
+mkdir -p "$work"
+
+fail() {
+  echo "FAIL: $*" >&2
+  echo "--- stdout:" >&2
+  cat "$work/stdout" >&2 || true
+  echo "--- stderr:" >&2
+  cat "$work/stderr" >&2 || true
+  exit 1
+}
+
+# run EXPECTED_EXIT ARGS...: runs the tool with stdout and stderr in files.
+run() {
+  local expected=$1
+  shift
+  local status=0
+  "$tool" "$@" >"$work/stdout" 2>"$work/stderr" || status=$?
+  [[ $status == "$expected" ]] || fail "hdt-voxelize $* exited $status, expected $expected"
+}
+
+stderr_has() { grep -qF -- "$1" "$work/stderr" || fail "stderr lacks '$1'"; }
+stdout_has() { grep -qF -- "$1" "$work/stdout" || fail "stdout lacks '$1'"; }
+
+# The JSON keys hdt-voxelize promises first, in this order (README.md).
+required_keys='mesh triangles resolution root_grid leaf_size height origin voxel_size
+  tree_elements leaf_grids leaf_voxels active_voxels inside_voxels paper_bits_per_active_voxel
+  topology_bytes leaf_bytes backend threads time_ms peak_host_bytes degenerate_triangles
+  closed_mesh peak_device_bytes'
+
+case_help() {
+  run 0 --help
+  stdout_has "usage: hdt-voxelize MESH"
+  stdout_has "--resolution"
+  [[ ! -s $work/stderr ]] || fail "--help wrote to stderr"
+}
+
+case_bad_flag() {
+  run 2 builtin:sphere --frobnicate
+  stderr_has "unknown option '--frobnicate'"
+}
+
+case_bad_number() {
+  run 2 builtin:sphere --resolution 12x
+  stderr_has "--resolution expects an integer, got '12x'"
+  run 2 builtin:sphere --threads
+  stderr_has "--threads expects a value"
+}
+
+case_invalid_resolution() {
+  # R = 16, L = 16: valid resolutions are 256, 512, 1024, ...
+  run 2 builtin:sphere --resolution 1000
+  stderr_has "resolution 1000"
+  stderr_has "nearest valid: 512 or 1024"
+}
+
+case_unknown_builtin() {
+  run 2 builtin:bunny --resolution 256
+  stderr_has "unknown built-in mesh 'bunny' (available: sphere, torus, knot)"
+}
+
+case_missing_file() {
+  run 3 "$work/no-such-mesh.stl" --resolution 256
+  stderr_has "$work/no-such-mesh.stl: cannot open"
+}
+
+case_corrupt_file() {
+  # 100 bytes: more than a binary STL header, but not 84 + 50 n.
+  head -c 100 /dev/zero | tr '\0' 'x' >"$work/broken.stl"
+  run 3 "$work/broken.stl" --resolution 256
+  stderr_has "$work/broken.stl: truncated or corrupt binary STL"
+}
+
+case_json() {
+  run 0 builtin:sphere --resolution 128 --root-grid 8 --json
+  python3 -c 'import json, sys; json.load(sys.stdin)' <"$work/stdout" || fail "stdout is not JSON"
+  python3 - "$work/stdout" $required_keys <<'EOF' || fail "JSON keys"
+import json, sys
+with open(sys.argv[1]) as f:
+    doc = json.load(f)
+required = sys.argv[2:]
+keys = list(doc)
+assert keys[: len(required)] == required, f"keys {keys[:len(required)]} != {required}"
+assert list(doc["time_ms"]) == ["mapping", "branching", "leaf", "classify", "total"], doc["time_ms"]
+assert len(doc["origin"]) == 3
+assert doc["mesh"] == "builtin:sphere" and doc["resolution"] == 128 and doc["root_grid"] == 8
+assert doc["triangles"] == 20480 and doc["closed_mesh"] is True
+assert doc["active_voxels"] > 0 and doc["inside_voxels"] > 0
+EOF
+  [[ $(wc -l <"$work/stdout") == 1 ]] || fail "--json printed more than one line"
+}
+
+case_output() {
+  run 0 builtin:torus --resolution 256 --quiet -o "$work/torus.hdt" --dense "$work/torus.nrrd"
+  [[ -s $work/torus.hdt ]] || fail "-o wrote no file"
+  [[ $(head -c 3 "$work/torus.hdt") == HDT ]] || fail "torus.hdt does not start with the HDT magic"
+  [[ $(head -n 1 "$work/torus.nrrd") == NRRD0004 ]] || fail "torus.nrrd is not NRRD"
+  grep -q '^sizes: 256 256 256$' "$work/torus.nrrd" || fail "torus.nrrd has the wrong sizes"
+  [[ ! -s $work/stderr ]] || fail "--quiet still wrote to stderr"
+  stdout_has "wrote"
+}
+
+case_dense_too_large() {
+  run 2 builtin:sphere --resolution 2048 --dense "$work/big.nrrd"
+  stderr_has "limited to N <= 1024"
+  [[ ! -e $work/big.nrrd ]] || fail "wrote a file anyway"
+}
+
+"case_${case_name//-/_}"
+echo "ok: $case_name"

@@ -1,0 +1,153 @@
+// The CUDA driver's own behaviour: repeated runs give the same bytes, builds
+// split into chunks by a small device memory budget give the same bytes as
+// one-piece builds, a budget too small for one root cell is refused with
+// OutOfResources, aborting through progress works and leaves the driver
+// usable, a bad device ordinal is an InvalidArgument.
+#include "cuda_compare.hpp"
+
+#include "hdt/builder.hpp"
+#include "hdt/error.hpp"
+#include "hdt/mesh.hpp"
+#include "support/shapes.hpp"
+
+#include <gtest/gtest.h>
+
+#include <string>
+#include <vector>
+
+namespace hdt {
+namespace test {
+namespace {
+
+PreparedMesh prepared(const std::string& shape, int n, int r, int l, bool surfaceOnly) {
+  const Shape s = makeShape(shape, n);
+  return prepareMesh(s.mesh, s.config(n, r, l, surfaceOnly));
+}
+
+TEST(CudaDriver, RepeatedRunsGiveTheSameBytes) {
+  HDT_REQUIRE_CUDA();
+  for (const char* name : {"two_bodies", "open_hemisphere"}) {
+    const PreparedMesh mesh = prepared(name, 512, 16, 16, false);
+    const Volume first = build(mesh, cudaOptions());
+    for (int run = 0; run < 3; ++run) {
+      const Volume again = build(mesh, cudaOptions());
+      EXPECT_EQ(again.elements, first.elements) << name << " run " << run;
+      EXPECT_EQ(again.leafWords, first.leafWords) << name << " run " << run;
+      EXPECT_EQ(again.levelStart, first.levelStart) << name << " run " << run;
+    }
+  }
+}
+
+struct ChunkCase {
+  const char* shape;
+  int n, r, l;
+  bool surfaceOnly;
+};
+
+class CudaChunked : public ::testing::TestWithParam<ChunkCase> {};
+
+// A third of the one-piece peak forces chunks; every chunk still fits since
+// no root cell holds a third of the surface.
+TEST_P(CudaChunked, SameBytesAsOnePiece) {
+  HDT_REQUIRE_CUDA();
+  const ChunkCase c = GetParam();
+  const PreparedMesh mesh = prepared(c.shape, c.n, c.r, c.l, c.surfaceOnly);
+  const Volume whole = build(mesh, cudaOptions());
+  const Volume cpu = build(mesh, cpuOptions());
+  ASSERT_TRUE(sameVolume(whole, cpu));
+
+  BuildOptions o = cudaOptions();
+  o.deviceMemoryBudget = whole.stats.peakDeviceBytes / 3;
+  std::vector<std::string> log;
+  o.log = [&](const std::string& m) { log.push_back(m); };
+  const Volume chunked = build(mesh, o);
+  EXPECT_TRUE(sameVolume(chunked, cpu));
+  EXPECT_LE(chunked.stats.peakDeviceBytes, o.deviceMemoryBudget);
+  bool saidChunks = false;
+  for (const std::string& m : log) saidChunks |= m.find("chunks") != std::string::npos;
+  EXPECT_TRUE(saidChunks) << "the budget did not make the driver chunk the root grid";
+}
+
+INSTANTIATE_TEST_SUITE_P(Cases, CudaChunked,
+                         ::testing::Values(ChunkCase{"sphere", 512, 16, 16, false},
+                                           ChunkCase{"open_hemisphere", 512, 16, 8, false},
+                                           ChunkCase{"two_bodies", 512, 8, 32, false},
+                                           ChunkCase{"torus", 256, 8, 8, true},
+                                           ChunkCase{"thin_plate_tilted", 512, 16, 16, true}),
+                         [](const ::testing::TestParamInfo<ChunkCase>& i) {
+                           return std::string(i.param.shape) + "_R" + std::to_string(i.param.r) + "_L" +
+                                  std::to_string(i.param.l) + (i.param.surfaceOnly ? "_surface" : "_solid");
+                         });
+
+TEST(CudaDriver, BudgetBelowOneRootCellIsOutOfResources) {
+  HDT_REQUIRE_CUDA();
+  // One root cell (R = 1): nothing to split.
+  const PreparedMesh mesh = prepared("sphere", 512, 1, 16, false);
+  const Volume whole = build(mesh, cudaOptions());
+  BuildOptions o = cudaOptions();
+  o.deviceMemoryBudget = whole.stats.peakDeviceBytes / 2;
+  try {
+    build(mesh, o);
+    FAIL() << "expected Error(OutOfResources)";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.kind(), ErrorKind::OutOfResources) << e.what();
+    EXPECT_NE(std::string(e.what()).find("MiB"), std::string::npos) << e.what();
+  }
+  // The device is still usable afterwards.
+  EXPECT_TRUE(sameVolume(build(mesh, cudaOptions()), whole));
+}
+
+TEST(CudaDriver, ProgressCanAbort) {
+  HDT_REQUIRE_CUDA();
+  const PreparedMesh mesh = prepared("torus", 512, 16, 16, false);
+  for (const char* stopAt : {"mapping", "branching", "leaf processing", "classification"}) {
+    BuildOptions o = cudaOptions();
+    std::vector<std::string> phases;
+    o.progress = [&](double, const char* phase) {
+      phases.push_back(phase);
+      return std::string(phase) != stopAt;
+    };
+    try {
+      build(mesh, o);
+      FAIL() << "expected Error(Aborted) at " << stopAt;
+    } catch (const Error& e) {
+      EXPECT_EQ(e.kind(), ErrorKind::Aborted) << e.what();
+    }
+  }
+  BuildOptions o = cudaOptions();
+  std::vector<double> fractions;
+  o.progress = [&](double f, const char*) {
+    fractions.push_back(f);
+    return true;
+  };
+  const Volume v = build(mesh, o);
+  ASSERT_FALSE(fractions.empty());
+  EXPECT_EQ(fractions.front(), 0.0);
+  EXPECT_EQ(fractions.back(), 1.0);
+  EXPECT_TRUE(sameVolume(v, build(mesh, cpuOptions())));
+}
+
+TEST(CudaDriver, BadDeviceIsInvalidArgument) {
+  HDT_REQUIRE_CUDA();
+  const PreparedMesh mesh = prepared("sphere", 256, 16, 16, false);
+  BuildOptions o = cudaOptions();
+  o.device = 1000;
+  try {
+    build(mesh, o);
+    FAIL() << "expected Error(InvalidArgument)";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.kind(), ErrorKind::InvalidArgument) << e.what();
+  }
+}
+
+TEST(CudaDriver, AutoPrefersTheDevice) {
+  HDT_REQUIRE_CUDA();
+  const PreparedMesh mesh = prepared("sphere", 256, 16, 16, false);
+  BuildOptions o;
+  o.backend = Backend::Auto;
+  EXPECT_EQ(build(mesh, o).stats.backend, "cuda");
+}
+
+} // namespace
+} // namespace test
+} // namespace hdt

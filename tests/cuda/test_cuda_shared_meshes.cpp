@@ -1,0 +1,102 @@
+// Optional: the CUDA driver against the CPU driver on the real meshes of
+// HDT_SHARED_MESHES_DIR (or $HDT_MESHES_DIR, which the GPU machine's script
+// sets) at 1024^3, 2048^3 and 4096^3, R = 16, L = 16, solid and surface-only.
+// Skips, saying why, when no meshes are there.
+#include "cuda_compare.hpp"
+
+#include "hdt/builder.hpp"
+#include "hdt/error.hpp"
+#include "hdt/mesh.hpp"
+#include "hdt/mesh_io.hpp"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cctype>
+#include <cstdlib>
+#include <filesystem>
+#include <map>
+#include <string>
+#include <tuple>
+#include <vector>
+
+#ifndef HDT_SHARED_MESHES_DIR
+#define HDT_SHARED_MESHES_DIR ""
+#endif
+
+namespace hdt {
+namespace test {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string meshesDir() {
+  const char* env = std::getenv("HDT_MESHES_DIR");
+  return env && *env ? env : HDT_SHARED_MESHES_DIR;
+}
+
+std::vector<std::string> meshFiles() {
+  std::vector<std::string> files;
+  std::error_code ec;
+  const fs::path dir(meshesDir());
+  if (!dir.empty() && fs::is_directory(dir, ec)) {
+    for (const fs::directory_entry& e : fs::directory_iterator(dir, ec)) {
+      std::string ext = e.path().extension().string();
+      std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+      if (e.is_regular_file() && (ext == ".stl" || ext == ".obj" || ext == ".ply"))
+        files.push_back(e.path().filename().string());
+    }
+  }
+  std::sort(files.begin(), files.end());
+  if (files.empty()) files.push_back(""); // one case, which skips with the reason
+  return files;
+}
+
+using Param = std::tuple<std::string, int, bool>;
+
+class CudaSharedMeshes : public ::testing::TestWithParam<Param> {};
+
+// Meshes are read once per file (the resolutions share them).
+const TriangleMesh& cachedMesh(const std::string& path) {
+  static std::map<std::string, TriangleMesh> cache;
+  auto it = cache.find(path);
+  if (it == cache.end()) it = cache.emplace(path, readMesh(path)).first;
+  return it->second;
+}
+
+TEST_P(CudaSharedMeshes, SameBytesAsCpu) {
+  const std::string& file = std::get<0>(GetParam());
+  if (file.empty()) GTEST_SKIP() << "no meshes in \"" << meshesDir() << "\" (HDT_MESHES_DIR / HDT_SHARED_MESHES_DIR)";
+  HDT_REQUIRE_CUDA();
+  const std::string path = meshesDir() + "/" + file;
+  TriangleMesh mesh;
+  try {
+    mesh = cachedMesh(path);
+  } catch (const Error& e) {
+    GTEST_SKIP() << "cannot read " << path << " in this build: " << e.what();
+  }
+  BuildConfig config;
+  config.resolution = std::get<1>(GetParam());
+  config.rootGrid = 16;
+  config.leafSize = 16;
+  config.surfaceOnly = std::get<2>(GetParam());
+  const PreparedMesh prepared = prepareMesh(mesh, config);
+  const Volume cpu = build(prepared, cpuOptions());
+  const Volume gpu = build(prepared, cudaOptions());
+  EXPECT_TRUE(sameVolume(gpu, cpu)) << file << " at " << config.resolution;
+}
+
+INSTANTIATE_TEST_SUITE_P(Files, CudaSharedMeshes,
+                         ::testing::Combine(::testing::ValuesIn(meshFiles()), ::testing::Values(1024, 2048, 4096),
+                                            ::testing::Bool()),
+                         [](const ::testing::TestParamInfo<Param>& info) {
+                           std::string name = std::get<0>(info.param).empty() ? "none" : std::get<0>(info.param);
+                           for (char& c : name)
+                             if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
+                           return name + "_N" + std::to_string(std::get<1>(info.param)) +
+                                  (std::get<2>(info.param) ? "_surface" : "_solid");
+                         });
+
+} // namespace
+} // namespace test
+} // namespace hdt

@@ -1,0 +1,118 @@
+// Optional: the real meshes of ../shared/meshes (scans and CAD parts made by
+// other people) against the reference at 64^3 and 128^3, with the closed or the open
+// rule as PreparedMesh::closed decides. Skips, saying why, when the folder is
+// absent; the unit tests proper never depend on it.
+#include "hdt/builder.hpp"
+#include "hdt/error.hpp"
+#include "hdt/mesh.hpp"
+#include "hdt/mesh_io.hpp"
+#include "support/reference_voxelizer.hpp"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cctype>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#ifndef HDT_SHARED_MESHES_DIR
+#define HDT_SHARED_MESHES_DIR ""
+#endif
+
+namespace hdt {
+namespace test {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::vector<std::string> sharedMeshFiles() {
+  std::vector<std::string> files;
+  std::error_code ec;
+  const fs::path dir(HDT_SHARED_MESHES_DIR);
+  if (!dir.empty() && fs::is_directory(dir, ec)) {
+    for (const fs::directory_entry& e : fs::directory_iterator(dir, ec)) {
+      std::string ext = e.path().extension().string();
+      std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+      if (e.is_regular_file() && (ext == ".stl" || ext == ".obj" || ext == ".ply"))
+        files.push_back(e.path().filename().string());
+    }
+  }
+  std::sort(files.begin(), files.end());
+  if (files.empty()) files.push_back(""); // one case that skips with the reason
+  return files;
+}
+
+struct SharedCase {
+  std::string file; // "" when there is nothing to test
+  int n, r, l;
+};
+
+std::vector<SharedCase> sharedCases() {
+  std::vector<SharedCase> out;
+  for (const std::string& f : sharedMeshFiles()) {
+    out.push_back({f, 64, 2, 8});  // height 2
+    if (!f.empty()) out.push_back({f, 128, 4, 8}); // height 2, more roots
+  }
+  return out;
+}
+
+void PrintTo(const SharedCase& c, std::ostream* os) {
+  *os << (c.file.empty() ? "(none)" : c.file) << " N=" << c.n << " R=" << c.r << " L=" << c.l;
+}
+
+class SharedMesh : public ::testing::TestWithParam<SharedCase> {};
+
+TEST_P(SharedMesh, CpuBuildMatchesReference) {
+  const SharedCase& c = GetParam();
+  if (c.file.empty())
+    GTEST_SKIP() << "no meshes in HDT_SHARED_MESHES_DIR = \"" << HDT_SHARED_MESHES_DIR
+                 << "\" (the shared folder beside the checkout is optional)";
+  const std::string path = std::string(HDT_SHARED_MESHES_DIR) + "/" + c.file;
+  const std::string ext = fs::path(path).extension().string();
+  TriangleMesh mesh;
+  try {
+    mesh = readMesh(path);
+  } catch (const Error& e) {
+    // Only a build without assimp may refuse a format; a real reader error fails.
+    if (!readsAllMeshFormats()) GTEST_SKIP() << "this build cannot read " << ext << " files: " << e.what();
+    FAIL() << e.what();
+  }
+
+  BuildConfig config;
+  config.resolution = c.n;
+  config.rootGrid = c.r;
+  config.leafSize = c.l;
+  const PreparedMesh prepared = prepareMesh(mesh, config);
+  const ReferenceVoxels ref = referenceVoxelize(prepared, false);
+  if (prepared.closed) {
+    EXPECT_EQ(ref.axisDisagreements, 0u)
+        << "closed on the lattice, so the three ray parities must agree; first: " << ref.firstDisagreement;
+  }
+  BuildOptions options;
+  options.backend = Backend::Cpu;
+  const Volume volume = buildCpu(prepared, options);
+  const TreeView view = walkVolume(volume);
+  EXPECT_TRUE(volumeMatchesReference(volume, view, ref))
+      << c.file << " N=" << c.n << " (" << prepared.triangles.size() << " triangles, "
+      << prepared.degenerateTriangles << " degenerate after snapping, " << (prepared.closed ? "closed rule" : "open rule") << ")";
+  EXPECT_EQ(volume.stats.activeVoxels, ref.surfaceCount);
+  EXPECT_EQ(volume.stats.insideVoxels, view.insideVoxels);
+  if (prepared.closed) EXPECT_EQ(volume.stats.insideVoxels, ref.insideCount);
+  RecordProperty("closed", prepared.closed ? "yes" : "no");
+  RecordProperty("surfaceVoxels", std::to_string(ref.surfaceCount));
+  RecordProperty("insideVoxels", std::to_string(ref.insideCount));
+}
+
+INSTANTIATE_TEST_SUITE_P(Files, SharedMesh, ::testing::ValuesIn(sharedCases()),
+                         [](const ::testing::TestParamInfo<SharedCase>& info) {
+                           if (info.param.file.empty()) return std::string("none");
+                           std::string name = info.param.file;
+                           for (char& ch : name)
+                             if (!std::isalnum(static_cast<unsigned char>(ch))) ch = '_';
+                           return name + "_N" + std::to_string(info.param.n);
+                         });
+
+} // namespace
+} // namespace test
+} // namespace hdt
