@@ -13,7 +13,9 @@
 #     sanitize  compute-sanitizer memcheck and racecheck on a reduced filter
 #     bench     hdt_gpu_bench over all meshes, 1K..32K, surface and solid,
 #               and the >= 1M-triangle 32768^3 run
-#     profile   ncu on one 8192^3 build
+#     profile   ncu on one 8192^3 build (profile2: a second mesh; sass: instruction mix)
+#     minibench, variant, racecheck: quicker subsets used while tuning
+# Steps read a few environment variables (BENCH_*, PROFILE_*, MINIBENCH_*, TESTS_TIMEOUT).
 #
 # Logs and results go to $OUT (the run tool brings back at most 8 files).
 # .devdeps/ holds what the bare machine lacks: googletest sources, oneTBB,
