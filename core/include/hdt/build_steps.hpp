@@ -65,6 +65,17 @@ HDT_HD int64_t floorDiv(int64_t a, int64_t b) {
   while ((q + 1) * b <= a) ++q;
   return q;
 }
+// Narrows [first, last] to the integers i with lo <= A * i + B <= hi.
+HDT_HD void narrowToLinear(int64_t lo, int64_t hi, int64_t A, int64_t B, int64_t& first, int64_t& last) {
+  if (A == 0) {
+    if (B < lo || B > hi) last = first - 1;
+    return;
+  }
+  const int64_t f = A > 0 ? ceilDiv(lo - B, A) : ceilDiv(B - hi, -A);
+  const int64_t l = A > 0 ? floorDiv(hi - B, A) : floorDiv(B - lo, -A);
+  if (f > first) first = f;
+  if (l < last) last = l;
+}
 } // namespace detail
 
 // T3: whole-row overlap queries for one triangle. For a row of unit voxels
@@ -126,17 +137,7 @@ HDT_HD void clipRow(const RowClipper& c, int64_t y, int64_t z, int64_t& first, i
   for (int k = 0; k < 12 && first <= last; ++k) {
     const int64_t B = c.ay[k] * cy + c.az[k] * cz;
     const int64_t A = c.A[k];
-    if (A == 0) {
-      if (B < c.lo[k] || B > c.hi[k]) last = first - 1;
-    } else if (A > 0) {
-      const int64_t f = detail::ceilDiv(c.lo[k] - B, A), l = detail::floorDiv(c.hi[k] - B, A);
-      if (f > first) first = f;
-      if (l < last) last = l;
-    } else {
-      const int64_t f = detail::ceilDiv(B - c.hi[k], -A), l = detail::floorDiv(B - c.lo[k], -A);
-      if (f > first) first = f;
-      if (l < last) last = l;
-    }
+    detail::narrowToLinear(c.lo[k], c.hi[k], A, B, first, last);
   }
   if (first > last) return;
   // Plane: d(i) = n.(c_i - v0) = Pa i + Pb, must satisfy |d(i)| <= r. Solve
@@ -176,17 +177,7 @@ HDT_HD void clipRowsOfSlice(const RowClipper& c, int64_t z, int64_t& first, int6
   for (int k = 0; k < 5 && first <= last; ++k) {
     const int64_t A = c.ay[k] * kLatticePerVoxel;
     const int64_t B = c.ay[k] * (kLatticePerVoxel / 2) + c.az[k] * cz;
-    if (A == 0) {
-      if (B < c.lo[k] || B > c.hi[k]) last = first - 1;
-    } else if (A > 0) {
-      const int64_t f = detail::ceilDiv(c.lo[k] - B, A), l = detail::floorDiv(c.hi[k] - B, A);
-      if (f > first) first = f;
-      if (l < last) last = l;
-    } else {
-      const int64_t f = detail::ceilDiv(B - c.hi[k], -A), l = detail::floorDiv(B - c.lo[k], -A);
-      if (f > first) first = f;
-      if (l < last) last = l;
-    }
+    detail::narrowToLinear(c.lo[k], c.hi[k], A, B, first, last);
   }
 }
 
