@@ -6,6 +6,7 @@
 #include "hdt/error.hpp"
 #include "hdt/mesh.hpp"
 #include "hdt/mesh_io.hpp"
+#include "support/mesh_files.hpp"
 #include "support/reference_voxelizer.hpp"
 
 #include <gtest/gtest.h>
@@ -26,23 +27,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-std::vector<std::string> sharedMeshFiles() {
-  std::vector<std::string> files;
-  std::error_code ec;
-  const fs::path dir(HDT_SHARED_MESHES_DIR);
-  if (!dir.empty() && fs::is_directory(dir, ec)) {
-    for (const fs::directory_entry& e : fs::directory_iterator(dir, ec)) {
-      std::string ext = e.path().extension().string();
-      std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
-      if (e.is_regular_file() && (ext == ".stl" || ext == ".obj" || ext == ".ply"))
-        files.push_back(e.path().filename().string());
-    }
-  }
-  std::sort(files.begin(), files.end());
-  if (files.empty()) files.push_back(""); // one case that skips with the reason
-  return files;
-}
-
 struct SharedCase {
   std::string file; // "" when there is nothing to test
   int n, r, l;
@@ -50,7 +34,7 @@ struct SharedCase {
 
 std::vector<SharedCase> sharedCases() {
   std::vector<SharedCase> out;
-  for (const std::string& f : sharedMeshFiles()) {
+  for (const std::string& f : meshFilesIn(HDT_SHARED_MESHES_DIR)) {
     out.push_back({f, 64, 2, 8});  // height 2
     if (!f.empty()) out.push_back({f, 128, 4, 8}); // height 2, more roots
   }

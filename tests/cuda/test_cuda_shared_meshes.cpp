@@ -3,6 +3,7 @@
 // sets) at 1024^3, 2048^3 and 4096^3, R = 16, L = 16, solid and surface-only.
 // Skips, saying why, when no meshes are there.
 #include "cuda_compare.hpp"
+#include "support/mesh_files.hpp"
 
 #include "hdt/builder.hpp"
 #include "hdt/error.hpp"
@@ -33,23 +34,6 @@ namespace fs = std::filesystem;
 std::string meshesDir() {
   const char* env = std::getenv("HDT_MESHES_DIR");
   return env && *env ? env : HDT_SHARED_MESHES_DIR;
-}
-
-std::vector<std::string> meshFiles() {
-  std::vector<std::string> files;
-  std::error_code ec;
-  const fs::path dir(meshesDir());
-  if (!dir.empty() && fs::is_directory(dir, ec)) {
-    for (const fs::directory_entry& e : fs::directory_iterator(dir, ec)) {
-      std::string ext = e.path().extension().string();
-      std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
-      if (e.is_regular_file() && (ext == ".stl" || ext == ".obj" || ext == ".ply"))
-        files.push_back(e.path().filename().string());
-    }
-  }
-  std::sort(files.begin(), files.end());
-  if (files.empty()) files.push_back(""); // one case, which skips with the reason
-  return files;
 }
 
 using Param = std::tuple<std::string, int, bool>;
@@ -87,7 +71,7 @@ TEST_P(CudaSharedMeshes, SameBytesAsCpu) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Files, CudaSharedMeshes,
-                         ::testing::Combine(::testing::ValuesIn(meshFiles()), ::testing::Values(1024, 2048, 4096),
+                         ::testing::Combine(::testing::ValuesIn(meshFilesIn(meshesDir())), ::testing::Values(1024, 2048, 4096),
                                             ::testing::Bool()),
                          [](const ::testing::TestParamInfo<Param>& info) {
                            std::string name = std::get<0>(info.param).empty() ? "none" : std::get<0>(info.param);

@@ -1,0 +1,28 @@
+#include "support/mesh_files.hpp"
+
+#include <algorithm>
+#include <cctype>
+#include <filesystem>
+
+namespace hdt {
+namespace test {
+
+std::vector<std::string> meshFilesIn(const std::string& dir) {
+  namespace fs = std::filesystem;
+  std::vector<std::string> files;
+  std::error_code ec;
+  if (!dir.empty() && fs::is_directory(dir, ec)) {
+    for (const fs::directory_entry& e : fs::directory_iterator(dir, ec)) {
+      std::string ext = e.path().extension().string();
+      std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+      if (e.is_regular_file() && (ext == ".stl" || ext == ".obj" || ext == ".ply"))
+        files.push_back(e.path().filename().string());
+    }
+  }
+  std::sort(files.begin(), files.end());
+  if (files.empty()) files.push_back("");
+  return files;
+}
+
+} // namespace test
+} // namespace hdt

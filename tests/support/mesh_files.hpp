@@ -1,0 +1,17 @@
+// The mesh files of an optional folder (the shared scans and CAD parts), for
+// suites that run over whatever is there and skip when nothing is.
+#pragma once
+
+#include <string>
+#include <vector>
+
+namespace hdt {
+namespace test {
+
+// Names (not paths) of the .stl/.obj/.ply files in `dir`, sorted. When there
+// are none (or `dir` is empty or missing) the list holds one empty name, so a
+// parameterised suite still has one case, which skips with the reason.
+std::vector<std::string> meshFilesIn(const std::string& dir);
+
+} // namespace test
+} // namespace hdt
