@@ -218,12 +218,22 @@ private:
         }
         RowClipper clipper;
         makeRowClipper(tri, clipper);
+        // The x span each row height allows (e x Z axes), shared by all slices.
+        int64_t columnFirst[32], columnLast[32];
+        for (int64_t y = first[1]; y <= last[1]; ++y) {
+          columnFirst[y - v0[1]] = first[0];
+          columnLast[y - v0[1]] = last[0];
+          clipColumnSpan(clipper, y, columnFirst[y - v0[1]], columnLast[y - v0[1]]);
+        }
         for (int64_t z = first[2]; z <= last[2]; ++z) {
           int64_t y0 = first[1], y1 = last[1];
           clipRowsOfSlice(clipper, z, y0, y1);
-          for (int64_t y = y0; y <= y1; ++y) {
-            int64_t f = first[0], l = last[0];
-            clipRow(clipper, y, z, f, l);
+          int64_t sliceFirst = first[0], sliceLast = last[0];
+          if (y0 <= y1) clipSliceSpan(clipper, z, sliceFirst, sliceLast);
+          for (int64_t y = y0; y <= y1 && sliceFirst <= sliceLast; ++y) {
+            int64_t f = std::max(sliceFirst, columnFirst[y - v0[1]]);
+            int64_t l = std::min(sliceLast, columnLast[y - v0[1]]);
+            clipRowByPlane(clipper, y, z, f, l);
             rows[(y - v0[1]) + L_ * (z - v0[2])] |= rowBits(v0[0], f, l);
           }
         }

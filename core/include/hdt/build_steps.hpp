@@ -51,28 +51,62 @@ HDT_HD bool triangleOverlapsElement(const LatticeTriangle& t, uint64_t cell, int
 }
 
 namespace detail {
-// ceil(a / b) and floor(a / b) for b > 0, through a double estimate that is
-// then corrected exactly (integer division is several times slower).
-HDT_HD int64_t ceilDiv(int64_t a, int64_t b) {
-  int64_t q = int64_t(double(a) / double(b));
+// ceil(a / b) and floor(a / b) for b > 0, from the estimate a * (1 / b) in
+// double, corrected exactly with integer products. The estimate is within one
+// of the quotient for the magnitudes here (|a| < 2^60, quotients < 2^42), so
+// each loop runs its test once or twice; only the correction decides the
+// result, so the estimate's rounding (host or device) cannot change it.
+HDT_HD int64_t ceilDiv(int64_t a, int64_t b, double invB) {
+  int64_t q = int64_t(double(a) * invB);
   while (q * b < a) ++q;
   while ((q - 1) * b >= a) --q;
   return q;
 }
-HDT_HD int64_t floorDiv(int64_t a, int64_t b) {
-  int64_t q = int64_t(double(a) / double(b));
+HDT_HD int64_t floorDiv(int64_t a, int64_t b, double invB) {
+  int64_t q = int64_t(double(a) * invB);
   while (q * b > a) --q;
   while ((q + 1) * b <= a) ++q;
   return q;
 }
-// Narrows [first, last] to the integers i with lo <= A * i + B <= hi.
-HDT_HD void narrowToLinear(int64_t lo, int64_t hi, int64_t A, int64_t B, int64_t& first, int64_t& last) {
-  if (A == 0) {
-    if (B < lo || B > hi) last = first - 1;
+
+// One separating axis as a constraint on a single integer unknown i (the
+// other coordinates folded into B by the caller):  lo <= A i + B <= hi.
+// The sign of A is folded into the bounds once, so that narrowing needs
+// |A| and its reciprocal only.
+struct LinearBound {
+  int64_t absA;  // |A|
+  int64_t lo, hi; // for A < 0 already negated and swapped: lo <= |A| i - B <= hi
+  int64_t bSign;  // +1 or -1: the sign B is taken with
+  double invA;    // 1 / |A| (0 when A == 0)
+};
+
+HDT_HD LinearBound makeLinearBound(int64_t A, int64_t lo, int64_t hi) {
+  LinearBound b;
+  if (A >= 0) {
+    b.absA = A;
+    b.lo = lo;
+    b.hi = hi;
+    b.bSign = 1;
+  } else { // lo <= A i + B <= hi  <=>  -hi <= -A i - B <= -lo
+    b.absA = -A;
+    b.lo = -hi;
+    b.hi = -lo;
+    b.bSign = -1;
+  }
+  b.invA = b.absA == 0 ? 0.0 : 1.0 / double(b.absA);
+  return b;
+}
+
+// Narrows [first, last] to the integers i that satisfy the bound for the
+// given B; first > last when none do.
+HDT_HD void narrowToBound(const LinearBound& b, int64_t B, int64_t& first, int64_t& last) {
+  const int64_t sB = b.bSign * B;
+  if (b.absA == 0) {
+    if (sB < b.lo || sB > b.hi) last = first - 1;
     return;
   }
-  const int64_t f = A > 0 ? ceilDiv(lo - B, A) : ceilDiv(B - hi, -A);
-  const int64_t l = A > 0 ? floorDiv(hi - B, A) : floorDiv(B - lo, -A);
+  const int64_t f = ceilDiv(b.lo - sB, b.absA, b.invA);
+  const int64_t l = floorDiv(b.hi - sB, b.absA, b.invA);
   if (f > first) first = f;
   if (l < last) last = l;
 }
@@ -85,100 +119,185 @@ HDT_HD void narrowToLinear(int64_t lo, int64_t hi, int64_t A, int64_t B, int64_t
 // where the voxel centre c_i = (256 i + 128, 256 y + 128, 256 z + 128) is
 // linear in i. So every axis admits an interval of i, and the voxels of the
 // row that meet the (convex) triangle are the intersection of 13 intervals:
-// no per-voxel test at all. The setup is done once per triangle.
+// no per-voxel test at all. The axes group by the coordinates they involve,
+// and each group is evaluated where it changes:
+//   box x, y, z           the triangle's voxel bounding box (cellRange)
+//   e x X (3, no x part)  per row, accept or reject: clipRowsOfSlice
+//   e x Y (3, x and z)    one x span per slice z:      clipSliceSpan
+//   e x Z (3, x and y)    one x span per row height y: clipColumnSpan
+//   the plane (x, y, z)   per row:                     clipRowByPlane
+// so a row costs one plane step, not 13 axes. The setup is done once per
+// triangle (makeRowClipper); clipRow composes all of it for one row.
 struct RowClipper {
-  // Box and edge axes (|a| < 2^25: 64 bits suffice): lo <= A i + ay cy + az cz <= hi.
-  int64_t A[12], ay[12], az[12], lo[12], hi[12];
-  // The plane axis (the normal, up to 2^51) needs 128 bits: |Pa i + Pb| <= Pr.
+  // Axes without an x component (box y, box z, e x X), as bounds on y:
+  // |ay| * 256 y  vs  B = 128 ay + az cz.
+  detail::LinearBound rowBound[5];
+  int64_t rowAy[5], rowAz[5];
+  detail::LinearBound boxX;     // box x as a bound on i (B = 0)
+  detail::LinearBound slice[3]; // e x Y: bound on i with B = az cz
+  int64_t sliceAz[3];
+  detail::LinearBound column[3]; // e x Z: bound on i with B = ay cy
+  int64_t columnAy[3];
+  // The plane axis (the normal, up to 2^51) needs 128 bits: |Pa i + Pb| <= R
+  // with Pa = 256 n_x and Pb = planeB0 + n_y cy + n_z cz. The doubles only
+  // seed the search; the 128-bit test decides.
   int64_t n[3];
   int128_t planeB0, planeR;
+  // Seed: the plane meets the row's axis at
+  //   x = planeX + planeKy (cy - planeY) + planeKz (cz - planeZ)  (voxel units),
+  // and the voxels within halfWidth of that point meet the plane.
+  double planeX, planeKy, planeKz, halfWidth;
+  int64_t planeY, planeZ;
 };
 
 HDT_HD void makeRowClipper(const LatticeTriangle& t, RowClipper& c) {
   const int64_t half = kLatticePerVoxel / 2;
-  int k = 0;
-  auto addAxis = [&](int64_t ax, int64_t ay, int64_t az) {
+  // The axis a = (ax, ay, az) as lo <= ax * 256 i + ay cy + az cz <= hi.
+  auto axisBounds = [&](int64_t ax, int64_t ay, int64_t az, int64_t& lo, int64_t& hi) {
     const int64_t p0 = ax * t.v[0][0] + ay * t.v[0][1] + az * t.v[0][2];
     const int64_t p1 = ax * t.v[1][0] + ay * t.v[1][1] + az * t.v[1][2];
     const int64_t p2 = ax * t.v[2][0] + ay * t.v[2][1] + az * t.v[2][2];
     const int64_t r = half * (detail::abs64(ax) + detail::abs64(ay) + detail::abs64(az));
-    c.A[k] = ax * kLatticePerVoxel;
-    c.ay[k] = ay;
-    c.az[k] = az;
-    c.lo[k] = detail::min3(p0, p1, p2) - r - ax * half;
-    c.hi[k] = detail::max3(p0, p1, p2) + r - ax * half;
-    ++k;
+    lo = detail::min3(p0, p1, p2) - r - ax * half;
+    hi = detail::max3(p0, p1, p2) + r - ax * half;
   };
-  // Axes without an x component first: they accept or reject a whole row
-  // without a division (the row misses the triangle's yz shadow).
   int64_t e[3][3];
   for (int j = 0; j < 3; ++j) {
     const int m = j == 2 ? 0 : j + 1;
     for (int a = 0; a < 3; ++a) e[j][a] = int64_t(t.v[m][a]) - t.v[j][a];
   }
-  addAxis(0, 1, 0);
-  addAxis(0, 0, 1);
-  for (int j = 0; j < 3; ++j) addAxis(0, -e[j][2], e[j][1]);
-  addAxis(1, 0, 0);
+  int64_t lo, hi;
+  // Row axes, as bounds on y: ay * 256 y + (128 ay + az cz) in [lo, hi].
+  auto addRowAxis = [&](int k, int64_t ay, int64_t az) {
+    axisBounds(0, ay, az, lo, hi);
+    c.rowBound[k] = detail::makeLinearBound(ay * kLatticePerVoxel, lo, hi);
+    c.rowAy[k] = ay;
+    c.rowAz[k] = az;
+  };
+  addRowAxis(0, 1, 0);
+  addRowAxis(1, 0, 1);
+  for (int j = 0; j < 3; ++j) addRowAxis(2 + j, -e[j][2], e[j][1]);
+  axisBounds(1, 0, 0, lo, hi);
+  c.boxX = detail::makeLinearBound(kLatticePerVoxel, lo, hi);
   for (int j = 0; j < 3; ++j) {
-    addAxis(e[j][2], 0, -e[j][0]);
-    addAxis(-e[j][1], e[j][0], 0);
+    axisBounds(e[j][2], 0, -e[j][0], lo, hi);
+    c.slice[j] = detail::makeLinearBound(e[j][2] * kLatticePerVoxel, lo, hi);
+    c.sliceAz[j] = -e[j][0];
+    axisBounds(-e[j][1], e[j][0], 0, lo, hi);
+    c.column[j] = detail::makeLinearBound(-e[j][1] * kLatticePerVoxel, lo, hi);
+    c.columnAy[j] = e[j][0];
   }
   triangleNormal(t, c.n);
   c.planeR = int128_t(half) * (detail::abs64(c.n[0]) + detail::abs64(c.n[1]) + detail::abs64(c.n[2]));
   c.planeB0 = int128_t(c.n[0]) * (half - t.v[0][0]) - int128_t(c.n[1]) * t.v[0][1] -
               int128_t(c.n[2]) * t.v[0][2];
-}
-
-// Narrows [first, last] (global voxel x indices) to the voxels of row (y, z)
-// that meet the triangle; first > last when none do.
-HDT_HD void clipRow(const RowClipper& c, int64_t y, int64_t z, int64_t& first, int64_t& last) {
-  const int64_t cy = latticeOfVoxelCentre(y), cz = latticeOfVoxelCentre(z);
-  for (int k = 0; k < 12 && first <= last; ++k) {
-    const int64_t B = c.ay[k] * cy + c.az[k] * cz;
-    const int64_t A = c.A[k];
-    detail::narrowToLinear(c.lo[k], c.hi[k], A, B, first, last);
-  }
-  if (first > last) return;
-  // Plane: d(i) = n.(c_i - v0) = Pa i + Pb, must satisfy |d(i)| <= r. Solve
-  // in double, then correct the ends exactly with 128-bit products.
-  const int128_t Pa = int128_t(c.n[0]) * kLatticePerVoxel;
-  const int128_t Pb = c.planeB0 + int128_t(c.n[1]) * cy + int128_t(c.n[2]) * cz;
-  auto meets = [&](int64_t i) {
-    const int128_t d = Pa * i + Pb;
-    return d >= -c.planeR && d <= c.planeR;
-  };
-  if (Pa == 0) {
-    if (!meets(first)) last = first - 1;
-    return;
-  }
-  const double centre = -double(Pb) / double(Pa);
-  const double halfWidth = double(c.planeR) / (Pa > 0 ? double(Pa) : -double(Pa));
-  const double lo = centre - halfWidth, hi = centre + halfWidth;
-  if (hi < double(first) - 2 || lo > double(last) + 2) {
-    last = first - 1;
-    return;
-  }
-  int64_t f = lo < double(first) ? first : int64_t(lo);
-  int64_t l = hi > double(last) ? last : int64_t(hi);
-  while (f > first && meets(f - 1)) --f;
-  while (f <= l && !meets(f)) ++f;
-  while (l < last && meets(l + 1)) ++l;
-  while (l >= f && !meets(l)) --l;
-  first = f;
-  last = l;
+  // n.(c_i - v0) = 0 at i = (v0x - 128) / 256 - (n_y (cy - v0y) + n_z (cz - v0z)) / (256 n_x).
+  const double Pa = double(c.n[0]) * double(kLatticePerVoxel);
+  c.planeY = t.v[0][1];
+  c.planeZ = t.v[0][2];
+  c.planeX = double(t.v[0][0] - half) / double(kLatticePerVoxel);
+  c.planeKy = c.n[0] == 0 ? 0.0 : -double(c.n[1]) / Pa;
+  c.planeKz = c.n[0] == 0 ? 0.0 : -double(c.n[2]) / Pa;
+  c.halfWidth = c.n[0] == 0 ? 0.0 : double(c.planeR) / (Pa > 0 ? Pa : -Pa);
 }
 
 // Narrows [first, last] (voxel y indices) to the rows of slice z whose yz
 // square meets the triangle's yz shadow (the five axes without an x
-// component), so that clipRow is only asked about rows that can hit.
+// component), so that the x steps are only asked about rows that can hit.
 HDT_HD void clipRowsOfSlice(const RowClipper& c, int64_t z, int64_t& first, int64_t& last) {
   const int64_t cz = latticeOfVoxelCentre(z);
-  for (int k = 0; k < 5 && first <= last; ++k) {
-    const int64_t A = c.ay[k] * kLatticePerVoxel;
-    const int64_t B = c.ay[k] * (kLatticePerVoxel / 2) + c.az[k] * cz;
-    detail::narrowToLinear(c.lo[k], c.hi[k], A, B, first, last);
+  for (int k = 0; k < 5 && first <= last; ++k)
+    detail::narrowToBound(c.rowBound[k], c.rowAy[k] * (kLatticePerVoxel / 2) + c.rowAz[k] * cz, first, last);
+}
+
+// Narrows [first, last] (voxel x indices) to the voxels that the three
+// e x Y axes allow in slice z (they do not depend on y).
+HDT_HD void clipSliceSpan(const RowClipper& c, int64_t z, int64_t& first, int64_t& last) {
+  const int64_t cz = latticeOfVoxelCentre(z);
+  for (int k = 0; k < 3 && first <= last; ++k) detail::narrowToBound(c.slice[k], c.sliceAz[k] * cz, first, last);
+}
+
+// Narrows [first, last] (voxel x indices) to the voxels that the three
+// e x Z axes allow at row height y (they do not depend on z).
+HDT_HD void clipColumnSpan(const RowClipper& c, int64_t y, int64_t& first, int64_t& last) {
+  const int64_t cy = latticeOfVoxelCentre(y);
+  for (int k = 0; k < 3 && first <= last; ++k)
+    detail::narrowToBound(c.column[k], c.columnAy[k] * cy, first, last);
+}
+
+// Narrows [first, last] (voxel x indices) to the voxels of row (y, z) whose
+// box meets the triangle's plane: |g(i)| <= R with g(i) = |Pa| i + s Pb
+// increasing (s the sign of Pa). A double estimate of the interval seeds the
+// two ends; each end is then settled exactly by stepping g by |Pa| in 128
+// bits. The walk is correct from any seed inside [first, last]; a good seed
+// only makes it short.
+HDT_HD void clipRowByPlane(const RowClipper& c, int64_t y, int64_t z, int64_t& first, int64_t& last) {
+  if (first > last) return;
+  const int64_t cy = latticeOfVoxelCentre(y), cz = latticeOfVoxelCentre(z);
+  const int128_t R = c.planeR;
+  const int128_t Pb = c.planeB0 + int128_t(c.n[1]) * cy + int128_t(c.n[2]) * cz;
+  if (c.n[0] == 0) {
+    if (Pb < -R || Pb > R) last = first - 1;
+    return;
   }
+  const int64_t step = detail::abs64(c.n[0]) * kLatticePerVoxel; // < 2^59
+  const int128_t sPb = c.n[0] > 0 ? Pb : -Pb;
+  const double centre = c.planeX + c.planeKy * double(cy - c.planeY) + c.planeKz * double(cz - c.planeZ);
+  int64_t f = first, l = last;
+  if (centre - c.halfWidth > double(first)) f = centre - c.halfWidth < double(last) ? int64_t(centre - c.halfWidth) : last;
+  if (centre + c.halfWidth < double(last)) l = centre + c.halfWidth > double(first) ? int64_t(centre + c.halfWidth) : first;
+  // f: the smallest i in [first, last] with g(i) >= -R.
+  int128_t g = int128_t(step) * f + sPb;
+  if (g >= -R) {
+    while (f > first && g - step >= -R) {
+      --f;
+      g -= step;
+    }
+  } else {
+    while (f < last && g < -R) {
+      ++f;
+      g += step;
+    }
+    if (g < -R) {
+      last = first - 1;
+      return;
+    }
+  }
+  // l: the largest i in [first, last] with g(i) <= R.
+  g = int128_t(step) * l + sPb;
+  if (g <= R) {
+    while (l < last && g + step <= R) {
+      ++l;
+      g += step;
+    }
+  } else {
+    while (l > first && g > R) {
+      --l;
+      g -= step;
+    }
+    if (g > R) {
+      last = first - 1;
+      return;
+    }
+  }
+  first = f;
+  last = l; // f > l when the plane passes between two voxel centres' slabs
+}
+
+// Narrows [first, last] (voxel x indices) to the voxels of row (y, z) that
+// meet the triangle: all 13 axes, composed from the steps above. The drivers
+// call the steps separately to share the slice and column spans among rows.
+HDT_HD void clipRow(const RowClipper& c, int64_t y, int64_t z, int64_t& first, int64_t& last) {
+  int64_t y0 = y, y1 = y;
+  clipRowsOfSlice(c, z, y0, y1);
+  if (y0 > y1) {
+    last = first - 1;
+    return;
+  }
+  detail::narrowToBound(c.boxX, 0, first, last);
+  clipSliceSpan(c, z, first, last);
+  clipColumnSpan(c, y, first, last);
+  clipRowByPlane(c, y, z, first, last);
 }
 
 // Bits [first - x0, last - x0] of a leaf row starting at voxel x0.

@@ -1,0 +1,163 @@
+// T3's row steps (build_steps.hpp) against the per-voxel separating-axis test.
+//
+// clipRow answers "which voxels of this row meet the triangle" as one
+// interval, composed from per-slice, per-height and per-row steps that the
+// drivers evaluate at different loop levels, with double estimates corrected
+// exactly. Here every voxel of a window around each triangle is tested on its
+// own with triangleOverlapsCube, and the row interval must be exactly the set
+// of voxels that overlap, for small, large and huge (lattice-limit)
+// triangles, axis-aligned ones and slivers. The split form the CPU and CUDA
+// drivers use is checked to give the same interval.
+#include "hdt/build_steps.hpp"
+#include "hdt/geometry.hpp"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cstdint>
+#include <random>
+
+namespace hdt {
+namespace test {
+namespace {
+
+constexpr int64_t kMaxLattice = int64_t(kMaxResolution) * kLatticePerVoxel - 1;
+
+int64_t floorDivExact(int64_t a, int64_t b) { return a >= 0 ? a / b : -((-a + b - 1) / b); }
+
+TEST(RowClipping, CeilAndFloorDivisionMatchIntegerDivision) {
+  std::mt19937_64 rng(7);
+  for (int i = 0; i < 200000; ++i) {
+    const int bits = int(rng() % 60) + 1;
+    int64_t a = int64_t(rng() >> (64 - bits));
+    if (rng() & 1) a = -a;
+    const int64_t b = int64_t(rng() >> (64 - int(rng() % 50) - 1)) + 1;
+    const double inv = 1.0 / double(b);
+    ASSERT_EQ(detail::floorDiv(a, b, inv), floorDivExact(a, b)) << a << " / " << b;
+    ASSERT_EQ(detail::ceilDiv(a, b, inv), -floorDivExact(-a, b)) << a << " / " << b;
+  }
+}
+
+// The voxels of row (y, z) in [x0, x1] that overlap, as [first, last]; the
+// overlap set of a convex triangle and a row is an interval, checked too.
+void referenceRow(const LatticeTriangle& t, int64_t y, int64_t z, int64_t x0, int64_t x1, int64_t& first,
+                  int64_t& last) {
+  first = x1 + 1;
+  last = x0 - 1;
+  for (int64_t x = x0; x <= x1; ++x) {
+    if (!triangleOverlapsCube(t, latticeOfVoxel(x), latticeOfVoxel(y), latticeOfVoxel(z), kLatticePerVoxel))
+      continue;
+    ASSERT_TRUE(last == x0 - 1 || last == x - 1) << "overlap set is not an interval at x=" << x;
+    if (first > x) first = x;
+    last = x;
+  }
+}
+
+// The drivers' composition: the triangle's voxel box (cellRange), the slice's
+// rows and span, the column span, the plane.
+void splitRow(const LatticeTriangle& t, const RowClipper& c, int64_t y, int64_t z, int64_t x0, int64_t x1,
+              int64_t& first, int64_t& last) {
+  int64_t lo[3], hi[3], bf[3], bl[3];
+  triangleBounds(t, lo, hi);
+  for (int a = 0; a < 3; ++a) cellRange(lo[a], hi[a], kLatticePerVoxel, kMaxResolution, bf[a], bl[a]);
+  x0 = std::max(x0, bf[0]);
+  x1 = std::min(x1, bl[0]);
+  if (y < bf[1] || y > bl[1] || z < bf[2] || z > bl[2]) x1 = x0 - 1;
+  int64_t y0 = y, y1 = y;
+  clipRowsOfSlice(c, z, y0, y1);
+  int64_t sf = x0, sl = x1, cf = x0, cl = x1;
+  clipSliceSpan(c, z, sf, sl);
+  clipColumnSpan(c, y, cf, cl);
+  first = std::max(sf, cf);
+  last = std::min(sl, cl);
+  if (y0 > y1) last = first - 1;
+  clipRowByPlane(c, y, z, first, last);
+}
+
+// Checks every row of a W^3 window whose low corner is voxel (wx, wy, wz).
+void checkWindow(const LatticeTriangle& t, int64_t wx, int64_t wy, int64_t wz, int W, int& rowsHit) {
+  RowClipper c;
+  makeRowClipper(t, c);
+  for (int64_t z = wz; z < wz + W; ++z)
+    for (int64_t y = wy; y < wy + W; ++y) {
+      int64_t rf, rl;
+      referenceRow(t, y, z, wx, wx + W - 1, rf, rl);
+      if (::testing::Test::HasFatalFailure()) return;
+      int64_t f = wx, l = wx + W - 1;
+      clipRow(c, y, z, f, l);
+      const bool refEmpty = rf > rl, gotEmpty = f > l;
+      ASSERT_EQ(refEmpty, gotEmpty) << "row y=" << y << " z=" << z << " ref [" << rf << ", " << rl << "] got [" << f
+                                    << ", " << l << "]";
+      if (!refEmpty) {
+        ASSERT_EQ(rf, f) << "row y=" << y << " z=" << z;
+        ASSERT_EQ(rl, l) << "row y=" << y << " z=" << z;
+        ++rowsHit;
+      }
+      int64_t sf, sl;
+      splitRow(t, c, y, z, wx, wx + W - 1, sf, sl);
+      ASSERT_EQ(refEmpty, sf > sl) << "split form, row y=" << y << " z=" << z;
+      if (!refEmpty) {
+        ASSERT_EQ(rf, sf) << "split form, row y=" << y << " z=" << z;
+        ASSERT_EQ(rl, sl) << "split form, row y=" << y << " z=" << z;
+      }
+    }
+}
+
+// A window of W voxels around a random point of the triangle.
+void checkAroundTriangle(const LatticeTriangle& t, std::mt19937_64& rng, int W, int& rowsHit) {
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  double a = u(rng), b = u(rng);
+  if (a + b > 1) {
+    a = 1 - a;
+    b = 1 - b;
+  }
+  int64_t corner[3];
+  for (int k = 0; k < 3; ++k) {
+    const double p = t.v[0][k] + a * (t.v[1][k] - t.v[0][k]) + b * (t.v[2][k] - t.v[0][k]);
+    corner[k] = std::clamp<int64_t>(int64_t(p) / kLatticePerVoxel - W / 2, 0, kMaxResolution - W);
+  }
+  checkWindow(t, corner[0], corner[1], corner[2], W, rowsHit);
+}
+
+int32_t coord(std::mt19937_64& rng, int64_t centre, int64_t spread, int snapBits) {
+  const int64_t off = int64_t(rng() % uint64_t(2 * spread + 1)) - spread;
+  int64_t v = std::clamp<int64_t>(centre + off, 0, kMaxLattice);
+  if (snapBits > 0) v &= ~((int64_t(1) << snapBits) - 1); // on voxel planes (8) or half-voxels (7)
+  return int32_t(v);
+}
+
+class RowClippingScale : public ::testing::TestWithParam<int64_t> {};
+
+TEST_P(RowClippingScale, RowIntervalsEqualPerVoxelOverlap) {
+  const int64_t spread = GetParam(); // lattice units: triangle size
+  std::mt19937_64 rng(uint64_t(spread) * 31 + 1);
+  int rowsHit = 0;
+  for (int i = 0; i < 60; ++i) {
+    const int snap = i % 4 == 0 ? 8 : (i % 4 == 1 ? 7 : 0); // faces and vertices on voxel planes / centres
+    const int64_t centre = int64_t(rng() % uint64_t(kMaxLattice - 2 * spread)) + spread;
+    LatticeTriangle t;
+    for (int v = 0; v < 3; ++v)
+      for (int k = 0; k < 3; ++k) t.v[v][k] = coord(rng, centre, spread, snap);
+    if (i % 5 == 2) // axis-aligned: one coordinate shared
+      t.v[1][i % 3] = t.v[2][i % 3] = t.v[0][i % 3];
+    if (i % 7 == 3) // sliver: third vertex near the first edge
+      for (int k = 0; k < 3; ++k) t.v[2][k] = int32_t((int64_t(t.v[0][k]) + t.v[1][k]) / 2 + int64_t(rng() % 3) - 1);
+    checkAroundTriangle(t, rng, 20, rowsHit);
+    if (HasFatalFailure()) {
+      ADD_FAILURE() << "triangle (" << t.v[0][0] << "," << t.v[0][1] << "," << t.v[0][2] << ") (" << t.v[1][0] << ","
+                    << t.v[1][1] << "," << t.v[1][2] << ") (" << t.v[2][0] << "," << t.v[2][1] << "," << t.v[2][2]
+                    << ")";
+      return;
+    }
+  }
+  EXPECT_GT(rowsHit, 60); // the windows did meet the triangles
+}
+
+// Triangle sizes from a fraction of a voxel to the whole 65536^3 lattice.
+INSTANTIATE_TEST_SUITE_P(Sizes, RowClippingScale,
+                         ::testing::Values(int64_t(100), int64_t(1000), int64_t(20000), int64_t(1) << 20,
+                                           int64_t(1) << 23, kMaxLattice / 2 - 1));
+
+} // namespace
+} // namespace test
+} // namespace hdt
