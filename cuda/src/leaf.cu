@@ -7,17 +7,19 @@
 // loops exactly (build_steps.hpp; same calls, same narrowing):
 //   1. one lane per pair: the triangle's voxel ranges in the leaf and its
 //      RowClipper (makeRowClipper), kept in shared memory for the batch;
-//   2. one lane per (pair, z slice): clipRowsOfSlice, the rows of the slice
-//      that can meet the triangle;
-//   3. one lane per (pair, row): clipRow + rowBits, ORed into the row mask
-//      with a shared-memory atomic (OR commutes: scheduling cannot show).
-// Flattening to rows keeps all 32 lanes busy with the expensive step (each
-// clipRow is ~14 exact divisions) however unevenly the triangles cover the
-// leaf; with the clipper in shared memory, a lane holds no clipper in
-// registers, which is what limited occupancy. Finally the warp writes every
-// word of the leaf exactly once, coalesced: no global atomics, no
-// read-modify-write, no zero fill beforehand (the parts of a split leaf OR
-// their words into zeroed ones instead).
+//   2. one lane per (pair, k): for slice z = k, clipRowsOfSlice (the rows
+//      that can meet the triangle) and clipSliceSpan (the slice's x span);
+//      for row height y = k, clipColumnSpan (the height's x span);
+//   3. one lane per (pair, row): the two spans intersected, clipRowByPlane,
+//      rowBits, ORed into the row mask with a shared-memory atomic (OR
+//      commutes: scheduling cannot show).
+// Flattening to rows keeps all 32 lanes busy however unevenly the triangles
+// cover the leaf, and a row costs only its plane step: the twelve other axes
+// were settled per slice and per height in step 2. With the clipper in shared
+// memory, a lane holds no clipper in registers, which is what limited
+// occupancy. Finally the warp writes every word of the leaf exactly once,
+// coalesced: no global atomics, no read-modify-write, no zero fill beforehand
+// (the parts of a split leaf OR their words into zeroed ones instead).
 #include "device_common.cuh"
 #include "phases.hpp"
 
@@ -75,6 +77,8 @@ struct SurfaceWarp {
   int32_t x0[kBatch], x1[kBatch], y0[kBatch], y1[kBatch], z0[kBatch], nz[kBatch]; // leaf-relative
   int8_t sliceY0[kBatch][L];  // shadow rows of each slice, leaf-relative
   uint8_t sliceRows[kBatch][L];
+  int8_t sliceX0[kBatch][L], sliceX1[kBatch][L];   // x span of each slice (e x Y axes)
+  int8_t columnX0[kBatch][L], columnX1[kBatch][L]; // x span of each row height (e x Z axes)
   uint32_t rows[L * L];
 };
 
@@ -110,12 +114,28 @@ __global__ void __launch_bounds__(32 * kWarpsPerBlock, HDT_CUDA_T3_MIN_BLOCKS) l
     }
     __syncwarp();
     warpForEachPairItem(
-        0, nb, [&](uint32_t j) { return sh.nz[j]; },
-        [&](uint32_t j, int s) {
-          int64_t ya = v0[1] + sh.y0[j], yb = v0[1] + sh.y1[j];
-          clipRowsOfSlice(sh.clip[j], v0[2] + sh.z0[j] + s, ya, yb);
-          sh.sliceY0[j][s] = int8_t(ya <= yb ? ya - v0[1] : 0);
-          sh.sliceRows[j][s] = uint8_t(ya <= yb ? yb - ya + 1 : 0);
+        0, nb, [&](uint32_t j) { return max(sh.nz[j], sh.y1[j] - sh.y0[j] + 1); },
+        [&](uint32_t j, int k) {
+          const int64_t x0 = v0[0] + sh.x0[j], x1 = v0[0] + sh.x1[j];
+          if (k < sh.nz[j]) {
+            const int64_t z = v0[2] + sh.z0[j] + k;
+            int64_t ya = v0[1] + sh.y0[j], yb = v0[1] + sh.y1[j];
+            clipRowsOfSlice(sh.clip[j], z, ya, yb);
+            int64_t f = x0, l = x1;
+            if (ya <= yb) clipSliceSpan(sh.clip[j], z, f, l);
+            const bool rows = ya <= yb && f <= l;
+            sh.sliceY0[j][k] = int8_t(rows ? ya - v0[1] : 0);
+            sh.sliceRows[j][k] = uint8_t(rows ? yb - ya + 1 : 0);
+            sh.sliceX0[j][k] = int8_t(rows ? f - v0[0] : 1); // within the leaf when rows
+            sh.sliceX1[j][k] = int8_t(rows ? l - v0[0] : 0);
+          }
+          if (k <= sh.y1[j] - sh.y0[j]) {
+            const int dy = sh.y0[j] + k;
+            int64_t f = x0, l = x1;
+            clipColumnSpan(sh.clip[j], v0[1] + dy, f, l);
+            sh.columnX0[j][dy] = int8_t(f > l ? 1 : f - v0[0]); // empty kept as 1 > 0
+            sh.columnX1[j][dy] = int8_t(f > l ? 0 : l - v0[0]);
+          }
         });
     __syncwarp();
     warpForEachPairItem(
@@ -123,11 +143,13 @@ __global__ void __launch_bounds__(32 * kWarpsPerBlock, HDT_CUDA_T3_MIN_BLOCKS) l
         [&](uint32_t e) { return int(e % L) < sh.nz[e / L] ? int(sh.sliceRows[e / L][e % L]) : 0; },
         [&](uint32_t e, int r) {
           const uint32_t j = e / L, s = e % L;
-          const int64_t y = v0[1] + sh.sliceY0[j][s] + r, z = v0[2] + sh.z0[j] + s;
-          int64_t f = v0[0] + sh.x0[j], l = v0[0] + sh.x1[j];
-          clipRow(sh.clip[j], y, z, f, l);
+          const int dy = sh.sliceY0[j][s] + r;
+          const int64_t y = v0[1] + dy, z = v0[2] + sh.z0[j] + s;
+          int64_t f = v0[0] + max(sh.sliceX0[j][s], sh.columnX0[j][dy]);
+          int64_t l = v0[0] + min(sh.sliceX1[j][s], sh.columnX1[j][dy]);
+          clipRowByPlane(sh.clip[j], y, z, f, l);
           const uint32_t bits = rowBits(v0[0], f, l);
-          if (bits) atomicOr(&sh.rows[(y - v0[1]) + L * (z - v0[2])], bits);
+          if (bits) atomicOr(&sh.rows[dy + L * (z - v0[2])], bits);
         });
   }
   __syncwarp();
