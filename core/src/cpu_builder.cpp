@@ -253,7 +253,8 @@ private:
   //   lines   per line of leaves along the axis, a suffix XOR gives the parity
   //           of everything beyond each leaf (the regions between leaves hold
   //           no triangle, so they add nothing);
-  //   pass 2  per leaf voxel: crossings ahead of it in its leaf + beyond.
+  //   pass 2  per leaf voxel: crossings ahead of it in its leaf (kept by
+  //           pass 1 for x, enumerated again for y and z) + beyond.
   // Closed meshes need one axis (all agree); open ones take the majority of 3.
   struct AxisParity {
     std::vector<uint32_t> exit;     // per leaf, rowWords_: parity beyond the leaf
@@ -272,21 +273,39 @@ private:
       triangleBounds(tri, lo, hi);
       centreRange(lo[U], hi[U], v0[U], L_, u0, u1);
       centreRange(lo[W], hi[W], v0[W], L_, w0, w1);
-      for (int64_t w = w0; w <= w1; ++w)
-        for (int64_t u = u0; u <= u1; ++u) {
+      for (int64_t w = w0; w <= w1; ++w) {
+        int64_t uf = u0, ul = u1;
+        raySpanAtW(tri, axis, w, uf, ul);
+        for (int64_t u = uf; u <= ul; ++u) {
           int before;
-          if (rowCrossing(tri, axis, u, w, v0[axis], L_, before)) fn(int((u - v0[U]) + L_ * (w - v0[W])), before);
+          if (crossingInLeaf(tri, axis, u, w, v0[axis], L_, before)) fn(int((u - v0[U]) + L_ * (w - v0[W])), before);
         }
+      }
     }
   }
 
-  AxisParity axisParity(int axis, const std::vector<Pair>& leafPairs) const {
+  // Pass 1 for one axis. Along x (axis 0) it also keeps, per leaf row, the
+  // XOR of the "voxels before the crossing" masks in plane 0 of the leaf
+  // words (still zero after T3), so that pass 2 needs no geometry there.
+  AxisParity axisParity(int axis, const std::vector<Pair>& leafPairs) {
     const size_t leaves = leafCoords_.size();
+    const uint32_t wordsPerLeaf = leafWordCount(L_);
     AxisParity ap;
     std::vector<uint32_t> inside(leaves * rowWords_, 0u);
     tbb::parallel_for(size_t(0), leaves, [&](size_t leaf) {
       uint32_t* bits = inside.data() + leaf * rowWords_;
-      forEachCrossing(leaf, leafPairs, axis, [&](int row, int) { bits[row >> 5] ^= 1u << (row & 31); });
+      if (axis != 0) {
+        forEachCrossing(leaf, leafPairs, axis, [&](int row, int) { bits[row >> 5] ^= 1u << (row & 31); });
+        return;
+      }
+      uint32_t masks[32 * 32] = {};
+      forEachCrossing(leaf, leafPairs, axis, [&](int row, int before) {
+        bits[row >> 5] ^= 1u << (row & 31);
+        masks[row] ^= beforeMask(before);
+      });
+      uint32_t* words = leafWords_.data() + leaf * wordsPerLeaf;
+      for (int r = 0; r < L_ * L_; ++r)
+        if (masks[r]) orRowIntoLeaf(words, L_, r, masks[r], 0);
     });
     const int U = rayAxisU(axis), W = rayAxisW(axis);
     ap.line.resize(leaves);
@@ -324,15 +343,46 @@ private:
     return ap.entry[size_t(it->leaf) * rowWords_] & 1u;
   }
 
+  static uint32_t beforeMask(int before) { return before >= 32 ? 0xFFFFFFFFu : ((1u << before) - 1u); }
+
   // Per row (u, w) of a leaf along `axis`: bit i = the ray from voxel i's
-  // centre crosses the surface an odd number of times.
+  // centre crosses the surface an odd number of times. Along x the in-leaf
+  // part was kept by pass 1 in plane 0; the other axes enumerate again.
   void insideRows(size_t leaf, const std::vector<Pair>& leafPairs, const AxisParity& ap, int axis,
                   uint32_t* rows) const {
     for (int r = 0; r < L_ * L_; ++r)
       rows[r] = (ap.exit[leaf * rowWords_ + (r >> 5)] >> (r & 31)) & 1u ? fullRowMask(L_) : 0u;
-    forEachCrossing(leaf, leafPairs, axis, [&](int row, int before) {
-      rows[row] ^= before >= 32 ? 0xFFFFFFFFu : ((1u << before) - 1u);
-    });
+    if (axis == 0) {
+      const uint32_t* words = leafWords_.data() + leaf * leafWordCount(L_);
+      for (int r = 0; r < L_ * L_; ++r) rows[r] ^= rowFromLeaf(words, L_, r, 0);
+      return;
+    }
+    forEachCrossing(leaf, leafPairs, axis, [&](int row, int before) { rows[row] ^= beforeMask(before); });
+  }
+
+  // Closed meshes, pass 2 without unpacking rows: plane 0 holds the in-leaf
+  // masks (pass 1), already in the words' 2-bit layout; inside = that XOR the
+  // row's exit parity, then minus the surface voxels (plane 1). A word holds
+  // 16 voxels: one row (L = 16), half a row (L = 32) or two rows (L = 8).
+  void insideClosed(size_t leaf, const AxisParity& ap, uint32_t* words) const {
+    const uint32_t* exitBits = ap.exit.data() + leaf * rowWords_;
+    auto exitOf = [&](uint32_t row) { return (exitBits[row >> 5] >> (row & 31)) & 1u; };
+    for (uint32_t i = 0; i < leafWordCount(L_); ++i) {
+      uint32_t exitSpread;
+      if (L_ == 8)
+        exitSpread = (exitOf(2 * i) ? 0x00005555u : 0u) | (exitOf(2 * i + 1) ? 0x55550000u : 0u);
+      else
+        exitSpread = exitOf(L_ == 16 ? i : i / 2) ? 0x55555555u : 0u;
+      const uint32_t old = words[i];
+      const uint32_t inside = (exitSpread ^ (old & 0x55555555u)) & ~(old >> 1) & 0x55555555u;
+      words[i] = (old & 0xAAAAAAAAu) | inside;
+    }
+  }
+
+  // Plane 0 of a leaf := inside rows minus the surface voxels (plane 1).
+  void writeInside(uint32_t* words, const uint32_t* rows) const {
+    for (uint32_t i = 0; i < leafWordCount(L_); ++i) words[i] &= 0xAAAAAAAAu; // drop pass 1's masks
+    for (int r = 0; r < L_ * L_; ++r) orRowIntoLeaf(words, L_, r, rows[r] & ~rowFromLeaf(words, L_, r, 1), 0);
   }
 
   void classify(const std::vector<Pair>& leafPairs) {
@@ -346,9 +396,8 @@ private:
     tbb::parallel_for(size_t(0), leafCoords_.size(), [&](size_t leaf) {
       uint32_t* words = leafWords_.data() + leaf * wordsPerLeaf;
       uint32_t rows[32 * 32];
-      if (axes == 1) { // closed: the +x parity rows are the leaf's own x rows
-        insideRows(leaf, leafPairs, parity[0], 0, rows);
-        for (int r = 0; r < L_ * L_; ++r) orRowIntoLeaf(words, L_, r, rows[r] & ~rowFromLeaf(words, L_, r, 1), 0);
+      if (axes == 1) { // closed: the +x rows are the leaf's own rows, word by word
+        insideClosed(leaf, parity[0], words);
         return;
       }
       // Open: votes[v] counts the axes that say leaf voxel v is inside.
@@ -367,8 +416,9 @@ private:
       for (int r = 0; r < L_ * L_; ++r) {
         uint32_t m = 0;
         for (int i = 0; i < L_; ++i) m |= uint32_t(votes[r * L_ + i] >= 2) << i;
-        orRowIntoLeaf(words, L_, r, m & ~rowFromLeaf(words, L_, r, 1), 0);
+        rows[r] = m;
       }
+      writeInside(words, rows);
     });
     tbb::parallel_for(size_t(0), uniform_.size(), [&](size_t i) {
       int votes = 0;

@@ -308,21 +308,78 @@ HDT_HD uint32_t rowBits(int64_t x0, int64_t first, int64_t last) {
   return upto & ~((1u << f) - 1u);
 }
 
-// Classification: the row of voxel centres along `axis` at voxel coordinates
-// (u, w) of the two other axes, inside a leaf whose extent along `axis` starts
-// at voxel a0 and has L voxels. If the triangle is crossed inside the leaf's
-// half-open extent, returns true and sets `before` to the number of the row's
-// voxel centres strictly before the crossing (each of them sees one more
-// crossing ahead of it).
-HDT_HD bool rowCrossing(const LatticeTriangle& t, int axis, int64_t u, int64_t w, int64_t a0, int L,
-                        int& before) {
-  const int64_t pu = latticeOfVoxelCentre(u), pw = latticeOfVoxelCentre(w);
-  if (!rayHitsTriangle(t, axis, pu, pw)) return false;
-  const Crossing c = rayCrossing(t, axis, pu, pw);
+// Classification: the rays along `axis` through the voxel centres of the
+// line at voxel coordinate w (along rayAxisW) that pass through the triangle,
+// as voxel coordinates u (along rayAxisU): narrows [first, last], exactly the
+// u for which rayHitsTriangle is true. For fixed w each edge's perturbed
+// orientation is a linear function of u, so each edge admits a half-line of
+// u and the hits are their intersection: three exact divisions per line
+// instead of three orientations per ray. A ray hits when all three signs
+// equal the projected triangle's orientation (the three orientations sum to
+// it, so the other sign class is empty, and a triangle whose projection has
+// no area is never hit).
+HDT_HD void raySpanAtW(const LatticeTriangle& t, int axis, int64_t w, int64_t& first, int64_t& last) {
+  const int U = rayAxisU(axis), W = rayAxisW(axis);
+  const int64_t area = (int64_t(t.v[1][U]) - t.v[0][U]) * (int64_t(t.v[2][W]) - t.v[0][W]) -
+                       (int64_t(t.v[1][W]) - t.v[0][W]) * (int64_t(t.v[2][U]) - t.v[0][U]);
+  if (area == 0) {
+    last = first - 1;
+    return;
+  }
+  const bool positive = area > 0;
+  const int64_t pw = latticeOfVoxelCentre(w), half = kLatticePerVoxel / 2;
+  for (int j = 0; j < 3 && first <= last; ++j) {
+    const int k = j == 2 ? 0 : j + 1;
+    const int64_t au = t.v[j][U], aw = t.v[j][W];
+    const int64_t du = t.v[k][U] - au, dw = t.v[k][W] - aw;
+    // orientPerturbed(a, b, p) with pu = 256 u + 128: o(u) = A u + B; on a
+    // tie (o = 0) its sign is that of -dw, or of du when dw = 0.
+    const int64_t A = -dw * kLatticePerVoxel;
+    const int64_t B = du * (pw - aw) - dw * (half - au);
+    if (A == 0) {
+      const int sign = B != 0 ? (B > 0 ? 1 : -1) : (du > 0 ? 1 : (du < 0 ? -1 : 0));
+      if (sign != (positive ? 1 : -1)) last = first - 1;
+      continue;
+    }
+    const int64_t absA = A > 0 ? A : -A;
+    const double inv = 1.0 / double(absA);
+    if (A > 0) {
+      if (positive) { // o >= 0 (ties count as +): u >= ceil(-B / A)
+        const int64_t f = detail::ceilDiv(-B, absA, inv);
+        if (f > first) first = f;
+      } else { // o <= -1: u <= floor((-1 - B) / A)
+        const int64_t l = detail::floorDiv(-1 - B, absA, inv);
+        if (l < last) last = l;
+      }
+    } else {
+      if (positive) { // o >= 1: |A| u <= B - 1
+        const int64_t l = detail::floorDiv(B - 1, absA, inv);
+        if (l < last) last = l;
+      } else { // o <= 0 (ties count as -): |A| u >= B
+        const int64_t f = detail::ceilDiv(B, absA, inv);
+        if (f > first) first = f;
+      }
+    }
+  }
+}
+
+// For a ray that hits the triangle (raySpanAtW, rayHitsTriangle): if the
+// crossing lies inside the leaf's half-open extent [a0, a0 + L) along `axis`,
+// returns true and sets `before` to the number of the row's voxel centres
+// strictly before it (each of them sees one more crossing ahead of it).
+HDT_HD bool crossingInLeaf(const LatticeTriangle& t, int axis, int64_t u, int64_t w, int64_t a0, int L, int& before) {
+  const Crossing c = rayCrossing(t, axis, latticeOfVoxelCentre(u), latticeOfVoxelCentre(w));
   const int64_t lo = latticeOfVoxel(a0);
   if (!crossingWithin(c, lo, lo + int64_t(L) * kLatticePerVoxel)) return false;
   before = pointsBeforeCrossing(c, latticeOfVoxelCentre(a0), kLatticePerVoxel, L);
   return true;
+}
+
+// Both steps for one ray: the row of voxel centres along `axis` at (u, w).
+HDT_HD bool rowCrossing(const LatticeTriangle& t, int axis, int64_t u, int64_t w, int64_t a0, int L,
+                        int& before) {
+  if (!rayHitsTriangle(t, axis, latticeOfVoxelCentre(u), latticeOfVoxelCentre(w))) return false;
+  return crossingInLeaf(t, axis, u, w, a0, L, before);
 }
 
 // Voxel rows [first, last] along one axis whose centre lies in the closed

@@ -139,13 +139,20 @@ HDT_HD bool crossingWithin(const Crossing& c, int64_t lo, int64_t hi) {
 }
 
 // How many of the points first, first + step, ..., first + (count - 1) * step
-// lie strictly before the crossing.
+// lie strictly before the crossing: ceil(m / (step den)) clamped to [0, count]
+// with m = num - first den. A double estimate of the quotient is corrected
+// with exact 128-bit products (no 128-bit division: a slow software routine
+// on GPUs); count is small (a leaf's width), so the correction is short.
 HDT_HD int pointsBeforeCrossing(const Crossing& c, int64_t first, int64_t step, int count) {
   const int128_t m = c.num - int128_t(first) * c.den; // > 0 iff first is before
   if (m <= 0) return 0;
   const int128_t per = int128_t(step) * c.den;
-  const int128_t k = (m - 1) / per + 1;
-  return k >= count ? count : static_cast<int>(k);
+  if (m > per * count) return count;
+  const double q = double(m) / double(per);
+  int k = q < 1.0 ? 1 : (q > double(count) ? count : int(q));
+  while (k > 1 && per * (k - 1) >= m) --k;
+  while (per * k < m) ++k;
+  return k;
 }
 
 } // namespace hdt

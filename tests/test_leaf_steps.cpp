@@ -1,4 +1,6 @@
-// T3's row steps (build_steps.hpp) against the per-voxel separating-axis test.
+// The leaf steps of build_steps.hpp against per-voxel and per-ray tests:
+// T3's row clipping against triangleOverlapsCube, classification's ray spans
+// against rayHitsTriangle and its crossing counts against a brute count.
 //
 // clipRow answers "which voxels of this row meet the triangle" as one
 // interval, composed from per-slice, per-height and per-row steps that the
@@ -25,7 +27,7 @@ constexpr int64_t kMaxLattice = int64_t(kMaxResolution) * kLatticePerVoxel - 1;
 
 int64_t floorDivExact(int64_t a, int64_t b) { return a >= 0 ? a / b : -((-a + b - 1) / b); }
 
-TEST(RowClipping, CeilAndFloorDivisionMatchIntegerDivision) {
+TEST(LeafSteps, CeilAndFloorDivisionMatchIntegerDivision) {
   std::mt19937_64 rng(7);
   for (int i = 0; i < 200000; ++i) {
     const int bits = int(rng() % 60) + 1;
@@ -157,6 +159,55 @@ TEST_P(RowClippingScale, RowIntervalsEqualPerVoxelOverlap) {
 INSTANTIATE_TEST_SUITE_P(Sizes, RowClippingScale,
                          ::testing::Values(int64_t(100), int64_t(1000), int64_t(20000), int64_t(1) << 20,
                                            int64_t(1) << 23, kMaxLattice / 2 - 1));
+
+// raySpanAtW must pick exactly the rays rayHitsTriangle accepts, including
+// rays through vertices and along edges (vertices on voxel centres), and
+// pointsBeforeCrossing must count exactly.
+class RaySpanScale : public ::testing::TestWithParam<int64_t> {};
+
+TEST_P(RaySpanScale, SpanEqualsPerRayHitTest) {
+  const int64_t spread = GetParam();
+  std::mt19937_64 rng(uint64_t(spread) * 17 + 3);
+  int hits = 0;
+  for (int i = 0; i < 200; ++i) {
+    const int snap = i % 3 == 0 ? 7 : (i % 3 == 1 ? 8 : 0);
+    const int64_t centre = int64_t(rng() % uint64_t(kMaxLattice - 2 * spread)) + spread;
+    LatticeTriangle t;
+    for (int v = 0; v < 3; ++v)
+      for (int k = 0; k < 3; ++k) t.v[v][k] = coord(rng, centre, spread, snap);
+    if (i % 5 == 2) t.v[1][i % 3] = t.v[2][i % 3] = t.v[0][i % 3]; // axis-aligned plane
+    if (i % 11 == 4) { t.v[2][0] = t.v[1][0]; t.v[2][1] = t.v[1][1]; } // an edge along z
+    for (int axis = 0; axis < 3; ++axis) {
+      const int U = rayAxisU(axis), W = rayAxisW(axis);
+      int64_t lo[3], hi[3];
+      triangleBounds(t, lo, hi);
+      const int64_t u0 = std::max<int64_t>(0, lo[U] / kLatticePerVoxel - 2), w0 = std::max<int64_t>(0, lo[W] / kLatticePerVoxel - 2);
+      const int64_t u1 = std::min<int64_t>(u0 + 40, hi[U] / kLatticePerVoxel + 2), w1 = std::min<int64_t>(w0 + 40, hi[W] / kLatticePerVoxel + 2);
+      for (int64_t w = w0; w <= w1; ++w) {
+        int64_t f = u0, l = u1;
+        raySpanAtW(t, axis, w, f, l);
+        for (int64_t u = u0; u <= u1; ++u) {
+          const bool expect = rayHitsTriangle(t, axis, latticeOfVoxelCentre(u), latticeOfVoxelCentre(w));
+          ASSERT_EQ(expect, u >= f && u <= l) << "axis " << axis << " u=" << u << " w=" << w << " span [" << f << ", "
+                                              << l << "] triangle " << i;
+          if (!expect) continue;
+          ++hits;
+          const Crossing c = rayCrossing(t, axis, latticeOfVoxelCentre(u), latticeOfVoxelCentre(w));
+          const int64_t a0 = std::max<int64_t>(0, lo[axis] / kLatticePerVoxel - 3);
+          for (int L : {8, 16, 32}) {
+            int count = 0; // brute force: centres strictly before the crossing
+            while (count < L && int128_t(latticeOfVoxelCentre(a0 + count)) * c.den < c.num) ++count;
+            ASSERT_EQ(count, pointsBeforeCrossing(c, latticeOfVoxelCentre(a0), kLatticePerVoxel, L));
+          }
+        }
+      }
+    }
+  }
+  EXPECT_GT(hits, 100);
+}
+
+INSTANTIATE_TEST_SUITE_P(Sizes, RaySpanScale,
+                         ::testing::Values(int64_t(300), int64_t(3000), int64_t(1) << 20, kMaxLattice / 2 - 1));
 
 } // namespace
 } // namespace test
