@@ -208,22 +208,27 @@ private:
       leafOrigin(leaf, v0);
       uint32_t rows[32 * 32] = {};
       for (uint64_t p = leafPairStart_[leaf]; p < leafPairStart_[leaf + 1]; ++p) {
-        const LatticeTriangle& tri = mesh_.triangles[pairTriangle(leafPairs[p])];
-        int64_t lo[3], hi[3], first[3], last[3];
+        // Rows along the triangle's own row axis (rowAxisFor), in the frame
+        // where that axis is "x"; the bits land in the leaf's x rows.
+        const LatticeTriangle& original = mesh_.triangles[pairTriangle(leafPairs[p])];
+        const int axis = rowAxisFor(original);
+        const LatticeTriangle tri = permuteToRowAxis(original, axis);
+        int64_t lo[3], hi[3], first[3], last[3], o[3];
         triangleBounds(tri, lo, hi);
         for (int a = 0; a < 3; ++a) {
+          o[a] = v0[(axis + a) % 3];
           cellRange(lo[a], hi[a], kLatticePerVoxel, g_.resolution, first[a], last[a]);
-          first[a] = std::max(first[a], v0[a]);
-          last[a] = std::min(last[a], v0[a] + L_ - 1);
+          first[a] = std::max(first[a], o[a]);
+          last[a] = std::min(last[a], o[a] + L_ - 1);
         }
         RowClipper clipper;
         makeRowClipper(tri, clipper);
         // The x span each row height allows (e x Z axes), shared by all slices.
         int64_t columnFirst[32], columnLast[32];
         for (int64_t y = first[1]; y <= last[1]; ++y) {
-          columnFirst[y - v0[1]] = first[0];
-          columnLast[y - v0[1]] = last[0];
-          clipColumnSpan(clipper, y, columnFirst[y - v0[1]], columnLast[y - v0[1]]);
+          columnFirst[y - o[1]] = first[0];
+          columnLast[y - o[1]] = last[0];
+          clipColumnSpan(clipper, y, columnFirst[y - o[1]], columnLast[y - o[1]]);
         }
         for (int64_t z = first[2]; z <= last[2]; ++z) {
           int64_t y0 = first[1], y1 = last[1];
@@ -231,10 +236,11 @@ private:
           int64_t sliceFirst = first[0], sliceLast = last[0];
           if (y0 <= y1) clipSliceSpan(clipper, z, sliceFirst, sliceLast);
           for (int64_t y = y0; y <= y1 && sliceFirst <= sliceLast; ++y) {
-            int64_t f = std::max(sliceFirst, columnFirst[y - v0[1]]);
-            int64_t l = std::min(sliceLast, columnLast[y - v0[1]]);
+            int64_t f = std::max(sliceFirst, columnFirst[y - o[1]]);
+            int64_t l = std::min(sliceLast, columnLast[y - o[1]]);
             clipRowByPlane(clipper, y, z, f, l);
-            rows[(y - v0[1]) + L_ * (z - v0[2])] |= rowBits(v0[0], f, l);
+            forEachXRowOf(axis, L_, int(y - o[1]), int(z - o[2]), rowBits(o[0], f, l),
+                          [&](int row, uint32_t bits) { rows[row] |= bits; });
           }
         }
       }

@@ -1,11 +1,11 @@
 // Classification: inside/outside by ray parity, the CPU driver's method on
 // the GPU (see cpu_builder.cpp, "classification").
 //
-//   pass 1   one warp per leaf and ray axis: every ray of every (leaf,
-//            triangle) pair is tested with rayHitsTriangle by one lane; the
-//            hits (about 1 in 5) are queued in shared memory and resolved 32
-//            at a time with rowCrossing, so the expensive exact crossing
-//            (128-bit products and division) runs with all lanes busy. Each
+//   pass 1   one warp per leaf and ray axis: per (leaf, triangle) pair and
+//            line of rays, the span of rays that hit (raySpanAtW: exact,
+//            three divisions a line instead of a test a ray), then one lane
+//            per hit ray for the exact crossing (crossingInLeaf), so all
+//            lanes stay busy however unevenly the hits fall. Each
 //            crossing flips the row's parity bit and XORs its "voxels before
 //            the crossing" mask into the row's mask; both are XORs, so
 //            scheduling cannot show. The parity bits go to parity[a]; the
@@ -54,36 +54,24 @@ constexpr int kCrossWarps = 4;
 
 template <int L>
 struct CrossingWarp {
-  LatticeTriangle tri[32];                     // the batch's triangles
-  int32_t u0[32], nu[32], w0[32], nw[32];      // their ray ranges, leaf-relative
-  uint32_t nuMagic[32];                        // ceil(2^32 / nu): k / nu as one __umulhi
-  uint32_t queue[64];                          // hits: pair (5 bits), u (5), w (5)
-  uint32_t masks[L * L];                       // XOR of before-masks per row
-  uint32_t parity[L * L / 32];                 // one bit per row
+  LatticeTriangle tri[32];                // the batch's triangles
+  int32_t u0[32], nu[32], w0[32], nw[32]; // their ray ranges, leaf-relative
+  int8_t spanU0[32][L];                   // per (pair, ray line w): first hit ray, leaf-relative
+  uint8_t spanN[32][L];                   // and the number of hit rays
+  uint32_t masks[L * L];                  // XOR of before-masks per row
+  uint32_t parity[L * L / 32];            // one bit per row
 };
 
 __device__ __forceinline__ uint32_t beforeMask(int before) {
   return before >= 32 ? 0xFFFFFFFFu : ((1u << before) - 1u);
 }
 
-// Resolves the first n queued hits, one per lane.
-template <int L, int AXIS, bool MASKS>
-__device__ __forceinline__ void resolveHits(CrossingWarp<L>& sh, int n, const int64_t (&v0)[3]) {
-  constexpr int U = rayAxisU(AXIS), W = rayAxisW(AXIS);
-  const int lane = threadIdx.x & 31;
-  if (lane < n) {
-    const uint32_t e = sh.queue[lane];
-    const int j = int(e >> 10), u = int((e >> 5) & 31u), w = int(e & 31u);
-    int before;
-    if (rowCrossing(sh.tri[j], AXIS, v0[U] + u, v0[W] + w, v0[AXIS], L, before)) {
-      const int row = u + L * w;
-      atomicXor(&sh.parity[row >> 5], 1u << (row & 31));
-      if (MASKS) atomicXor(&sh.masks[row], beforeMask(before));
-    }
-  }
-  __syncwarp();
-}
-
+// The crossings of one task along AXIS, in three warp-wide steps that follow
+// the CPU driver's loops (forEachCrossing; same calls):
+//   1. one lane per pair: the triangle and its ray ranges in the leaf;
+//   2. one lane per (pair, ray line w): raySpanAtW, the rays that hit;
+//   3. one lane per hit ray: crossingInLeaf, XORed into the row's parity bit
+//      and before-mask in shared memory (XOR commutes: scheduling cannot show).
 template <int L, int AXIS, bool MASKS>
 __device__ __forceinline__ void crossingsAlong(const LeafArgs& a, const LeafTask& task, const int64_t (&v0)[3],
                                                CrossingWarp<L>& sh) {
@@ -105,37 +93,30 @@ __device__ __forceinline__ void crossingsAlong(const LeafArgs& a, const LeafTask
       sh.w0[lane] = any ? int32_t(w0 - v0[W]) : 0;
       sh.nu[lane] = any ? int32_t(u1 - u0 + 1) : 0;
       sh.nw[lane] = any ? int32_t(w1 - w0 + 1) : 0;
-      // floor(k / nu) = umulhi(k, magic) when k * (magic * nu - 2^32) < 2^32,
-      // true for k < 2^27 (here k < L * L); nu = 1 has no 32-bit magic.
-      sh.nuMagic[lane] = any && u1 > u0 ? uint32_t(((uint64_t(1) << 32) + uint64_t(u1 - u0)) / uint64_t(u1 - u0 + 1)) : 0;
     }
     __syncwarp();
-    int queued = 0; // warp-uniform
-    warpForEachPairItemSync(
-        0, nb, [&](uint32_t j) { return sh.nu[j] * sh.nw[j]; },
-        [&](uint32_t j, int k, bool active) {
-          bool hit = false;
-          uint32_t entry = 0;
-          if (active) {
-            const int q = sh.nu[j] == 1 ? k : int(__umulhi(uint32_t(k), sh.nuMagic[j])); // k / nu
-            const int u = sh.u0[j] + k - q * sh.nu[j], w = sh.w0[j] + q;
-            hit = rayHitsTriangle(sh.tri[j], AXIS, latticeOfVoxelCentre(v0[U] + u), latticeOfVoxelCentre(v0[W] + w));
-            entry = (j << 10) | (uint32_t(u) << 5) | uint32_t(w);
-          }
-          const unsigned hits = __ballot_sync(kFullMask, hit);
-          if (hit) sh.queue[queued + __popc(hits & ((1u << lane) - 1u))] = entry;
-          queued += __popc(hits);
-          __syncwarp();
-          if (queued >= 32) {
-            resolveHits<L, AXIS, MASKS>(sh, 32, v0);
-            const uint32_t rest = lane < queued - 32 ? sh.queue[32 + lane] : 0u;
-            __syncwarp();
-            if (lane < queued - 32) sh.queue[lane] = rest;
-            queued -= 32;
-            __syncwarp();
+    warpForEachPairItem(
+        0, nb, [&](uint32_t j) { return sh.nw[j]; },
+        [&](uint32_t j, int k) {
+          int64_t f = v0[U] + sh.u0[j], l = f + sh.nu[j] - 1;
+          raySpanAtW(sh.tri[j], AXIS, v0[W] + sh.w0[j] + k, f, l);
+          sh.spanU0[j][k] = int8_t(f <= l ? f - v0[U] : 0);
+          sh.spanN[j][k] = uint8_t(f <= l ? l - f + 1 : 0);
+        });
+    __syncwarp();
+    warpForEachPairItem(
+        0, uint32_t(nb) * L,
+        [&](uint32_t e) { return int(e % L) < sh.nw[e / L] ? int(sh.spanN[e / L][e % L]) : 0; },
+        [&](uint32_t e, int r) {
+          const uint32_t j = e / L, k = e % L;
+          const int u = sh.spanU0[j][k] + r, w = sh.w0[j] + int(k);
+          int before;
+          if (crossingInLeaf(sh.tri[j], AXIS, v0[U] + u, v0[W] + w, v0[AXIS], L, before)) {
+            const int row = u + L * w;
+            atomicXor(&sh.parity[row >> 5], 1u << (row & 31));
+            if (MASKS) atomicXor(&sh.masks[row], beforeMask(before));
           }
         });
-    resolveHits<L, AXIS, MASKS>(sh, queued, v0);
   }
 }
 

@@ -88,34 +88,6 @@ __device__ __forceinline__ void warpForEachPairItem(uint32_t p0, uint32_t p1, Co
   }
 }
 
-// The same distribution, warp-synchronous: item(p, k, active) is called by
-// every lane in every round (active = false for lanes without an item), so
-// the callee may use warp collectives (ballots, shuffles, __syncwarp).
-template <class Count, class Item>
-__device__ __forceinline__ void warpForEachPairItemSync(uint32_t p0, uint32_t p1, Count count, Item item) {
-  const int lane = threadIdx.x & 31;
-  for (uint32_t base = p0; base < p1; base += 32) {
-    const int c = base + lane < p1 ? count(base + lane) : 0;
-    int incl = c;
-#pragma unroll
-    for (int o = 1; o < 32; o <<= 1) {
-      const int v = __shfl_up_sync(kFullMask, incl, o);
-      if (lane >= o) incl += v;
-    }
-    const int total = __shfl_sync(kFullMask, incl, 31);
-    for (int t0 = 0; t0 < total; t0 += 32) {
-      const int t = t0 + lane;
-      int owner = 0;
-#pragma unroll
-      for (int step = 16; step > 0; step >>= 1) {
-        if (__shfl_sync(kFullMask, incl, owner + step - 1) <= t) owner += step;
-      }
-      const int first = __shfl_sync(kFullMask, incl - c, owner);
-      item(base + owner, t - first, t < total);
-    }
-  }
-}
-
 // ---- leaf words from row masks ------------------------------------------------------
 //
 // Leaf layout (types.hpp): voxel v = x + L (y + L z) is 2-bit field v % 16 of

@@ -5,14 +5,15 @@
 // the warp's slice of shared memory. The task's (leaf, triangle) pairs are
 // taken B at a time, in three warp-wide steps that follow the CPU driver's
 // loops exactly (build_steps.hpp; same calls, same narrowing):
-//   1. one lane per pair: the triangle's voxel ranges in the leaf and its
-//      RowClipper (makeRowClipper), kept in shared memory for the batch;
+//   1. one lane per pair: the triangle's row axis (rowAxisFor: the rows
+//      across which its shadow is smallest), its voxel ranges in the leaf
+//      and its RowClipper in that frame, kept in shared memory for the batch;
 //   2. one lane per (pair, k): for slice z = k, clipRowsOfSlice (the rows
 //      that can meet the triangle) and clipSliceSpan (the slice's x span);
 //      for row height y = k, clipColumnSpan (the height's x span);
 //   3. one lane per (pair, row): the two spans intersected, clipRowByPlane,
-//      rowBits, ORed into the row mask with a shared-memory atomic (OR
-//      commutes: scheduling cannot show).
+//      rowBits, ORed into the leaf's x-row masks (forEachXRowOf) with
+//      shared-memory atomics (OR commutes: scheduling cannot show).
 // Flattening to rows keeps all 32 lanes busy however unevenly the triangles
 // cover the leaf, and a row costs only its plane step: the twelve other axes
 // were settled per slice and per height in step 2. With the clipper in shared
@@ -69,11 +70,19 @@ __device__ __forceinline__ void leafVoxelRanges(const LatticeTriangle& t, const 
   }
 }
 
+// The leaf origin in the frame of row axis `axis` (permuteToRowAxis).
+__device__ __forceinline__ void permutedOrigin(const int64_t (&v0)[3], int axis, int64_t (&o)[3]) {
+  o[0] = v0[axis];
+  o[1] = v0[rayAxisU(axis)];
+  o[2] = v0[rayAxisW(axis)];
+}
+
 constexpr int kBatch = 8; // pairs whose clippers are in shared memory at once
 
 template <int L>
 struct SurfaceWarp {
   RowClipper clip[kBatch];
+  int8_t axis[kBatch]; // row axis of each pair; the fields below are in its frame
   int32_t x0[kBatch], x1[kBatch], y0[kBatch], y1[kBatch], z0[kBatch], nz[kBatch]; // leaf-relative
   int8_t sliceY0[kBatch][L];  // shadow rows of each slice, leaf-relative
   uint8_t sliceRows[kBatch][L];
@@ -100,41 +109,47 @@ __global__ void __launch_bounds__(32 * kWarpsPerBlock, HDT_CUDA_T3_MIN_BLOCKS) l
   for (uint32_t base = task.first; base < p1; base += kBatch) {
     const int nb = int(min(uint32_t(kBatch), p1 - base));
     __syncwarp(); // the previous batch is done with the shared clippers
-    if (lane < nb) {
-      const LatticeTriangle t = a.tris[a.pairTri[base + lane]];
-      int64_t first[3], last[3];
-      leafVoxelRanges<L>(t, v0, a.resolution, first, last);
+    if (lane < nb) { // in the frame of the triangle's row axis (rowAxisFor)
+      const LatticeTriangle original = a.tris[a.pairTri[base + lane]];
+      const int axis = rowAxisFor(original);
+      const LatticeTriangle t = permuteToRowAxis(original, axis);
+      int64_t o[3], first[3], last[3];
+      permutedOrigin(v0, axis, o);
+      leafVoxelRanges<L>(t, o, a.resolution, first, last);
       makeRowClipper(t, sh.clip[lane]);
-      sh.x0[lane] = int32_t(first[0] - v0[0]);
-      sh.x1[lane] = int32_t(last[0] - v0[0]);
-      sh.y0[lane] = int32_t(first[1] - v0[1]);
-      sh.y1[lane] = int32_t(last[1] - v0[1]);
-      sh.z0[lane] = int32_t(first[2] - v0[2]);
+      sh.axis[lane] = int8_t(axis);
+      sh.x0[lane] = int32_t(first[0] - o[0]);
+      sh.x1[lane] = int32_t(last[0] - o[0]);
+      sh.y0[lane] = int32_t(first[1] - o[1]);
+      sh.y1[lane] = int32_t(last[1] - o[1]);
+      sh.z0[lane] = int32_t(first[2] - o[2]);
       sh.nz[lane] = last[2] >= first[2] ? int32_t(last[2] - first[2] + 1) : 0;
     }
     __syncwarp();
     warpForEachPairItem(
         0, nb, [&](uint32_t j) { return max(sh.nz[j], sh.y1[j] - sh.y0[j] + 1); },
         [&](uint32_t j, int k) {
-          const int64_t x0 = v0[0] + sh.x0[j], x1 = v0[0] + sh.x1[j];
+          int64_t o[3];
+          permutedOrigin(v0, sh.axis[j], o);
+          const int64_t x0 = o[0] + sh.x0[j], x1 = o[0] + sh.x1[j];
           if (k < sh.nz[j]) {
-            const int64_t z = v0[2] + sh.z0[j] + k;
-            int64_t ya = v0[1] + sh.y0[j], yb = v0[1] + sh.y1[j];
+            const int64_t z = o[2] + sh.z0[j] + k;
+            int64_t ya = o[1] + sh.y0[j], yb = o[1] + sh.y1[j];
             clipRowsOfSlice(sh.clip[j], z, ya, yb);
             int64_t f = x0, l = x1;
             if (ya <= yb) clipSliceSpan(sh.clip[j], z, f, l);
             const bool rows = ya <= yb && f <= l;
-            sh.sliceY0[j][k] = int8_t(rows ? ya - v0[1] : 0);
+            sh.sliceY0[j][k] = int8_t(rows ? ya - o[1] : 0);
             sh.sliceRows[j][k] = uint8_t(rows ? yb - ya + 1 : 0);
-            sh.sliceX0[j][k] = int8_t(rows ? f - v0[0] : 1); // within the leaf when rows
-            sh.sliceX1[j][k] = int8_t(rows ? l - v0[0] : 0);
+            sh.sliceX0[j][k] = int8_t(rows ? f - o[0] : 1); // within the leaf when rows
+            sh.sliceX1[j][k] = int8_t(rows ? l - o[0] : 0);
           }
           if (k <= sh.y1[j] - sh.y0[j]) {
             const int dy = sh.y0[j] + k;
             int64_t f = x0, l = x1;
-            clipColumnSpan(sh.clip[j], v0[1] + dy, f, l);
-            sh.columnX0[j][dy] = int8_t(f > l ? 1 : f - v0[0]); // empty kept as 1 > 0
-            sh.columnX1[j][dy] = int8_t(f > l ? 0 : l - v0[0]);
+            clipColumnSpan(sh.clip[j], o[1] + dy, f, l);
+            sh.columnX0[j][dy] = int8_t(f > l ? 1 : f - o[0]); // empty kept as 1 > 0
+            sh.columnX1[j][dy] = int8_t(f > l ? 0 : l - o[0]);
           }
         });
     __syncwarp();
@@ -143,13 +158,15 @@ __global__ void __launch_bounds__(32 * kWarpsPerBlock, HDT_CUDA_T3_MIN_BLOCKS) l
         [&](uint32_t e) { return int(e % L) < sh.nz[e / L] ? int(sh.sliceRows[e / L][e % L]) : 0; },
         [&](uint32_t e, int r) {
           const uint32_t j = e / L, s = e % L;
-          const int dy = sh.sliceY0[j][s] + r;
-          const int64_t y = v0[1] + dy, z = v0[2] + sh.z0[j] + s;
-          int64_t f = v0[0] + max(sh.sliceX0[j][s], sh.columnX0[j][dy]);
-          int64_t l = v0[0] + min(sh.sliceX1[j][s], sh.columnX1[j][dy]);
-          clipRowByPlane(sh.clip[j], y, z, f, l);
-          const uint32_t bits = rowBits(v0[0], f, l);
-          if (bits) atomicOr(&sh.rows[dy + L * (z - v0[2])], bits);
+          const int axis = sh.axis[j];
+          int64_t o[3];
+          permutedOrigin(v0, axis, o);
+          const int dy = sh.sliceY0[j][s] + r, dz = sh.z0[j] + int(s);
+          int64_t f = o[0] + max(sh.sliceX0[j][s], sh.columnX0[j][dy]);
+          int64_t l = o[0] + min(sh.sliceX1[j][s], sh.columnX1[j][dy]);
+          clipRowByPlane(sh.clip[j], o[1] + dy, o[2] + dz, f, l);
+          forEachXRowOf(axis, L, dy, dz, rowBits(o[0], f, l),
+                        [&](int row, uint32_t bits) { atomicOr(&sh.rows[row], bits); });
         });
   }
   __syncwarp();

@@ -51,6 +51,15 @@ HDT_HD bool triangleOverlapsElement(const LatticeTriangle& t, uint64_t cell, int
 }
 
 namespace detail {
+// Index of the lowest set bit of a non-zero mask.
+HDT_HD int lowestBit(uint32_t m) {
+#if defined(__CUDA_ARCH__)
+  return __ffs(int(m)) - 1;
+#else
+  return __builtin_ctz(m);
+#endif
+}
+
 // ceil(a / b) and floor(a / b) for b > 0, from the estimate a * (1 / b) in
 // double, corrected exactly with integer products. The estimate is within one
 // of the quotient for the magnitudes here (|a| < 2^60, quotients < 2^42), so
@@ -298,6 +307,45 @@ HDT_HD void clipRow(const RowClipper& c, int64_t y, int64_t z, int64_t& first, i
   clipSliceSpan(c, z, first, last);
   clipColumnSpan(c, y, first, last);
   clipRowByPlane(c, y, z, first, last);
+}
+
+// T3 may run its rows along any axis. Permuting the coordinates maps the 13
+// separating axes onto themselves, so rows along another axis find exactly
+// the same voxels; rows along the axis where the triangle's normal is
+// smallest are the fewest (the triangle's shadow across them is smallest)
+// and the longest, so that is the axis each triangle uses. In the permuted
+// frame coordinate k is the original coordinate (axis + k) mod 3: rows run
+// along `axis`, row heights are rayAxisU(axis), slices rayAxisW(axis).
+HDT_HD int rowAxisFor(const LatticeTriangle& t) {
+  int64_t n[3];
+  triangleNormal(t, n);
+  const int64_t a0 = detail::abs64(n[0]), a1 = detail::abs64(n[1]), a2 = detail::abs64(n[2]);
+  return a0 <= a1 && a0 <= a2 ? 0 : (a1 <= a2 ? 1 : 2);
+}
+
+HDT_HD LatticeTriangle permuteToRowAxis(const LatticeTriangle& t, int axis) {
+  LatticeTriangle p;
+  for (int i = 0; i < 3; ++i)
+    for (int k = 0; k < 3; ++k) p.v[i][k] = t.v[i][(axis + k) % 3];
+  return p;
+}
+
+// Where the bits of a permuted row land in the leaf's x rows (one L-bit mask
+// per row y + L z): calls set(rowIndex, mask) once per x row touched. The
+// row is at (h, s) = (row height, slice), leaf-relative, and `bits` holds
+// its voxels along `axis`.
+template <class Set>
+HDT_HD void forEachXRowOf(int axis, int L, int h, int s, uint32_t bits, Set&& set) {
+  if (axis == 0) { // (x, y, z) = (i, h, s)
+    if (bits) set(h + L * s, bits);
+    return;
+  }
+  while (bits) {
+    const int i = detail::lowestBit(bits);
+    bits &= bits - 1;
+    if (axis == 1) set(i + L * h, 1u << s); // (x, y, z) = (s, i, h)
+    else set(s + L * i, 1u << h);           // axis 2: (x, y, z) = (h, s, i)
+  }
 }
 
 // Bits [first - x0, last - x0] of a leaf row starting at voxel x0.
