@@ -168,7 +168,7 @@ class RaySpanScale : public ::testing::TestWithParam<int64_t> {};
 TEST_P(RaySpanScale, SpanEqualsPerRayHitTest) {
   const int64_t spread = GetParam();
   std::mt19937_64 rng(uint64_t(spread) * 17 + 3);
-  int hits = 0;
+  int hits = 0, inLeaf = 0;
   for (int i = 0; i < 200; ++i) {
     const int snap = i % 3 == 0 ? 7 : (i % 3 == 1 ? 8 : 0);
     const int64_t centre = int64_t(rng() % uint64_t(kMaxLattice - 2 * spread)) + spread;
@@ -193,17 +193,41 @@ TEST_P(RaySpanScale, SpanEqualsPerRayHitTest) {
           if (!expect) continue;
           ++hits;
           const Crossing c = rayCrossing(t, axis, latticeOfVoxelCentre(u), latticeOfVoxelCentre(w));
-          const int64_t a0 = std::max<int64_t>(0, lo[axis] / kLatticePerVoxel - 3);
           for (int L : {8, 16, 32}) {
-            int count = 0; // brute force: centres strictly before the crossing
-            while (count < L && int128_t(latticeOfVoxelCentre(a0 + count)) * c.den < c.num) ++count;
-            ASSERT_EQ(count, pointsBeforeCrossing(c, latticeOfVoxelCentre(a0), kLatticePerVoxel, L));
+            // Leaves along the ray that end just before, at or after the
+            // crossing's voxel xc, or start there (the ties: a crossing on a
+            // leaf's end, on its first centre), the ray at a random place in each.
+            const int64_t xc = int64_t(c.num / (int128_t(c.den) * kLatticePerVoxel));
+            for (int64_t a0 : {xc - L - 1, xc - L, xc - L + 1, xc - L / 2, xc - 1, xc, xc + 1}) {
+              if (a0 < 0) continue;
+              int count = 0; // brute force: centres strictly before the crossing
+              while (count < L && int128_t(latticeOfVoxelCentre(a0 + count)) * c.den < c.num) ++count;
+              ASSERT_EQ(count, pointsBeforeCrossing(c, latticeOfVoxelCentre(a0), kLatticePerVoxel, L));
+              int64_t v0[3];
+              v0[axis] = a0;
+              v0[U] = u - int64_t(rng() % uint64_t(L)); // the ray somewhere in the leaf
+              v0[W] = w - int64_t(rng() % uint64_t(L));
+              if (v0[U] < 0 || v0[W] < 0) continue;
+              const int64_t leafLo = latticeOfVoxel(a0);
+              const bool within = crossingWithin(c, leafLo, leafLo + L * kLatticePerVoxel);
+              LeafCrossings lc;
+              makeLeafCrossings(t, axis, v0, L, lc);
+              int before = -1, refBefore = -1;
+              ASSERT_EQ(within, crossingInLeaf(lc, int(u - v0[U]), int(w - v0[W]), L, before));
+              ASSERT_EQ(within, crossingInLeaf(t, axis, u, w, a0, L, refBefore));
+              if (within) {
+                ASSERT_EQ(count, before) << "leaf-wide crossings, L=" << L;
+                ASSERT_EQ(count, refBefore);
+                ++inLeaf;
+              }
+            }
           }
         }
       }
     }
   }
   EXPECT_GT(hits, 100);
+  EXPECT_GT(inLeaf, 100);
 }
 
 INSTANTIATE_TEST_SUITE_P(Sizes, RaySpanScale,

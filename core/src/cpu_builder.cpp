@@ -279,12 +279,19 @@ private:
       triangleBounds(tri, lo, hi);
       centreRange(lo[U], hi[U], v0[U], L_, u0, u1);
       centreRange(lo[W], hi[W], v0[W], L_, w0, w1);
+      LeafCrossings crossings;
+      bool made = false;
       for (int64_t w = w0; w <= w1; ++w) {
         int64_t uf = u0, ul = u1;
         raySpanAtW(tri, axis, w, uf, ul);
+        if (uf <= ul && !made) {
+          makeLeafCrossings(tri, axis, v0, L_, crossings);
+          made = true;
+        }
         for (int64_t u = uf; u <= ul; ++u) {
           int before;
-          if (crossingInLeaf(tri, axis, u, w, v0[axis], L_, before)) fn(int((u - v0[U]) + L_ * (w - v0[W])), before);
+          const int du = int(u - v0[U]), dw = int(w - v0[W]);
+          if (crossingInLeaf(crossings, du, dw, L_, before)) fn(du + L_ * dw, before);
         }
       }
     }

@@ -4,7 +4,8 @@
 //   pass 1   one warp per leaf and ray axis: per (leaf, triangle) pair and
 //            line of rays, the span of rays that hit (raySpanAtW: exact,
 //            three divisions a line instead of a test a ray), then one lane
-//            per hit ray for the exact crossing (crossingInLeaf), so all
+//            per hit ray for the exact crossing (crossingInLeaf on the
+//            pair's LeafCrossings: two products a ray), so all
 //            lanes stay busy however unevenly the hits fall. Each
 //            crossing flips the row's parity bit and XORs its "voxels before
 //            the crossing" mask into the row's mask; both are XORs, so
@@ -55,6 +56,7 @@ constexpr int kCrossWarps = 4;
 template <int L>
 struct CrossingWarp {
   LatticeTriangle tri[32];                // the batch's triangles
+  LeafCrossings crossings[32];            // and their crossings with the leaf's rays
   int32_t u0[32], nu[32], w0[32], nw[32]; // their ray ranges, leaf-relative
   int8_t spanU0[32][L];                   // per (pair, ray line w): first hit ray, leaf-relative
   uint8_t spanN[32][L];                   // and the number of hit rays
@@ -68,9 +70,11 @@ __device__ __forceinline__ uint32_t beforeMask(int before) {
 
 // The crossings of one task along AXIS, in three warp-wide steps that follow
 // the CPU driver's loops (forEachCrossing; same calls):
-//   1. one lane per pair: the triangle and its ray ranges in the leaf;
+//   1. one lane per pair: the triangle, its ray ranges in the leaf and its
+//      crossings with the leaf's rays as an affine function (LeafCrossings);
 //   2. one lane per (pair, ray line w): raySpanAtW, the rays that hit;
-//   3. one lane per hit ray: crossingInLeaf, XORed into the row's parity bit
+//   3. one lane per hit ray: crossingInLeaf (two products, no division),
+//      XORed into the row's parity bit
 //      and before-mask in shared memory (XOR commutes: scheduling cannot show).
 template <int L, int AXIS, bool MASKS>
 __device__ __forceinline__ void crossingsAlong(const LeafArgs& a, const LeafTask& task, const int64_t (&v0)[3],
@@ -88,6 +92,7 @@ __device__ __forceinline__ void crossingsAlong(const LeafArgs& a, const LeafTask
       centreRange(lo[U], hi[U], v0[U], L, u0, u1);
       centreRange(lo[W], hi[W], v0[W], L, w0, w1);
       sh.tri[lane] = t;
+      makeLeafCrossings(t, AXIS, v0, L, sh.crossings[lane]);
       const bool any = u1 >= u0 && w1 >= w0;
       sh.u0[lane] = any ? int32_t(u0 - v0[U]) : 0;
       sh.w0[lane] = any ? int32_t(w0 - v0[W]) : 0;
@@ -111,7 +116,7 @@ __device__ __forceinline__ void crossingsAlong(const LeafArgs& a, const LeafTask
           const uint32_t j = e / L, k = e % L;
           const int u = sh.spanU0[j][k] + r, w = sh.w0[j] + int(k);
           int before;
-          if (crossingInLeaf(sh.tri[j], AXIS, v0[U] + u, v0[W] + w, v0[AXIS], L, before)) {
+          if (crossingInLeaf(sh.crossings[j], u, w, L, before)) {
             const int row = u + L * w;
             atomicXor(&sh.parity[row >> 5], 1u << (row & 31));
             if (MASKS) atomicXor(&sh.masks[row], beforeMask(before));
@@ -165,12 +170,13 @@ __global__ void __launch_bounds__(32 * kCrossWarps) leafCrossingsKernel(LeafArgs
                                                                         uint32_t* masks) {
   __shared__ CrossingWarp<L> shared[kCrossWarps];
   const int warp = threadIdx.x >> 5;
-  const uint32_t t = blockIdx.x * kCrossWarps + warp;
-  if (t >= *a.taskCount) return; // warp-uniform
-  const LeafTask task = a.tasks[t];
-  int64_t v0[3];
-  leafOrigin(a.leafCoord[task.leaf], L, v0);
-  leafCrossingsAxis<L, AXIS, MASKS>(a, task, v0, shared[warp], parity, words, masks);
+  const uint32_t taskCount = *a.taskCount;
+  for (uint32_t t = blockIdx.x * kCrossWarps + warp; t < taskCount; t += gridDim.x * kCrossWarps) {
+    const LeafTask task = a.tasks[t]; // warp-uniform loop (a grid-stride kernel: residentBlocks)
+    int64_t v0[3];
+    leafOrigin(a.leafCoord[task.leaf], L, v0);
+    leafCrossingsAxis<L, AXIS, MASKS>(a, task, v0, shared[warp], parity, words, masks);
+  }
 }
 
 // ---- lines ----------------------------------------------------------------------------
@@ -329,11 +335,14 @@ __global__ void uniformKernel(uint32_t count, ElementWord* words, const uint64_t
 template <int L, int AXIS>
 void launchCrossingsAxis(const LeafArgs& a, uint32_t taskBound, uint32_t* parity, uint32_t* words, uint32_t* masks,
                          cudaStream_t s) {
-  const unsigned blocks = blocksFor(taskBound, kCrossWarps), threads = 32 * kCrossWarps;
+  const unsigned needed = blocksFor(taskBound, kCrossWarps), threads = 32 * kCrossWarps;
   if (words)
-    leafCrossingsKernel<L, AXIS, true><<<blocks, threads, 0, s>>>(a, parity, words, masks);
+    leafCrossingsKernel<L, AXIS, true>
+        <<<residentBlocks(leafCrossingsKernel<L, AXIS, true>, threads, needed), threads, 0, s>>>(a, parity, words, masks);
   else
-    leafCrossingsKernel<L, AXIS, false><<<blocks, threads, 0, s>>>(a, parity, nullptr, nullptr);
+    leafCrossingsKernel<L, AXIS, false>
+        <<<residentBlocks(leafCrossingsKernel<L, AXIS, false>, threads, needed), threads, 0, s>>>(a, parity, nullptr,
+                                                                                                   nullptr);
   HDT_CUDA_CHECK_LAUNCH("leafCrossingsKernel");
 }
 

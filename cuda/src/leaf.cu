@@ -92,14 +92,10 @@ struct SurfaceWarp {
 };
 
 template <int L>
-__global__ void __launch_bounds__(32 * kWarpsPerBlock, HDT_CUDA_T3_MIN_BLOCKS) leafSurfaceKernel(LeafArgs a, uint32_t* words) {
-  __shared__ SurfaceWarp<L> shared[kWarpsPerBlock];
-  const int warp = threadIdx.x >> 5, lane = threadIdx.x & 31;
-  const uint32_t t = blockIdx.x * kWarpsPerBlock + warp;
-  if (t >= *a.taskCount) return; // warp-uniform
-  const LeafTask task = a.tasks[t];
+__device__ __forceinline__ void leafSurface(const LeafArgs& a, const LeafTask& task, SurfaceWarp<L>& sh,
+                                            uint32_t* words) {
+  const int lane = threadIdx.x & 31;
   const uint32_t leaf = task.leaf;
-  SurfaceWarp<L>& sh = shared[warp];
   for (int r = lane; r < L * L; r += 32) sh.rows[r] = 0;
 
   const uint64_t c = a.leafCoord[leaf];
@@ -181,6 +177,18 @@ __global__ void __launch_bounds__(32 * kWarpsPerBlock, HDT_CUDA_T3_MIN_BLOCKS) l
     }
   }
 }
+
+template <int L>
+__global__ void __launch_bounds__(32 * kWarpsPerBlock, HDT_CUDA_T3_MIN_BLOCKS) leafSurfaceKernel(LeafArgs a, uint32_t* words) {
+  __shared__ SurfaceWarp<L> shared[kWarpsPerBlock];
+  const int warp = threadIdx.x >> 5;
+  const uint32_t t = blockIdx.x * kWarpsPerBlock + warp;
+  if (t >= *a.taskCount) return; // warp-uniform
+  // One task a warp: a grid-stride loop here (as in classification) measured
+  // slower, 3.8 -> 4.0 ms on the dragon at 8192^3.
+  leafSurface<L>(a, a.tasks[t], shared[warp], words);
+}
+
 
 template <int L>
 void launchLeafSurface(const LeafArgs& a, uint32_t taskBound, uint32_t* words, cudaStream_t s) {

@@ -415,11 +415,68 @@ HDT_HD void raySpanAtW(const LatticeTriangle& t, int axis, int64_t w, int64_t& f
 // crossing lies inside the leaf's half-open extent [a0, a0 + L) along `axis`,
 // returns true and sets `before` to the number of the row's voxel centres
 // strictly before it (each of them sees one more crossing ahead of it).
+// The reference form, one ray at a time; the drivers use LeafCrossings.
 HDT_HD bool crossingInLeaf(const LatticeTriangle& t, int axis, int64_t u, int64_t w, int64_t a0, int L, int& before) {
   const Crossing c = rayCrossing(t, axis, latticeOfVoxelCentre(u), latticeOfVoxelCentre(w));
   const int64_t lo = latticeOfVoxel(a0);
   if (!crossingWithin(c, lo, lo + int64_t(L) * kLatticePerVoxel)) return false;
   before = pointsBeforeCrossing(c, latticeOfVoxelCentre(a0), kLatticePerVoxel, L);
+  return true;
+}
+
+// The same answer for all rays of one leaf and triangle, set up once per
+// (leaf, triangle) pair. With den = |n_axis| and the crossing at num / den
+// (rayCrossing), t = num - den * (leaf start) is an affine function of the
+// ray's leaf-relative (du, dw), and for a crossing inside the leaf
+// 0 <= t < 256 L den < 2^64 (|n| < 2^51, L <= 32): the per-ray work is two
+// products and unsigned 64-bit arithmetic, with no division but a double
+// estimate that an exact product check settles.
+struct LeafCrossings {
+  int128_t t00;       // t at the leaf's first ray (du = dw = 0)
+  int64_t stepU;      // t(du + 1) - t(du), < 2^59 in magnitude
+  int64_t stepW;      // t(dw + 1) - t(dw)
+  uint64_t den;       // |n_axis| > 0
+  uint64_t perVoxel;  // 256 den
+  uint64_t extent;    // 256 L den
+  double invPerVoxel; // 1 / perVoxel, for the estimate
+};
+
+// v0: the leaf's first voxel; only for triangles whose projection along
+// `axis` has area (raySpanAtW finds no hit otherwise).
+HDT_HD void makeLeafCrossings(const LatticeTriangle& t, int axis, const int64_t (&v0)[3], int L, LeafCrossings& c) {
+  const int U = rayAxisU(axis), W = rayAxisW(axis);
+  int64_t n[3];
+  triangleNormal(t, n);
+  const int64_t s = n[axis] < 0 ? -1 : 1;
+  const int64_t pu0 = latticeOfVoxelCentre(v0[U]), pw0 = latticeOfVoxelCentre(v0[W]);
+  const int128_t num0 = int128_t(n[axis]) * t.v[0][axis] - int128_t(n[U]) * (pu0 - t.v[0][U]) -
+                        int128_t(n[W]) * (pw0 - t.v[0][W]);
+  c.den = uint64_t(s * n[axis]);
+  c.t00 = num0 * s - int128_t(latticeOfVoxel(v0[axis])) * int128_t(c.den);
+  c.stepU = -s * n[U] * kLatticePerVoxel;
+  c.stepW = -s * n[W] * kLatticePerVoxel;
+  c.perVoxel = c.den * uint64_t(kLatticePerVoxel);
+  c.extent = c.perVoxel * uint64_t(L);
+  c.invPerVoxel = c.den == 0 ? 0.0 : 1.0 / double(c.perVoxel);
+}
+
+// crossingInLeaf for the ray at leaf-relative (du, dw) of a LeafCrossings.
+HDT_HD bool crossingInLeaf(const LeafCrossings& c, int du, int dw, int L, int& before) {
+  const int128_t t = c.t00 + int128_t(c.stepU) * du + int128_t(c.stepW) * dw;
+  if (t < 0 || t >= int128_t(c.extent)) return false;
+  const uint64_t half = c.den * uint64_t(kLatticePerVoxel / 2);
+  const uint64_t tt = uint64_t(t);
+  if (tt <= half) { // no centre before the crossing
+    before = 0;
+    return true;
+  }
+  // before = ceil(m / perVoxel) with m = t - 128 den > 0; k * perVoxel < 2^64 for k <= L.
+  const uint64_t m = tt - half;
+  const double q = double(m) * c.invPerVoxel;
+  int k = q < 1.0 ? 1 : (q > double(L) ? L : int(q));
+  while (k > 1 && uint64_t(k - 1) * c.perVoxel >= m) --k;
+  while (k < L && uint64_t(k) * c.perVoxel < m) ++k;
+  before = k;
   return true;
 }
 
