@@ -170,13 +170,12 @@ __global__ void __launch_bounds__(32 * kCrossWarps) leafCrossingsKernel(LeafArgs
                                                                         uint32_t* masks) {
   __shared__ CrossingWarp<L> shared[kCrossWarps];
   const int warp = threadIdx.x >> 5;
-  const uint32_t taskCount = *a.taskCount;
-  for (uint32_t t = blockIdx.x * kCrossWarps + warp; t < taskCount; t += gridDim.x * kCrossWarps) {
-    const LeafTask task = a.tasks[t]; // warp-uniform loop (a grid-stride kernel: residentBlocks)
-    int64_t v0[3];
-    leafOrigin(a.leafCoord[task.leaf], L, v0);
-    leafCrossingsAxis<L, AXIS, MASKS>(a, task, v0, shared[warp], parity, words, masks);
-  }
+  const uint32_t t = blockIdx.x * kCrossWarps + warp;
+  if (t >= *a.taskCount) return; // warp-uniform
+  const LeafTask task = a.tasks[t];
+  int64_t v0[3];
+  leafOrigin(a.leafCoord[task.leaf], L, v0);
+  leafCrossingsAxis<L, AXIS, MASKS>(a, task, v0, shared[warp], parity, words, masks);
 }
 
 // ---- lines ----------------------------------------------------------------------------
@@ -335,14 +334,11 @@ __global__ void uniformKernel(uint32_t count, ElementWord* words, const uint64_t
 template <int L, int AXIS>
 void launchCrossingsAxis(const LeafArgs& a, uint32_t taskBound, uint32_t* parity, uint32_t* words, uint32_t* masks,
                          cudaStream_t s) {
-  const unsigned needed = blocksFor(taskBound, kCrossWarps), threads = 32 * kCrossWarps;
+  const unsigned blocks = blocksFor(taskBound, kCrossWarps), threads = 32 * kCrossWarps;
   if (words)
-    leafCrossingsKernel<L, AXIS, true>
-        <<<residentBlocks(leafCrossingsKernel<L, AXIS, true>, threads, needed), threads, 0, s>>>(a, parity, words, masks);
+    leafCrossingsKernel<L, AXIS, true><<<blocks, threads, 0, s>>>(a, parity, words, masks);
   else
-    leafCrossingsKernel<L, AXIS, false>
-        <<<residentBlocks(leafCrossingsKernel<L, AXIS, false>, threads, needed), threads, 0, s>>>(a, parity, nullptr,
-                                                                                                   nullptr);
+    leafCrossingsKernel<L, AXIS, false><<<blocks, threads, 0, s>>>(a, parity, nullptr, nullptr);
   HDT_CUDA_CHECK_LAUNCH("leafCrossingsKernel");
 }
 

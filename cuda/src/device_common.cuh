@@ -20,20 +20,6 @@ inline unsigned blocksFor(uint64_t threads, unsigned blockSize) {
   return unsigned((threads + blockSize - 1) / blockSize);
 }
 
-// Blocks for a grid-stride ("persistent") kernel: one full wave (the blocks
-// that fit on the device at once), or fewer when fewer are needed. A leaf
-// kernel with a block per 4 leaves would otherwise launch close to a million
-// short blocks, and their scheduling cost showed as a floor under the work.
-template <class Kernel>
-unsigned residentBlocks(Kernel kernel, unsigned blockSize, uint64_t needed) {
-  int device = 0, sms = 0, perSm = 0;
-  HDT_CUDA_CHECK(cudaGetDevice(&device));
-  HDT_CUDA_CHECK(cudaDeviceGetAttribute(&sms, cudaDevAttrMultiProcessorCount, device));
-  HDT_CUDA_CHECK(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&perSm, kernel, int(blockSize), 0));
-  const uint64_t wave = uint64_t(sms) * uint64_t(perSm > 0 ? perSm : 1);
-  return unsigned(needed < wave ? (needed > 0 ? needed : 1) : wave);
-}
-
 // Bits needed to hold every value in [0, maxValue].
 inline int bitsFor(uint64_t maxValue) {
   int b = 0;

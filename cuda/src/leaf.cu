@@ -184,8 +184,8 @@ __global__ void __launch_bounds__(32 * kWarpsPerBlock, HDT_CUDA_T3_MIN_BLOCKS) l
   const int warp = threadIdx.x >> 5;
   const uint32_t t = blockIdx.x * kWarpsPerBlock + warp;
   if (t >= *a.taskCount) return; // warp-uniform
-  // One task a warp: a grid-stride loop here (as in classification) measured
-  // slower, 3.8 -> 4.0 ms on the dragon at 8192^3.
+  // One task a warp: a grid-stride loop over tasks measured slower here and
+  // in classification (dragon 8192^3: T3 3.8 -> 4.0 ms, pass 1 1.9 -> 2.0).
   leafSurface<L>(a, a.tasks[t], shared[warp], words);
 }
 
