@@ -250,14 +250,39 @@ __global__ void leafInsideClosedKernel(uint64_t wordCount, const uint32_t* exitP
 // Open meshes: one warp per leaf; the majority of the three axes per voxel.
 // Axis a's rows run along a, row (u, w) = u + L w with (u, w) the cyclic
 // other axes: voxel (x, y, z) is bit x of x-row y + L z, bit y of y-row
-// z + L x and bit z of z-row x + L y.
+// z + L x and bit z of z-row x + L y. The y and z rows are turned into x
+// rows by bit-matrix transposes: the y-rows of slice z, indexed by x, form
+// an L x L bit matrix whose transpose, indexed by y, holds the x rows
+// (y, z); the z-rows of height y likewise. One lane transposes one matrix
+// in registers, then the vote is three bitwise operations per word.
 constexpr int kOpenWarps = 2;
 
 template <int L>
 struct OpenWarp {
-  uint32_t m1[L * L], m2[L * L];
+  uint32_t m1[L * L], m2[L * L]; // y rows and z rows with their exit parity applied
+  uint32_t t1[L * L], t2[L * L]; // the same as x rows (y + L z)
   uint32_t e[3][L * L / 32];
 };
+
+// In-place transpose of an L x L bit matrix: afterwards bit r of a[c] is
+// what bit c of a[r] was. Quadrants swap, then their quadrants, and so on.
+template <int L>
+__device__ __forceinline__ void transposeBits(uint32_t (&a)[L]) {
+#pragma unroll
+  for (int j = L / 2; j >= 1; j >>= 1) {
+    uint32_t m = 0; // bits b with (b & j) == 0
+#pragma unroll
+    for (int b = 0; b < L; ++b)
+      if ((b & j) == 0) m |= 1u << b;
+#pragma unroll
+    for (int k = 0; k < L; ++k) {
+      if (k & j) continue;
+      const uint32_t t = ((a[k] >> j) ^ a[k + j]) & m;
+      a[k] ^= t << j;
+      a[k + j] ^= t;
+    }
+  }
+}
 
 template <int L>
 __global__ void __launch_bounds__(32 * kOpenWarps) leafInsideOpenKernel(uint32_t leafCount, const uint32_t* e0,
@@ -270,31 +295,42 @@ __global__ void __launch_bounds__(32 * kOpenWarps) leafInsideOpenKernel(uint32_t
   const uint32_t leaf = blockIdx.x * kOpenWarps + warp;
   if (leaf >= leafCount) return; // warp-uniform
   OpenWarp<L>& sh = shared[warp];
-  for (int r = lane; r < L * L; r += 32) {
-    sh.m1[r] = m1[size_t(leaf) * L * L + r];
-    sh.m2[r] = m2[size_t(leaf) * L * L + r];
-  }
   for (int i = lane; i < RW; i += 32) {
     sh.e[0][i] = e0[size_t(leaf) * RW + i];
     sh.e[1][i] = e1[size_t(leaf) * RW + i];
     sh.e[2][i] = e2[size_t(leaf) * RW + i];
   }
   __syncwarp();
-  auto exitBit = [&sh](int a, int r) { return (sh.e[a][r >> 5] >> (r & 31)) & 1u; };
+  auto exitRow = [&sh](int a, int r) { return (sh.e[a][r >> 5] >> (r & 31)) & 1u ? fullRowMask(L) : 0u; };
+  for (int r = lane; r < L * L; r += 32) {
+    sh.m1[r] = m1[size_t(leaf) * L * L + r] ^ exitRow(1, r);
+    sh.m2[r] = m2[size_t(leaf) * L * L + r] ^ exitRow(2, r);
+  }
+  __syncwarp();
+  for (int task = lane; task < 2 * L; task += 32) {
+    const int i = task % L;
+    uint32_t a[L];
+    if (task < L) { // y rows of slice z = i: row z + L x, indexed by x
+#pragma unroll
+      for (int x = 0; x < L; ++x) a[x] = sh.m1[i + L * x];
+      transposeBits<L>(a); // a[y] bit x = inside along y at (x, y, z)
+#pragma unroll
+      for (int y = 0; y < L; ++y) sh.t1[y + L * i] = a[y];
+    } else { // z rows of height y = i: row x + L y, indexed by x
+#pragma unroll
+      for (int x = 0; x < L; ++x) a[x] = sh.m2[x + L * i];
+      transposeBits<L>(a); // a[z] bit x = inside along z at (x, y, z)
+#pragma unroll
+      for (int z = 0; z < L; ++z) sh.t2[i + L * z] = a[z];
+    }
+  }
+  __syncwarp();
   uint32_t* out = words + size_t(leaf) * leafWordCount(L);
   for (int w = lane; w < int(leafWordCount(L)); w += 32) {
     const uint32_t old = out[w];
-    const uint32_t inside0 = rowBitsToWordBits<L>(sh.e[0], w) ^ planeBits16(old, 0);
-    uint32_t m = 0;
-#pragma unroll
-    for (int j = 0; j < 16; ++j) {
-      const int v = 16 * w + j;
-      const int x = v % L, y = (v / L) % L, z = v / (L * L);
-      const uint32_t ry = z + L * x, rz = x + L * y;
-      const uint32_t votes = ((inside0 >> j) & 1u) + (exitBit(1, ry) ^ ((sh.m1[ry] >> y) & 1u)) +
-                             (exitBit(2, rz) ^ ((sh.m2[rz] >> z) & 1u));
-      m |= uint32_t(votes >= 2) << j;
-    }
+    const uint32_t v0 = rowBitsToWordBits<L>(sh.e[0], w) ^ planeBits16(old, 0);
+    const uint32_t v1 = wordBitsFromRows<L>(sh.t1, w), v2 = wordBitsFromRows<L>(sh.t2, w);
+    const uint32_t m = (v0 & v1) | (v0 & v2) | (v1 & v2); // majority of the three axes
     out[w] = (old & 0xAAAAAAAAu) | (spreadBits16(m) & ~(old >> 1) & 0x55555555u);
   }
 }

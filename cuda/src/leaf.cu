@@ -6,8 +6,9 @@
 // taken B at a time, in three warp-wide steps that follow the CPU driver's
 // loops exactly (build_steps.hpp; same calls, same narrowing):
 //   1. one lane per pair: the triangle's row axis (rowAxisFor: the rows
-//      across which its shadow is smallest), its voxel ranges in the leaf
-//      and its RowClipper in that frame, kept in shared memory for the batch;
+//      across which its shadow is smallest) and its voxel ranges in the leaf;
+//      then one lane per (pair, part) for its RowClipper in that frame
+//      (makeRowClipperPart), kept in shared memory for the batch;
 //   2. one lane per (pair, k): for slice z = k, clipRowsOfSlice (the rows
 //      that can meet the triangle) and clipSliceSpan (the slice's x span);
 //      for row height y = k, clipColumnSpan (the height's x span);
@@ -82,6 +83,7 @@ constexpr int kBatch = 8; // pairs whose clippers are in shared memory at once
 template <int L>
 struct SurfaceWarp {
   RowClipper clip[kBatch];
+  LatticeTriangle tri[kBatch]; // in the frame of its row axis
   int8_t axis[kBatch]; // row axis of each pair; the fields below are in its frame
   int32_t x0[kBatch], x1[kBatch], y0[kBatch], y1[kBatch], z0[kBatch], nz[kBatch]; // leaf-relative
   int8_t sliceY0[kBatch][L];  // shadow rows of each slice, leaf-relative
@@ -112,7 +114,7 @@ __device__ __forceinline__ void leafSurface(const LeafArgs& a, const LeafTask& t
       int64_t o[3], first[3], last[3];
       permutedOrigin(v0, axis, o);
       leafVoxelRanges<L>(t, o, a.resolution, first, last);
-      makeRowClipper(t, sh.clip[lane]);
+      sh.tri[lane] = t;
       sh.axis[lane] = int8_t(axis);
       sh.x0[lane] = int32_t(first[0] - o[0]);
       sh.x1[lane] = int32_t(last[0] - o[0]);
@@ -121,6 +123,11 @@ __device__ __forceinline__ void leafSurface(const LeafArgs& a, const LeafTask& t
       sh.z0[lane] = int32_t(first[2] - o[2]);
       sh.nz[lane] = last[2] >= first[2] ? int32_t(last[2] - first[2] + 1) : 0;
     }
+    __syncwarp();
+    // The clippers, one lane per (pair, part): at most 4 rounds for 8 pairs
+    // instead of 13 parts in a row on one lane per pair.
+    for (int item = lane; item < nb * kRowClipperParts; item += 32)
+      makeRowClipperPart(sh.tri[item / kRowClipperParts], item % kRowClipperParts, sh.clip[item / kRowClipperParts]);
     __syncwarp();
     warpForEachPairItem(
         0, nb, [&](uint32_t j) { return max(sh.nz[j], sh.y1[j] - sh.y0[j] + 1); },

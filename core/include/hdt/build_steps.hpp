@@ -159,7 +159,12 @@ struct RowClipper {
   int64_t planeY, planeZ;
 };
 
-HDT_HD void makeRowClipper(const LatticeTriangle& t, RowClipper& c) {
+// The clipper is set up in independent parts, so that a GPU warp can build
+// the parts of several triangles at once: 0-4 the row axes, 5 box x, 6-8 the
+// slice axes, 9-11 the column axes, 12 the plane.
+constexpr int kRowClipperParts = 13;
+
+HDT_HD void makeRowClipperPart(const LatticeTriangle& t, int part, RowClipper& c) {
   const int64_t half = kLatticePerVoxel / 2;
   // The axis a = (ax, ay, az) as lo <= ax * 256 i + ay cy + az cz <= hi.
   auto axisBounds = [&](int64_t ax, int64_t ay, int64_t az, int64_t& lo, int64_t& hi) {
@@ -170,44 +175,50 @@ HDT_HD void makeRowClipper(const LatticeTriangle& t, RowClipper& c) {
     lo = detail::min3(p0, p1, p2) - r - ax * half;
     hi = detail::max3(p0, p1, p2) + r - ax * half;
   };
-  int64_t e[3][3];
-  for (int j = 0; j < 3; ++j) {
+  // Edge j runs from vertex j to vertex j + 1.
+  auto edge = [&](int j, int a) {
     const int m = j == 2 ? 0 : j + 1;
-    for (int a = 0; a < 3; ++a) e[j][a] = int64_t(t.v[m][a]) - t.v[j][a];
-  }
-  int64_t lo, hi;
-  // Row axes, as bounds on y: ay * 256 y + (128 ay + az cz) in [lo, hi].
-  auto addRowAxis = [&](int k, int64_t ay, int64_t az) {
-    axisBounds(0, ay, az, lo, hi);
-    c.rowBound[k] = detail::makeLinearBound(ay * kLatticePerVoxel, lo, hi);
-    c.rowAy[k] = ay;
-    c.rowAz[k] = az;
+    return int64_t(t.v[m][a]) - t.v[j][a];
   };
-  addRowAxis(0, 1, 0);
-  addRowAxis(1, 0, 1);
-  for (int j = 0; j < 3; ++j) addRowAxis(2 + j, -e[j][2], e[j][1]);
-  axisBounds(1, 0, 0, lo, hi);
-  c.boxX = detail::makeLinearBound(kLatticePerVoxel, lo, hi);
-  for (int j = 0; j < 3; ++j) {
-    axisBounds(e[j][2], 0, -e[j][0], lo, hi);
-    c.slice[j] = detail::makeLinearBound(e[j][2] * kLatticePerVoxel, lo, hi);
-    c.sliceAz[j] = -e[j][0];
-    axisBounds(-e[j][1], e[j][0], 0, lo, hi);
-    c.column[j] = detail::makeLinearBound(-e[j][1] * kLatticePerVoxel, lo, hi);
-    c.columnAy[j] = e[j][0];
+  int64_t lo, hi;
+  if (part < 5) { // row axes, as bounds on y: ay * 256 y + (128 ay + az cz) in [lo, hi]
+    const int64_t ay = part == 0 ? 1 : (part == 1 ? 0 : -edge(part - 2, 2));
+    const int64_t az = part == 0 ? 0 : (part == 1 ? 1 : edge(part - 2, 1));
+    axisBounds(0, ay, az, lo, hi);
+    c.rowBound[part] = detail::makeLinearBound(ay * kLatticePerVoxel, lo, hi);
+    c.rowAy[part] = ay;
+    c.rowAz[part] = az;
+  } else if (part == 5) {
+    axisBounds(1, 0, 0, lo, hi);
+    c.boxX = detail::makeLinearBound(kLatticePerVoxel, lo, hi);
+  } else if (part < 9) { // e x Y
+    const int j = part - 6;
+    axisBounds(edge(j, 2), 0, -edge(j, 0), lo, hi);
+    c.slice[j] = detail::makeLinearBound(edge(j, 2) * kLatticePerVoxel, lo, hi);
+    c.sliceAz[j] = -edge(j, 0);
+  } else if (part < 12) { // e x Z
+    const int j = part - 9;
+    axisBounds(-edge(j, 1), edge(j, 0), 0, lo, hi);
+    c.column[j] = detail::makeLinearBound(-edge(j, 1) * kLatticePerVoxel, lo, hi);
+    c.columnAy[j] = edge(j, 0);
+  } else {
+    triangleNormal(t, c.n);
+    c.planeR = int128_t(half) * (detail::abs64(c.n[0]) + detail::abs64(c.n[1]) + detail::abs64(c.n[2]));
+    c.planeB0 = int128_t(c.n[0]) * (half - t.v[0][0]) - int128_t(c.n[1]) * t.v[0][1] -
+                int128_t(c.n[2]) * t.v[0][2];
+    // n.(c_i - v0) = 0 at i = (v0x - 128) / 256 - (n_y (cy - v0y) + n_z (cz - v0z)) / (256 n_x).
+    const double Pa = double(c.n[0]) * double(kLatticePerVoxel);
+    c.planeY = t.v[0][1];
+    c.planeZ = t.v[0][2];
+    c.planeX = double(t.v[0][0] - half) / double(kLatticePerVoxel);
+    c.planeKy = c.n[0] == 0 ? 0.0 : -double(c.n[1]) / Pa;
+    c.planeKz = c.n[0] == 0 ? 0.0 : -double(c.n[2]) / Pa;
+    c.halfWidth = c.n[0] == 0 ? 0.0 : double(c.planeR) / (Pa > 0 ? Pa : -Pa);
   }
-  triangleNormal(t, c.n);
-  c.planeR = int128_t(half) * (detail::abs64(c.n[0]) + detail::abs64(c.n[1]) + detail::abs64(c.n[2]));
-  c.planeB0 = int128_t(c.n[0]) * (half - t.v[0][0]) - int128_t(c.n[1]) * t.v[0][1] -
-              int128_t(c.n[2]) * t.v[0][2];
-  // n.(c_i - v0) = 0 at i = (v0x - 128) / 256 - (n_y (cy - v0y) + n_z (cz - v0z)) / (256 n_x).
-  const double Pa = double(c.n[0]) * double(kLatticePerVoxel);
-  c.planeY = t.v[0][1];
-  c.planeZ = t.v[0][2];
-  c.planeX = double(t.v[0][0] - half) / double(kLatticePerVoxel);
-  c.planeKy = c.n[0] == 0 ? 0.0 : -double(c.n[1]) / Pa;
-  c.planeKz = c.n[0] == 0 ? 0.0 : -double(c.n[2]) / Pa;
-  c.halfWidth = c.n[0] == 0 ? 0.0 : double(c.planeR) / (Pa > 0 ? Pa : -Pa);
+}
+
+HDT_HD void makeRowClipper(const LatticeTriangle& t, RowClipper& c) {
+  for (int part = 0; part < kRowClipperParts; ++part) makeRowClipperPart(t, part, c);
 }
 
 // Narrows [first, last] (voxel y indices) to the rows of slice z whose yz
