@@ -233,6 +233,34 @@ TEST_P(RaySpanScale, SpanEqualsPerRayHitTest) {
 INSTANTIATE_TEST_SUITE_P(Sizes, RaySpanScale,
                          ::testing::Values(int64_t(300), int64_t(3000), int64_t(1) << 20, kMaxLattice / 2 - 1));
 
+// Open-mesh votes turn y and z rows into x rows: every voxel must land at
+// its own bit, for every leaf size.
+template <int L>
+void checkAxisRowsToXRows(std::mt19937_64& rng) {
+  uint32_t rows[L * L], xRows[L * L];
+  for (int axis = 1; axis < 3; ++axis) {
+    for (uint32_t& r : rows) r = uint32_t(rng()) & fullRowMask(L);
+    for (int i = 0; i < L; ++i) xRowsOfAxisMatrix<L>(axis, i, rows, xRows);
+    for (int x = 0; x < L; ++x)
+      for (int y = 0; y < L; ++y)
+        for (int z = 0; z < L; ++z) {
+          // Axis 1: row z + L x, bit y. Axis 2: row x + L y, bit z.
+          const uint32_t expect = axis == 1 ? (rows[z + L * x] >> y) & 1u : (rows[x + L * y] >> z) & 1u;
+          ASSERT_EQ(expect, (xRows[y + L * z] >> x) & 1u) << "L=" << L << " axis " << axis << " voxel " << x << ","
+                                                          << y << "," << z;
+        }
+  }
+}
+
+TEST(LeafSteps, AxisRowsBecomeXRows) {
+  std::mt19937_64 rng(11);
+  for (int rep = 0; rep < 4; ++rep) {
+    checkAxisRowsToXRows<8>(rng);
+    checkAxisRowsToXRows<16>(rng);
+    checkAxisRowsToXRows<32>(rng);
+  }
+}
+
 } // namespace
 } // namespace test
 } // namespace hdt

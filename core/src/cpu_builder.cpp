@@ -358,44 +358,32 @@ private:
 
   static uint32_t beforeMask(int before) { return before >= 32 ? 0xFFFFFFFFu : ((1u << before) - 1u); }
 
-  // Per row (u, w) of a leaf along `axis`: bit i = the ray from voxel i's
-  // centre crosses the surface an odd number of times. Along x the in-leaf
-  // part was kept by pass 1 in plane 0; the other axes enumerate again.
+  // Per row (u, w) of a leaf along y or z (axis 1 or 2): bit i = the ray from
+  // voxel i's centre crosses the surface an odd number of times. (Along x
+  // the in-leaf part is kept by pass 1 in plane 0: insideWords.)
   void insideRows(size_t leaf, const std::vector<Pair>& leafPairs, const AxisParity& ap, int axis,
                   uint32_t* rows) const {
     for (int r = 0; r < L_ * L_; ++r)
       rows[r] = (ap.exit[leaf * rowWords_ + (r >> 5)] >> (r & 31)) & 1u ? fullRowMask(L_) : 0u;
-    if (axis == 0) {
-      const uint32_t* words = leafWords_.data() + leaf * leafWordCount(L_);
-      for (int r = 0; r < L_ * L_; ++r) rows[r] ^= rowFromLeaf(words, L_, r, 0);
-      return;
-    }
     forEachCrossing(leaf, leafPairs, axis, [&](int row, int before) { rows[row] ^= beforeMask(before); });
   }
 
-  // Closed meshes, pass 2 without unpacking rows: plane 0 holds the in-leaf
-  // masks (pass 1), already in the words' 2-bit layout; inside = that XOR the
-  // row's exit parity, then minus the surface voxels (plane 1). A word holds
-  // 16 voxels: one row (L = 16), half a row (L = 32) or two rows (L = 8).
-  void insideClosed(size_t leaf, const AxisParity& ap, uint32_t* words) const {
+  // Pass 2 word by word (16 voxels a word), without unpacking rows: the x
+  // axis's in-leaf masks are plane 0 already (pass 1), the exit parity is one
+  // bit a row; inside := that, or for open meshes the majority with the y and
+  // z answers given as x rows; then minus the surface voxels (plane 1).
+  void insideWords(size_t leaf, const AxisParity& ap, const uint32_t* yxRows, const uint32_t* zxRows,
+                   uint32_t* words) const {
     const uint32_t* exitBits = ap.exit.data() + leaf * rowWords_;
-    auto exitOf = [&](uint32_t row) { return (exitBits[row >> 5] >> (row & 31)) & 1u; };
     for (uint32_t i = 0; i < leafWordCount(L_); ++i) {
-      uint32_t exitSpread;
-      if (L_ == 8)
-        exitSpread = (exitOf(2 * i) ? 0x00005555u : 0u) | (exitOf(2 * i + 1) ? 0x55550000u : 0u);
-      else
-        exitSpread = exitOf(L_ == 16 ? i : i / 2) ? 0x55555555u : 0u;
       const uint32_t old = words[i];
-      const uint32_t inside = (exitSpread ^ (old & 0x55555555u)) & ~(old >> 1) & 0x55555555u;
-      words[i] = (old & 0xAAAAAAAAu) | inside;
+      uint32_t inside = rowBitsToWordBits(exitBits, L_, int(i)) ^ planeBits16(old, 0);
+      if (yxRows) {
+        const uint32_t y = wordBitsFromRows(yxRows, L_, int(i)), z = wordBitsFromRows(zxRows, L_, int(i));
+        inside = (inside & y) | (inside & z) | (y & z);
+      }
+      words[i] = withInsidePlane(old, inside);
     }
-  }
-
-  // Plane 0 of a leaf := inside rows minus the surface voxels (plane 1).
-  void writeInside(uint32_t* words, const uint32_t* rows) const {
-    for (uint32_t i = 0; i < leafWordCount(L_); ++i) words[i] &= 0xAAAAAAAAu; // drop pass 1's masks
-    for (int r = 0; r < L_ * L_; ++r) orRowIntoLeaf(words, L_, r, rows[r] & ~rowFromLeaf(words, L_, r, 1), 0);
   }
 
   void classify(const std::vector<Pair>& leafPairs) {
@@ -408,30 +396,22 @@ private:
     const uint32_t wordsPerLeaf = leafWordCount(L_);
     tbb::parallel_for(size_t(0), leafCoords_.size(), [&](size_t leaf) {
       uint32_t* words = leafWords_.data() + leaf * wordsPerLeaf;
-      uint32_t rows[32 * 32];
-      if (axes == 1) { // closed: the +x rows are the leaf's own rows, word by word
-        insideClosed(leaf, parity[0], words);
+      if (axes == 1) { // closed: the +x rows are the leaf's own rows
+        insideWords(leaf, parity[0], nullptr, nullptr, words);
         return;
       }
-      // Open: votes[v] counts the axes that say leaf voxel v is inside.
-      uint8_t votes[32 * 32 * 32];
-      std::fill(votes, votes + L_ * L_ * L_, uint8_t(0));
-      const int stride[3] = {1, L_, L_ * L_};
-      for (int a = 0; a < 3; ++a) {
-        insideRows(leaf, leafPairs, parity[a], a, rows);
-        const int su = stride[rayAxisU(a)], sw = stride[rayAxisW(a)], sa = stride[a];
-        for (int w = 0; w < L_; ++w)
-          for (int u = 0; u < L_; ++u) {
-            const uint32_t m = rows[u + L_ * w];
-            for (int i = 0; i < L_; ++i) votes[u * su + w * sw + i * sa] += (m >> i) & 1u;
-          }
+      // Open: the y and z answers become x rows by bit-matrix transposes
+      // (xRowsOfAxisMatrix), then the majority per word.
+      uint32_t axisRows[32 * 32], xRows[2][32 * 32];
+      for (int a = 1; a < 3; ++a) {
+        insideRows(leaf, leafPairs, parity[a], a, axisRows);
+        for (int i = 0; i < L_; ++i) {
+          if (L_ == 8) xRowsOfAxisMatrix<8>(a, i, axisRows, xRows[a - 1]);
+          else if (L_ == 16) xRowsOfAxisMatrix<16>(a, i, axisRows, xRows[a - 1]);
+          else xRowsOfAxisMatrix<32>(a, i, axisRows, xRows[a - 1]);
+        }
       }
-      for (int r = 0; r < L_ * L_; ++r) {
-        uint32_t m = 0;
-        for (int i = 0; i < L_; ++i) m |= uint32_t(votes[r * L_ + i] >= 2) << i;
-        rows[r] = m;
-      }
-      writeInside(words, rows);
+      insideWords(leaf, parity[0], xRows[0], xRows[1], words);
     });
     tbb::parallel_for(size_t(0), uniform_.size(), [&](size_t i) {
       int votes = 0;

@@ -151,7 +151,7 @@ __device__ __forceinline__ void leafCrossingsAxis(const LeafArgs& a, const LeafT
   if (MASKS && AXIS == 0) { // plane 0 is zero since T3
     uint32_t* out = words + leaf * leafWordCount(L);
     for (int w = lane; w < int(leafWordCount(L)); w += 32) {
-      const uint32_t v = spreadBits16(wordBitsFromRows<L>(sh.masks, w));
+      const uint32_t v = spreadBits16(wordBitsFromRows(sh.masks, L, w));
       if (!split) out[w] |= v;
       else if (v) atomicXor(&out[w], v);
     }
@@ -242,9 +242,9 @@ __global__ void leafInsideClosedKernel(uint64_t wordCount, const uint32_t* exitP
   const uint64_t leaf = g / kWords;
   const int w = int(g % kWords);
   const uint32_t old = words[g];
-  const uint32_t inside = rowBitsToWordBits<L>(exitParity + leaf * RW, w) ^ planeBits16(old, 0);
+  const uint32_t inside = rowBitsToWordBits(exitParity + leaf * RW, L, w) ^ planeBits16(old, 0);
   // plane 0 where inside and not surface (the surface bit is plane 1)
-  words[g] = (old & 0xAAAAAAAAu) | (spreadBits16(inside) & ~(old >> 1) & 0x55555555u);
+  words[g] = withInsidePlane(old, inside);
 }
 
 // Open meshes: one warp per leaf; the majority of the three axes per voxel.
@@ -253,8 +253,9 @@ __global__ void leafInsideClosedKernel(uint64_t wordCount, const uint32_t* exitP
 // z + L x and bit z of z-row x + L y. The y and z rows are turned into x
 // rows by bit-matrix transposes: the y-rows of slice z, indexed by x, form
 // an L x L bit matrix whose transpose, indexed by y, holds the x rows
-// (y, z); the z-rows of height y likewise. One lane transposes one matrix
-// in registers, then the vote is three bitwise operations per word.
+// (y, z); the z-rows of height y likewise (xRowsOfAxisMatrix, shared with
+// the CPU driver). One lane transposes one matrix in registers, then the vote
+// is three bitwise operations per word.
 constexpr int kOpenWarps = 2;
 
 template <int L>
@@ -263,26 +264,6 @@ struct OpenWarp {
   uint32_t t1[L * L], t2[L * L]; // the same as x rows (y + L z)
   uint32_t e[3][L * L / 32];
 };
-
-// In-place transpose of an L x L bit matrix: afterwards bit r of a[c] is
-// what bit c of a[r] was. Quadrants swap, then their quadrants, and so on.
-template <int L>
-__device__ __forceinline__ void transposeBits(uint32_t (&a)[L]) {
-#pragma unroll
-  for (int j = L / 2; j >= 1; j >>= 1) {
-    uint32_t m = 0; // bits b with (b & j) == 0
-#pragma unroll
-    for (int b = 0; b < L; ++b)
-      if ((b & j) == 0) m |= 1u << b;
-#pragma unroll
-    for (int k = 0; k < L; ++k) {
-      if (k & j) continue;
-      const uint32_t t = ((a[k] >> j) ^ a[k + j]) & m;
-      a[k] ^= t << j;
-      a[k + j] ^= t;
-    }
-  }
-}
 
 template <int L>
 __global__ void __launch_bounds__(32 * kOpenWarps) leafInsideOpenKernel(uint32_t leafCount, const uint32_t* e0,
@@ -307,31 +288,16 @@ __global__ void __launch_bounds__(32 * kOpenWarps) leafInsideOpenKernel(uint32_t
     sh.m2[r] = m2[size_t(leaf) * L * L + r] ^ exitRow(2, r);
   }
   __syncwarp();
-  for (int task = lane; task < 2 * L; task += 32) {
-    const int i = task % L;
-    uint32_t a[L];
-    if (task < L) { // y rows of slice z = i: row z + L x, indexed by x
-#pragma unroll
-      for (int x = 0; x < L; ++x) a[x] = sh.m1[i + L * x];
-      transposeBits<L>(a); // a[y] bit x = inside along y at (x, y, z)
-#pragma unroll
-      for (int y = 0; y < L; ++y) sh.t1[y + L * i] = a[y];
-    } else { // z rows of height y = i: row x + L y, indexed by x
-#pragma unroll
-      for (int x = 0; x < L; ++x) a[x] = sh.m2[x + L * i];
-      transposeBits<L>(a); // a[z] bit x = inside along z at (x, y, z)
-#pragma unroll
-      for (int z = 0; z < L; ++z) sh.t2[i + L * z] = a[z];
-    }
-  }
+  for (int task = lane; task < 2 * L; task += 32) // one lane a matrix (xRowsOfAxisMatrix)
+    xRowsOfAxisMatrix<L>(task < L ? 1 : 2, task % L, task < L ? sh.m1 : sh.m2, task < L ? sh.t1 : sh.t2);
   __syncwarp();
   uint32_t* out = words + size_t(leaf) * leafWordCount(L);
   for (int w = lane; w < int(leafWordCount(L)); w += 32) {
     const uint32_t old = out[w];
-    const uint32_t v0 = rowBitsToWordBits<L>(sh.e[0], w) ^ planeBits16(old, 0);
-    const uint32_t v1 = wordBitsFromRows<L>(sh.t1, w), v2 = wordBitsFromRows<L>(sh.t2, w);
+    const uint32_t v0 = rowBitsToWordBits(sh.e[0], L, w) ^ planeBits16(old, 0);
+    const uint32_t v1 = wordBitsFromRows(sh.t1, L, w), v2 = wordBitsFromRows(sh.t2, L, w);
     const uint32_t m = (v0 & v1) | (v0 & v2) | (v1 & v2); // majority of the three axes
-    out[w] = (old & 0xAAAAAAAAu) | (spreadBits16(m) & ~(old >> 1) & 0x55555555u);
+    out[w] = withInsidePlane(old, m);
   }
 }
 

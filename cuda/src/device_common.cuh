@@ -88,37 +88,5 @@ __device__ __forceinline__ void warpForEachPairItem(uint32_t p0, uint32_t p1, Co
   }
 }
 
-// ---- leaf words from row masks ------------------------------------------------------
-//
-// Leaf layout (types.hpp): voxel v = x + L (y + L z) is 2-bit field v % 16 of
-// word v / 16, so a word holds 16 voxels of one row (L = 16), half a row
-// (L = 32) or two rows (L = 8). rows[] holds one L-bit mask per row (y + L z).
-// Returns the 16 voxel bits of word `w`, voxel order.
-template <int L>
-__device__ __forceinline__ uint32_t wordBitsFromRows(const uint32_t* rows, int w) {
-  if (L == 16) return rows[w] & 0xFFFFu;
-  if (L == 8) return (rows[2 * w] & 0xFFu) | ((rows[2 * w + 1] & 0xFFu) << 8);
-  return (rows[w >> 1] >> ((w & 1) * 16)) & 0xFFFFu; // L == 32
-}
-
-// The 16 voxel bits of one 2-bit plane of a leaf word (inverse of spreadBits16).
-__device__ __forceinline__ uint32_t planeBits16(uint32_t word, int plane) {
-  uint32_t m = (word >> plane) & 0x55555555u;
-  m = (m | (m >> 1)) & 0x33333333u;
-  m = (m | (m >> 2)) & 0x0F0F0F0Fu;
-  m = (m | (m >> 4)) & 0x00FF00FFu;
-  return (m | (m >> 8)) & 0x0000FFFFu;
-}
-
-// One bit per leaf row (rowBits[r / 32] bit r % 32) widened to the 16 voxel
-// bits of word w: every voxel of a row gets the row's bit.
-template <int L>
-__device__ __forceinline__ uint32_t rowBitsToWordBits(const uint32_t* rowBits, int w) {
-  auto bit = [rowBits](int r) { return (rowBits[r >> 5] >> (r & 31)) & 1u; };
-  if (L == 16) return bit(w) ? 0xFFFFu : 0u;
-  if (L == 8) return (bit(2 * w) ? 0x00FFu : 0u) | (bit(2 * w + 1) ? 0xFF00u : 0u);
-  return bit(w >> 1) ? 0xFFFFu : 0u; // L == 32
-}
-
 } // namespace cuda
 } // namespace hdt

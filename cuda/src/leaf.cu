@@ -176,7 +176,7 @@ __device__ __forceinline__ void leafSurface(const LeafArgs& a, const LeafTask& t
 
   uint32_t* out = words + size_t(leaf) * leafWordCount(L);
   for (int w = lane; w < int(leafWordCount(L)); w += 32) {
-    const uint32_t v = spreadBits16(wordBitsFromRows<L>(sh.rows, w)) << 1;
+    const uint32_t v = spreadBits16(wordBitsFromRows(sh.rows, L, w)) << 1;
     if (!(task.flags & kTaskSplit)) {
       out[w] = v;
     } else if (v) {

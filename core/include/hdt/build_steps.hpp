@@ -521,20 +521,79 @@ HDT_HD void orRowIntoLeaf(uint32_t* words, int L, int row, uint32_t mask, int pl
   }
 }
 
-// Inverse of orRowIntoLeaf: the row's bits of one 2-bit plane.
-HDT_HD uint32_t rowFromLeaf(const uint32_t* words, int L, int row, int plane) {
-  const uint32_t v = uint32_t(row) * uint32_t(L);
-  uint32_t mask = 0;
-  for (int k = 0; k < L; k += 16) {
-    const uint32_t voxel = v + uint32_t(k);
-    uint32_t m = (words[voxel >> 4] >> (2 * (voxel & 15u) + plane)) & 0x55555555u;
-    m = (m | (m >> 1)) & 0x33333333u; // compact every other bit: inverse of spreadBits16
-    m = (m | (m >> 2)) & 0x0F0F0F0Fu;
-    m = (m | (m >> 4)) & 0x00FF00FFu;
-    m = (m | (m >> 8)) & 0x0000FFFFu;
-    mask |= (L == 8 ? (m & 0xFFu) : m) << k;
+// In-place transpose of an L x L bit matrix (L = 8, 16 or 32): afterwards
+// bit r of a[c] is what bit c of a[r] was. Quadrants swap, then their
+// quadrants, and so on: log2(L) steps of L / 2 masked swaps.
+template <int L>
+HDT_HD void transposeBits(uint32_t (&a)[L]) {
+#if defined(__CUDA_ARCH__)
+#pragma unroll
+#endif
+  for (int j = L / 2; j >= 1; j >>= 1) {
+    uint32_t m = 0; // the bits b with (b & j) == 0
+    for (int b = 0; b < L; ++b)
+      if ((b & j) == 0) m |= 1u << b;
+#if defined(__CUDA_ARCH__)
+#pragma unroll
+#endif
+    for (int k = 0; k < L; ++k) {
+      if (k & j) continue;
+      const uint32_t t = ((a[k] >> j) ^ a[k + j]) & m;
+      a[k] ^= t << j;
+      a[k + j] ^= t;
+    }
   }
-  return mask;
+}
+
+// Classification of open meshes votes per voxel over three axes, but the
+// leaf's words hold x rows. Axis a's rows are indexed u + L w with (u, w)
+// the cyclic other axes: y rows (axis 1) are z + L x with bit y, z rows
+// (axis 2) are x + L y with bit z. Matrix i of axis 1 (slice z = i: its y
+// rows indexed by x) transposed holds the x rows (y, i); matrix i of axis 2
+// (height y = i: its z rows indexed by x) transposed holds the x rows (i, z).
+// Writes those L x rows into xRows (index y + L z).
+template <int L>
+HDT_HD void xRowsOfAxisMatrix(int axis, int i, const uint32_t* rows, uint32_t* xRows) {
+  uint32_t a[L];
+  for (int x = 0; x < L; ++x) a[x] = rows[axis == 1 ? i + L * x : x + L * i];
+  transposeBits<L>(a);
+  for (int k = 0; k < L; ++k) xRows[axis == 1 ? k + L * i : i + L * k] = a[k];
+}
+
+// ---- leaf words and row masks ------------------------------------------------
+// Leaf layout (types.hpp): voxel v = x + L (y + L z) is 2-bit field v % 16 of
+// word v / 16, so a word holds 16 voxels of one row (L = 16), half a row
+// (L = 32) or two rows (L = 8). `rows` holds one L-bit mask per row (y + L z).
+
+// The 16 voxel bits of word w, voxel order.
+HDT_HD uint32_t wordBitsFromRows(const uint32_t* rows, int L, int w) {
+  if (L == 16) return rows[w] & 0xFFFFu;
+  if (L == 8) return (rows[2 * w] & 0xFFu) | ((rows[2 * w + 1] & 0xFFu) << 8);
+  return (rows[w >> 1] >> ((w & 1) * 16)) & 0xFFFFu; // L == 32
+}
+
+// One bit per row (rowBits[r / 32] bit r % 32) widened to the 16 voxel bits
+// of word w: every voxel of a row gets the row's bit.
+HDT_HD uint32_t rowBitsToWordBits(const uint32_t* rowBits, int L, int w) {
+  auto bit = [rowBits](int r) { return (rowBits[r >> 5] >> (r & 31)) & 1u; };
+  if (L == 16) return bit(w) ? 0xFFFFu : 0u;
+  if (L == 8) return (bit(2 * w) ? 0x00FFu : 0u) | (bit(2 * w + 1) ? 0xFF00u : 0u);
+  return bit(w >> 1) ? 0xFFFFu : 0u; // L == 32
+}
+
+// The 16 voxel bits of one 2-bit plane of a leaf word (inverse of spreadBits16).
+HDT_HD uint32_t planeBits16(uint32_t word, int plane) {
+  uint32_t m = (word >> plane) & 0x55555555u;
+  m = (m | (m >> 1)) & 0x33333333u;
+  m = (m | (m >> 2)) & 0x0F0F0F0Fu;
+  m = (m | (m >> 4)) & 0x00FF00FFu;
+  return (m | (m >> 8)) & 0x0000FFFFu;
+}
+
+// A leaf word with plane 0 set to `inside` (16 voxel bits) wherever the
+// voxel is not surface (plane 1): the last step of classification.
+HDT_HD uint32_t withInsidePlane(uint32_t word, uint32_t inside) {
+  return (word & 0xAAAAAAAAu) | (spreadBits16(inside) & ~(word >> 1) & 0x55555555u);
 }
 
 // Mask of the L voxels of a leaf row (L <= 32).
