@@ -131,12 +131,12 @@ HDT_HD void narrowToBound(const LinearBound& b, int64_t B, int64_t& first, int64
 // no per-voxel test at all. The axes group by the coordinates they involve,
 // and each group is evaluated where it changes:
 //   box x, y, z           the triangle's voxel bounding box (cellRange)
-//   e x X (3, no x part)  per row, accept or reject: clipRowsOfSlice
+//   e x X (3, no x part)  which rows of a slice z:     clipRowsOfSlice
 //   e x Y (3, x and z)    one x span per slice z:      clipSliceSpan
 //   e x Z (3, x and y)    one x span per row height y: clipColumnSpan
 //   the plane (x, y, z)   per row:                     clipRowByPlane
-// so a row costs one plane step, not 13 axes. The setup is done once per
-// triangle (makeRowClipper); clipRow composes all of it for one row.
+// so a row costs one plane step, not 13 axes. The setup depends on the
+// triangle only (makeRowClipper); clipRow composes all of it for one row.
 struct RowClipper {
   // Axes without an x component (box y, box z, e x X), as bounds on y:
   // |ay| * 256 y  vs  B = 128 ay + az cz.
