@@ -10,11 +10,12 @@
 #     buildsrc  configure + build from source even then (checks the build)
 #     quick     a few GPU-vs-CPU tests
 #     tests     all CUDA tests (hdt_cuda_tests)
-#     sanitize  compute-sanitizer memcheck and racecheck on a reduced filter
+#     sanitize  compute-sanitizer memcheck on every test, initcheck and synccheck on a reduced set
+#     racecheck racecheck on the generated shapes, dense clusters, driver tests and meshes at 1024
 #     bench     hdt_gpu_bench over all meshes, 1K..32K, surface and solid,
 #               and the >= 1M-triangle 32768^3 run
 #     profile   ncu on one 8192^3 build (profile2: a second mesh; sass: instruction mix)
-#     minibench, variant, racecheck: quicker subsets used while tuning
+#     minibench, variant: quicker subsets used while tuning
 # Steps read a few environment variables (BENCH_*, PROFILE_*, MINIBENCH_*, TESTS_TIMEOUT).
 #
 # Logs and results go to $OUT (the run tool brings back at most 8 files).
@@ -89,12 +90,11 @@ step_quick() {
 
 step_tests() { run_tests tests '*' "${TESTS_TIMEOUT:-540}"; }
 
-step_sanitize() { # every CUDA test but the large shared-mesh ones under memcheck; a reduced set under the others
+step_sanitize() { # memcheck on every CUDA test; initcheck and synccheck on a reduced set
   local t0=$SECONDS
-  timeout 300 compute-sanitizer --tool memcheck --error-exitcode 9 "$TESTS" \
-    --gtest_filter='-*CudaSharedMeshes*N2048*:*CudaSharedMeshes*N4096*' > "$OUT/memcheck.log" 2>&1
+  timeout 300 compute-sanitizer --tool memcheck --error-exitcode 9 "$TESTS" > "$OUT/memcheck.log" 2>&1
   say "memcheck: rc=$? in $((SECONDS - t0)) s: $(grep -E 'ERROR SUMMARY|^\[  (PASSED|FAILED) ' "$OUT/memcheck.log" | tr '\n' ' ')"
-  local filter='*CudaDense*:*CudaShapes*/two_bodies_R16_L16_*:*CudaShapes*/open_hemisphere_R8_L32_solid:*CudaShapes*/grid_aligned_box_R16_L8_*:*CudaChunked*/open_hemisphere*'
+  local filter='*CudaDense*:*CudaShapes*/two_bodies_R16_L16_*:*CudaShapes*/open_hemisphere_R8_L32_*:*CudaShapes*/grid_aligned_box_R16_L8_*:*CudaChunked*/open_hemisphere*'
   for tool in initcheck synccheck; do
     t0=$SECONDS
     timeout 150 compute-sanitizer --tool $tool --error-exitcode 9 "$TESTS" --gtest_filter="$filter" > "$OUT/$tool.log" 2>&1
@@ -102,11 +102,12 @@ step_sanitize() { # every CUDA test but the large shared-mesh ones under memchec
   done
 }
 
-step_racecheck() { # shared-memory hazards; slow (every shared access tracked): a small set
+step_racecheck() { # shared-memory hazards; every shared access tracked (~100x slower): all generated
+  # shapes, the dense clusters, the driver tests and the shared meshes at 1024 (about 4 minutes on an
+  # H100); the chunked tests and the larger meshes do not fit one 10-minute call
   local t0=$SECONDS
-  timeout 200 compute-sanitizer --tool racecheck --racecheck-report hazard --error-exitcode 9 "$TESTS" \
-    --gtest_filter='*CudaDense*/closed_L16_solid:*CudaDense*/open_L8_solid:*CudaShapes*/two_bodies_R16_L16_*:*CudaShapes*/open_hemisphere_R8_L32_solid:*CudaShapes*/grid_aligned_box_R16_L8_*' \
-    > "$OUT/racecheck.log" 2>&1
+  timeout 540 compute-sanitizer --tool racecheck --racecheck-report hazard --error-exitcode 9 "$TESTS" \
+    --gtest_filter='*CudaShapes*:*CudaDense*:CudaDriver.*:*CudaSharedMeshes*N1024*' > "$OUT/racecheck.log" 2>&1
   say "racecheck: rc=$? in $((SECONDS - t0)) s: $(grep -E 'SUMMARY|^\[  (PASSED|FAILED) ' "$OUT/racecheck.log" | tr '\n' ' ')"
 }
 
