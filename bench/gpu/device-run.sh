@@ -61,6 +61,8 @@ step_buildsrc() {
   local rc=$?
   say "build: rc=$rc in $((SECONDS - t0)) s"
   [ $rc -eq 0 ] || { tail -40 "$OUT/build.log"; exit 1; }
+  # The later steps use what was just built, not binaries left in .devdeps/bin.
+  BIN=$ROOT/build-device/bin TESTS=$ROOT/build-device/bin/hdt_cuda_tests BENCH=$ROOT/build-device/bin/hdt_gpu_bench
 }
 
 run_tests() { # name filter timeout
