@@ -12,7 +12,6 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
-#include <cctype>
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -90,11 +89,8 @@ TEST_P(SharedMesh, CpuBuildMatchesReference) {
 
 INSTANTIATE_TEST_SUITE_P(Files, SharedMesh, ::testing::ValuesIn(sharedCases()),
                          [](const ::testing::TestParamInfo<SharedCase>& info) {
-                           if (info.param.file.empty()) return std::string("none");
-                           std::string name = info.param.file;
-                           for (char& ch : name)
-                             if (!std::isalnum(static_cast<unsigned char>(ch))) ch = '_';
-                           return name + "_N" + std::to_string(info.param.n);
+                           if (info.param.file.empty()) return meshCaseName("");
+                           return meshCaseName(info.param.file) + "_N" + std::to_string(info.param.n);
                          });
 
 } // namespace

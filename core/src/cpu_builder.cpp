@@ -213,14 +213,9 @@ private:
         const LatticeTriangle& original = mesh_.triangles[pairTriangle(leafPairs[p])];
         const int axis = rowAxisFor(original);
         const LatticeTriangle tri = permuteToRowAxis(original, axis);
-        int64_t lo[3], hi[3], first[3], last[3], o[3];
-        triangleBounds(tri, lo, hi);
-        for (int a = 0; a < 3; ++a) {
-          o[a] = v0[(axis + a) % 3];
-          cellRange(lo[a], hi[a], kLatticePerVoxel, g_.resolution, first[a], last[a]);
-          first[a] = std::max(first[a], o[a]);
-          last[a] = std::min(last[a], o[a] + L_ - 1);
-        }
+        int64_t o[3], first[3], last[3];
+        permutedOrigin(v0, axis, o);
+        leafVoxelRanges(tri, o, L_, g_.resolution, first, last);
         RowClipper clipper;
         makeRowClipper(tri, clipper);
         // The x span each row height allows (e x Z axes), shared by all slices.
@@ -314,7 +309,7 @@ private:
       uint32_t masks[32 * 32] = {};
       forEachCrossing(leaf, leafPairs, axis, [&](int row, int before) {
         bits[row >> 5] ^= 1u << (row & 31);
-        masks[row] ^= beforeMask(before);
+        masks[row] ^= maskBeforeCrossing(before);
       });
       uint32_t* words = leafWords_.data() + leaf * wordsPerLeaf;
       for (int r = 0; r < L_ * L_; ++r)
@@ -356,8 +351,6 @@ private:
     return ap.entry[size_t(it->leaf) * rowWords_] & 1u;
   }
 
-  static uint32_t beforeMask(int before) { return before >= 32 ? 0xFFFFFFFFu : ((1u << before) - 1u); }
-
   // Per row (u, w) of a leaf along y or z (axis 1 or 2): bit i = the ray from
   // voxel i's centre crosses the surface an odd number of times. (Along x
   // the in-leaf part is kept by pass 1 in plane 0: insideWords.)
@@ -365,7 +358,7 @@ private:
                   uint32_t* rows) const {
     for (int r = 0; r < L_ * L_; ++r)
       rows[r] = (ap.exit[leaf * rowWords_ + (r >> 5)] >> (r & 31)) & 1u ? fullRowMask(L_) : 0u;
-    forEachCrossing(leaf, leafPairs, axis, [&](int row, int before) { rows[row] ^= beforeMask(before); });
+    forEachCrossing(leaf, leafPairs, axis, [&](int row, int before) { rows[row] ^= maskBeforeCrossing(before); });
   }
 
   // Pass 2 word by word (16 voxels a word), without unpacking rows: the x

@@ -33,23 +33,6 @@ namespace hdt {
 namespace cuda {
 namespace {
 
-struct LeafArgs {
-  const LatticeTriangle* tris;
-  const uint64_t* leafCoord;
-  const uint32_t* pairTri;
-  const LeafTask* tasks;
-  const uint32_t* taskCount;
-};
-
-LeafArgs leafArgs(const DeviceMesh& mesh, const Leaves& leaves) {
-  return LeafArgs{mesh.triangles, leaves.coord.data(), leaves.triangle.data(), leaves.tasks.data(),
-                  leaves.taskCount.data()};
-}
-
-__device__ __forceinline__ void leafOrigin(uint64_t c, int L, int64_t (&v0)[3]) {
-  for (int a = 0; a < 3; ++a) v0[a] = int64_t(unpackCoord(c, a)) * L;
-}
-
 // ---- pass 1 -----------------------------------------------------------------------
 constexpr int kCrossWarps = 4;
 
@@ -63,10 +46,6 @@ struct CrossingWarp {
   uint32_t masks[L * L];                  // XOR of before-masks per row
   uint32_t parity[L * L / 32];            // one bit per row
 };
-
-__device__ __forceinline__ uint32_t beforeMask(int before) {
-  return before >= 32 ? 0xFFFFFFFFu : ((1u << before) - 1u);
-}
 
 // The crossings of one task along AXIS, in three warp-wide steps that follow
 // the CPU driver's loops (forEachCrossing; same calls):
@@ -119,7 +98,7 @@ __device__ __forceinline__ void crossingsAlong(const LeafArgs& a, const LeafTask
           if (crossingInLeaf(sh.crossings[j], u, w, L, before)) {
             const int row = u + L * w;
             atomicXor(&sh.parity[row >> 5], 1u << (row & 31));
-            if (MASKS) atomicXor(&sh.masks[row], beforeMask(before));
+            if (MASKS) atomicXor(&sh.masks[row], maskBeforeCrossing(before));
           }
         });
   }
@@ -388,7 +367,7 @@ void leafCrossings(DeviceMemory& mem, const DeviceMesh& mesh, const GridSpec& gr
     if (parity[a]) zeroSplitLeaves(mem, leaves, parity[a], uint32_t(rowWordsFor(L)));
     if (words && a > 0) zeroSplitLeaves(mem, leaves, masks[a], uint32_t(L * L));
   }
-  const LeafArgs a = leafArgs(mesh, leaves);
+  const LeafArgs a = leafArgs(mesh, grid, leaves);
   const uint32_t bound = leaves.taskBound;
   switch (L) {
   case 8: launchCrossings<8>(a, bound, axes, parity, words, masks, mem.stream()); break;

@@ -3,7 +3,9 @@
 
 #include "check.hpp"
 #include "device_memory.hpp"
+#include "phases.hpp"
 
+#include "hdt/build_steps.hpp" // unpackCoord
 #include "hdt/types.hpp"
 
 #include <cub/device/device_radix_sort.cuh>
@@ -52,6 +54,26 @@ void sortPairs(DeviceMemory& mem, DeviceBuffer<K>& keys, DeviceBuffer<V>& values
   });
   if (k.selector != 0) std::swap(keys, keysAlt);
   if (v.selector != 0) std::swap(values, valuesAlt);
+}
+
+// ---- what the leaf kernels (T3, classification) read ------------------------------
+struct LeafArgs {
+  const LatticeTriangle* tris;
+  const uint64_t* leafCoord;
+  const uint32_t* pairTri;
+  const LeafTask* tasks;
+  const uint32_t* taskCount;
+  int64_t resolution; // voxels an axis
+};
+
+inline LeafArgs leafArgs(const DeviceMesh& mesh, const GridSpec& grid, const Leaves& leaves) {
+  return LeafArgs{mesh.triangles,       leaves.coord.data(),          leaves.triangle.data(),
+                  leaves.tasks.data(),  leaves.taskCount.data(),      grid.resolution};
+}
+
+// First voxel of the leaf at packed leaf coordinate c.
+__device__ __forceinline__ void leafOrigin(uint64_t c, int L, int64_t (&v0)[3]) {
+  for (int a = 0; a < 3; ++a) v0[a] = int64_t(unpackCoord(c, a)) * L;
 }
 
 // ---- warp-cooperative work over the (leaf, triangle) pairs of one leaf -----------

@@ -33,19 +33,10 @@ namespace {
 
 constexpr int kWarpsPerBlock = 4;
 // 8 blocks of 4 warps per SM caps registers at 64: a few spills, but 32
-// warps instead of 24 hide more of clipRow's latency (measured: 8.0 vs 8.75 ms).
+// warps instead of 24 hide more of the row steps' latency (measured: 8.0 vs 8.75 ms).
 #ifndef HDT_CUDA_T3_MIN_BLOCKS
 #define HDT_CUDA_T3_MIN_BLOCKS 8
 #endif
-
-struct LeafArgs {
-  const LatticeTriangle* tris;
-  const uint64_t* leafCoord;
-  const uint32_t* pairTri;
-  const LeafTask* tasks;
-  const uint32_t* taskCount;
-  int64_t resolution;
-};
 
 // Warp per split-leaf first part: zero the leaf's slice of `data`.
 __global__ void zeroSplitKernel(const LeafTask* tasks, const uint32_t* taskCount, uint32_t* data, uint32_t perLeaf) {
@@ -54,28 +45,6 @@ __global__ void zeroSplitKernel(const LeafTask* tasks, const uint32_t* taskCount
   const LeafTask task = tasks[t];
   if (!(task.flags & kTaskFirst)) return;
   for (uint32_t i = threadIdx.x & 31; i < perLeaf; i += 32) data[size_t(task.leaf) * perLeaf + i] = 0;
-}
-
-// Voxel ranges of triangle t clamped to the leaf at v0: the CPU driver's
-// cellRange on the voxel lattice, then the leaf's extent.
-template <int L>
-__device__ __forceinline__ void leafVoxelRanges(const LatticeTriangle& t, const int64_t (&v0)[3], int64_t res,
-                                                int64_t (&first)[3], int64_t (&last)[3]) {
-  int64_t lo[3], hi[3];
-  triangleBounds(t, lo, hi);
-#pragma unroll
-  for (int a = 0; a < 3; ++a) {
-    cellRange(lo[a], hi[a], kLatticePerVoxel, res, first[a], last[a]);
-    if (first[a] < v0[a]) first[a] = v0[a];
-    if (last[a] > v0[a] + L - 1) last[a] = v0[a] + L - 1;
-  }
-}
-
-// The leaf origin in the frame of row axis `axis` (permuteToRowAxis).
-__device__ __forceinline__ void permutedOrigin(const int64_t (&v0)[3], int axis, int64_t (&o)[3]) {
-  o[0] = v0[axis];
-  o[1] = v0[rayAxisU(axis)];
-  o[2] = v0[rayAxisW(axis)];
 }
 
 // Pairs whose clippers are in shared memory at once. 4 or 6 (more resident
@@ -103,9 +72,8 @@ __device__ __forceinline__ void leafSurface(const LeafArgs& a, const LeafTask& t
   const uint32_t leaf = task.leaf;
   for (int r = lane; r < L * L; r += 32) sh.rows[r] = 0;
 
-  const uint64_t c = a.leafCoord[leaf];
-  const int64_t v0[3] = {int64_t(unpackCoord(c, 0)) * L, int64_t(unpackCoord(c, 1)) * L,
-                         int64_t(unpackCoord(c, 2)) * L};
+  int64_t v0[3];
+  leafOrigin(a.leafCoord[leaf], L, v0);
   const uint32_t p1 = task.end;
   for (uint32_t base = task.first; base < p1; base += kBatch) {
     const int nb = int(min(uint32_t(kBatch), p1 - base));
@@ -116,7 +84,7 @@ __device__ __forceinline__ void leafSurface(const LeafArgs& a, const LeafTask& t
       const LatticeTriangle t = permuteToRowAxis(original, axis);
       int64_t o[3], first[3], last[3];
       permutedOrigin(v0, axis, o);
-      leafVoxelRanges<L>(t, o, a.resolution, first, last);
+      leafVoxelRanges(t, o, L, a.resolution, first, last);
       sh.tri[lane] = t;
       sh.axis[lane] = int8_t(axis);
       sh.x0[lane] = int32_t(first[0] - o[0]);
@@ -219,8 +187,7 @@ void writeLeafSurfaces(DeviceMemory& mem, const DeviceMesh& mesh, const GridSpec
                        uint32_t* words) {
   if (leaves.count == 0) return;
   zeroSplitLeaves(mem, leaves, words, leafWordCount(grid.leafSize));
-  const LeafArgs a{mesh.triangles, leaves.coord.data(), leaves.triangle.data(), leaves.tasks.data(),
-                   leaves.taskCount.data(), grid.resolution};
+  const LeafArgs a = leafArgs(mesh, grid, leaves);
   const uint32_t bound = leaves.taskBound;
   switch (grid.leafSize) {
   case 8: launchLeafSurface<8>(a, bound, words, mem.stream()); break;

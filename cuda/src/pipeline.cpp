@@ -112,13 +112,24 @@ Volume buildWhole(Session& s, RootMapping root, bool keepResult) {
   return v;
 }
 
+namespace {
+
+// T1 and T2 of the root cells [firstCell, endCell), timed: both chunk phases
+// start from the same tree (phase B rebuilds it rather than keeping it).
+Tree buildChunkStructure(Session& s, uint64_t firstCell, uint64_t endCell) {
+  s.clock.start();
+  RootMapping root = mapTrianglesToRootCells(s.memory, s.scalars, s.deviceMesh, s.grid, firstCell, endCell, false);
+  s.clock.mark(kMapping);
+  Tree tree = buildTree(s.memory, s.scalars, s.deviceMesh, s.grid, firstCell, endCell, std::move(root.pairs), false, {});
+  s.clock.mark(kBranching);
+  return tree;
+}
+
+} // namespace
+
 ChunkTree buildChunkTree(Session& s, uint64_t firstCell, uint64_t endCell) {
   const GridSpec& g = s.grid;
-  s.clock.start();
-  RootMapping root = mapTrianglesToRootCells(s.memory, s.scalars, s.deviceMesh, g, firstCell, endCell, false);
-  s.clock.mark(kMapping);
-  Tree tree = buildTree(s.memory, s.scalars, s.deviceMesh, g, firstCell, endCell, std::move(root.pairs), false, {});
-  s.clock.mark(kBranching);
+  Tree tree = buildChunkStructure(s, firstCell, endCell);
 
   ChunkTree out;
   const uint32_t leaves = tree.leaves.count;
@@ -131,9 +142,8 @@ ChunkTree buildChunkTree(Session& s, uint64_t firstCell, uint64_t endCell) {
     download(s, out.leafWords.data(), words, wordCount);
   } else {
     // Phase B allocates the leaf grids and the open-mesh masks for real.
-    const int axesB = axesFor(s.mesh);
-    Reservation room(s.memory, (wordCount + size_t(axesB - 1) * leaves * g.leafSize * g.leafSize) * sizeof(uint32_t));
     const int axes = axesFor(s.mesh);
+    Reservation room(s.memory, (wordCount + size_t(axes - 1) * leaves * g.leafSize * g.leafSize) * sizeof(uint32_t));
     const size_t rowWords = size_t(rowWordsFor(g.leafSize));
     DeviceBuffer<uint32_t> parity[3];
     uint32_t* p[3] = {nullptr, nullptr, nullptr};
@@ -165,11 +175,7 @@ ChunkTree buildChunkTree(Session& s, uint64_t firstCell, uint64_t endCell) {
 void buildChunkLeaves(Session& s, uint64_t firstCell, uint64_t endCell, uint32_t leafCount,
                       const uint32_t* const exitParity[3], uint32_t* leafWords) {
   const GridSpec& g = s.grid;
-  s.clock.start();
-  RootMapping root = mapTrianglesToRootCells(s.memory, s.scalars, s.deviceMesh, g, firstCell, endCell, false);
-  s.clock.mark(kMapping);
-  Tree tree = buildTree(s.memory, s.scalars, s.deviceMesh, g, firstCell, endCell, std::move(root.pairs), false, {});
-  s.clock.mark(kBranching);
+  Tree tree = buildChunkStructure(s, firstCell, endCell);
   if (tree.leaves.count != leafCount) {
     throw Error(ErrorKind::OutOfResources, "CUDA driver: chunk rebuilt with " + std::to_string(tree.leaves.count) +
                                                " leaves instead of " + std::to_string(leafCount));

@@ -5,6 +5,7 @@
 #include "hdt/builder.hpp"
 #include "hdt/types.hpp"
 #include "hdt/volume.hpp"
+#include "support/reference_voxelizer.hpp" // stateName
 
 #include <gtest/gtest.h>
 
@@ -22,23 +23,13 @@
 namespace hdt {
 namespace test {
 
-inline const char* elementStateName(ElementState s) {
-  switch (s) {
-  case ElementState::Empty: return "Empty";
-  case ElementState::Full: return "Full";
-  case ElementState::Branch: return "Branch";
-  case ElementState::Boundary: return "Boundary";
-  }
-  return "?";
-}
-
 inline std::string describeElement(const Volume& v, uint64_t index) {
   size_t level = 0;
   while (level + 1 < v.levelStart.size() && v.levelStart[level + 1] <= index) ++level;
   std::ostringstream os;
   const ElementWord w = v.elements[index];
   os << "level " << level << " element " << index - v.levelStart[level] << " (#" << index << "): "
-     << elementStateName(elementState(w)) << " " << elementPayload(w);
+     << stateName(elementState(w)) << " " << elementPayload(w);
   return os.str();
 }
 

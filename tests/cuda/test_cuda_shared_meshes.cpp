@@ -13,7 +13,6 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
-#include <cctype>
 #include <cstdlib>
 #include <filesystem>
 #include <map>
@@ -74,10 +73,7 @@ INSTANTIATE_TEST_SUITE_P(Files, CudaSharedMeshes,
                          ::testing::Combine(::testing::ValuesIn(meshFilesIn(meshesDir())), ::testing::Values(1024, 2048, 4096),
                                             ::testing::Bool()),
                          [](const ::testing::TestParamInfo<Param>& info) {
-                           std::string name = std::get<0>(info.param).empty() ? "none" : std::get<0>(info.param);
-                           for (char& c : name)
-                             if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
-                           return name + "_N" + std::to_string(std::get<1>(info.param)) +
+                           return meshCaseName(std::get<0>(info.param)) + "_N" + std::to_string(std::get<1>(info.param)) +
                                   (std::get<2>(info.param) ? "_surface" : "_solid");
                          });
 

@@ -24,5 +24,13 @@ std::vector<std::string> meshFilesIn(const std::string& dir) {
   return files;
 }
 
+std::string meshCaseName(const std::string& file) {
+  if (file.empty()) return "none";
+  std::string name = file;
+  for (char& ch : name)
+    if (!std::isalnum(static_cast<unsigned char>(ch))) ch = '_';
+  return name;
+}
+
 } // namespace test
 } // namespace hdt

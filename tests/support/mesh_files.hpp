@@ -13,5 +13,9 @@ namespace test {
 // parameterised suite still has one case, which skips with the reason.
 std::vector<std::string> meshFilesIn(const std::string& dir);
 
+// A test-name-safe form of a name from meshFilesIn ("none" for the empty one):
+// every character that is not a letter or digit becomes '_'.
+std::string meshCaseName(const std::string& file);
+
 } // namespace test
 } // namespace hdt

@@ -341,6 +341,25 @@ HDT_HD LatticeTriangle permuteToRowAxis(const LatticeTriangle& t, int axis) {
   return p;
 }
 
+// The leaf origin v0 in the frame of row axis `axis` (permuteToRowAxis).
+HDT_HD void permutedOrigin(const int64_t (&v0)[3], int axis, int64_t (&o)[3]) {
+  for (int k = 0; k < 3; ++k) o[k] = v0[(axis + k) % 3];
+}
+
+// T3: the voxels of the triangle's voxel box (cellRange on the voxel
+// lattice, `resolution` voxels an axis) inside the leaf of L voxels an axis
+// at v0. Empty along an axis when first > last.
+HDT_HD void leafVoxelRanges(const LatticeTriangle& t, const int64_t (&v0)[3], int L, int64_t resolution,
+                            int64_t (&first)[3], int64_t (&last)[3]) {
+  int64_t lo[3], hi[3];
+  triangleBounds(t, lo, hi);
+  for (int a = 0; a < 3; ++a) {
+    cellRange(lo[a], hi[a], kLatticePerVoxel, resolution, first[a], last[a]);
+    if (first[a] < v0[a]) first[a] = v0[a];
+    if (last[a] > v0[a] + L - 1) last[a] = v0[a] + L - 1;
+  }
+}
+
 // Where the bits of a permuted row land in the leaf's x rows (one L-bit mask
 // per row y + L z): calls set(rowIndex, mask) once per x row touched. The
 // row is at (h, s) = (row height, slice), leaf-relative, and `bits` holds
@@ -435,6 +454,12 @@ HDT_HD bool crossingInLeaf(const LatticeTriangle& t, int axis, int64_t u, int64_
   return true;
 }
 
+// The row's voxels strictly before a crossing, as a mask: the ones that see
+// that crossing ahead of them.
+HDT_HD constexpr uint32_t maskBeforeCrossing(int before) {
+  return before >= 32 ? 0xFFFFFFFFu : ((1u << before) - 1u);
+}
+
 // The same answer for all rays of one leaf and triangle, set up once per
 // (leaf, triangle) pair. With den = |n_axis| and the crossing at num / den
 // (rayCrossing), t = num - den * (leaf start) is an affine function of the
@@ -489,13 +514,6 @@ HDT_HD bool crossingInLeaf(const LeafCrossings& c, int du, int dw, int L, int& b
   while (k < L && uint64_t(k) * c.perVoxel < m) ++k;
   before = k;
   return true;
-}
-
-// Both steps for one ray: the row of voxel centres along `axis` at (u, w).
-HDT_HD bool rowCrossing(const LatticeTriangle& t, int axis, int64_t u, int64_t w, int64_t a0, int L,
-                        int& before) {
-  if (!rayHitsTriangle(t, axis, latticeOfVoxelCentre(u), latticeOfVoxelCentre(w))) return false;
-  return crossingInLeaf(t, axis, u, w, a0, L, before);
 }
 
 // Voxel rows [first, last] along one axis whose centre lies in the closed
