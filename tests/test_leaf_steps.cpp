@@ -56,24 +56,32 @@ void referenceRow(const LatticeTriangle& t, int64_t y, int64_t z, int64_t x0, in
 }
 
 // The drivers' composition: the triangle's voxel box (cellRange), the slice's
-// rows and span, the column span, the plane.
+// rows and span, the column span, the plane. The CPU driver evaluates the
+// spans on the box clamped to the window (its leaf); the CUDA driver on the
+// whole box, once per triangle, clamping the results to the window after.
 void splitRow(const LatticeTriangle& t, const RowClipper& c, int64_t y, int64_t z, int64_t x0, int64_t x1,
-              int64_t& first, int64_t& last) {
-  int64_t lo[3], hi[3], bf[3], bl[3];
-  triangleBounds(t, lo, hi);
-  for (int a = 0; a < 3; ++a) cellRange(lo[a], hi[a], kLatticePerVoxel, kMaxResolution, bf[a], bl[a]);
-  x0 = std::max(x0, bf[0]);
-  x1 = std::min(x1, bl[0]);
-  if (y < bf[1] || y > bl[1] || z < bf[2] || z > bl[2]) x1 = x0 - 1;
-  int64_t y0 = y, y1 = y;
-  clipRowsOfSlice(c, z, y0, y1);
-  int64_t sf = x0, sl = x1, cf = x0, cl = x1;
-  clipSliceSpan(c, z, sf, sl);
-  clipColumnSpan(c, y, cf, cl);
-  first = std::max(sf, cf);
-  last = std::min(sl, cl);
-  if (y0 > y1) last = first - 1;
-  clipRowByPlane(c, y, z, first, last);
+              bool wholeBox, int64_t& first, int64_t& last) {
+  int64_t bf[3], bl[3];
+  triangleVoxelBox(t, kMaxResolution, bf, bl);
+  first = x0;
+  last = x1;
+  if (y < bf[1] || y > bl[1] || z < bf[2] || z > bl[2]) {
+    last = first - 1;
+    return;
+  }
+  if (!wholeBox) { // the window's part of the box: x [x0, x1], the row's y and z
+    bf[0] = std::max(x0, bf[0]);
+    bl[0] = std::min(x1, bl[0]);
+    bf[1] = bl[1] = y;
+    bf[2] = bl[2] = z;
+  }
+  int64_t y0, y1, sf, sl, cf, cl;
+  sliceSpans(c, bf, bl, z, y0, y1, sf, sl);
+  columnSpan(c, bf, bl, y, cf, cl);
+  first = std::max({x0, sf, cf});
+  last = std::min({x1, sl, cl});
+  if (y < y0 || y > y1) last = first - 1;
+  clipRowByPlane(c.plane, y, z, first, last);
 }
 
 // Checks every row of a W^3 window whose low corner is voxel (wx, wy, wz).
@@ -95,12 +103,14 @@ void checkWindow(const LatticeTriangle& t, int64_t wx, int64_t wy, int64_t wz, i
         ASSERT_EQ(rl, l) << "row y=" << y << " z=" << z;
         ++rowsHit;
       }
-      int64_t sf, sl;
-      splitRow(t, c, y, z, wx, wx + W - 1, sf, sl);
-      ASSERT_EQ(refEmpty, sf > sl) << "split form, row y=" << y << " z=" << z;
-      if (!refEmpty) {
-        ASSERT_EQ(rf, sf) << "split form, row y=" << y << " z=" << z;
-        ASSERT_EQ(rl, sl) << "split form, row y=" << y << " z=" << z;
+      for (const bool wholeBox : {false, true}) {
+        int64_t sf, sl;
+        splitRow(t, c, y, z, wx, wx + W - 1, wholeBox, sf, sl);
+        ASSERT_EQ(refEmpty, sf > sl) << "split form (whole box " << wholeBox << "), row y=" << y << " z=" << z;
+        if (!refEmpty) {
+          ASSERT_EQ(rf, sf) << "split form (whole box " << wholeBox << "), row y=" << y << " z=" << z;
+          ASSERT_EQ(rl, sl) << "split form (whole box " << wholeBox << "), row y=" << y << " z=" << z;
+        }
       }
     }
 }
@@ -186,6 +196,18 @@ TEST_P(RaySpanScale, SpanEqualsPerRayHitTest) {
       for (int64_t w = w0; w <= w1; ++w) {
         int64_t f = u0, l = u1;
         raySpanAtW(t, axis, w, f, l);
+        // The CUDA driver's form: the span of the whole line of rays (the
+        // triangle's centre range), evaluated once and clamped to a leaf.
+        int64_t wf, wl;
+        centreRange(lo[U], hi[U], 0, kMaxResolution, wf, wl);
+        raySpanAtW(t, axis, w, wf, wl);
+        wf = std::max(wf, u0);
+        wl = std::min(wl, u1);
+        ASSERT_EQ(f > l, wf > wl) << "whole-line span, axis " << axis << " w=" << w;
+        if (f <= l) {
+          ASSERT_EQ(f, wf);
+          ASSERT_EQ(l, wl);
+        }
         for (int64_t u = u0; u <= u1; ++u) {
           const bool expect = rayHitsTriangle(t, axis, latticeOfVoxelCentre(u), latticeOfVoxelCentre(w));
           ASSERT_EQ(expect, u >= f && u <= l) << "axis " << axis << " u=" << u << " w=" << w << " span [" << f << ", "

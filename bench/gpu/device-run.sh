@@ -142,6 +142,40 @@ step_profile2() { # a second mesh in the same call
   PROFILE_MESH=${PROFILE2_MESH:-ogre.ply} PROFILE_TAG=profile2 step_profile
 }
 
+step_kerneltimes() { # every kernel of one build with its duration (ncu, one metric, base clocks)
+  local t0=$SECONDS
+  timeout 300 ncu --metrics gpu__time_duration.sum -c "${PROFILE_COUNT:-400}" --csv "$BENCH" --meshes "$DEPS/meshes" \
+    --mesh "${PROFILE_MESH:-cycloidal-drive.ply}" --res "${PROFILE_RES:-8192}" --modes "${PROFILE_MODE:-solid}" --runs 1 \
+    --out /tmp/kt-runs.jsonl > /tmp/kt.csv 2> "$OUT/kerneltimes.err"
+  say "kerneltimes: rc=$? in $((SECONDS - t0)) s"
+  python3 - /tmp/kt.csv > "$OUT/kerneltimes.txt" <<'PY'
+import csv, sys, collections
+rows = [r for r in csv.reader(l for l in open(sys.argv[1]) if l.startswith('"'))]
+head = rows[0]; k = head.index('Kernel Name'); v = head.index('Metric Value'); u = head.index('Metric Unit')
+tot = collections.defaultdict(float); cnt = collections.Counter()
+for r in rows[1:]:
+    scale = {'nsecond': 1e-6, 'usecond': 1e-3, 'msecond': 1.0}.get(r[u], 1.0)
+    name = r[k].split('(')[0][:90]; tot[name] += float(r[v].replace(',', '')) * scale; cnt[name] += 1
+for name, t in sorted(tot.items(), key=lambda x: -x[1]): print(f"{t:9.3f} ms {cnt[name]:4d}x  {name}")
+print(f"{sum(tot.values()):9.3f} ms total")
+PY
+  head -30 "$OUT/kerneltimes.txt" | tee -a "$SUMMARY"
+}
+
+step_hotspots() { # instructions executed per CUDA source line of the leaf kernels (needs -lineinfo binaries)
+  local t0=$SECONDS
+  timeout 400 ncu --section SourceCounters --section WarpStateStats --section LaunchStats --section Occupancy \
+    -k "regex:${PROFILE_KERNELS:-leafSurface|leafCrossings}" -c "${PROFILE_COUNT:-2}" -o /tmp/hot -f "$BENCH" \
+    --meshes "$DEPS/meshes" --mesh "${PROFILE_MESH:-cycloidal-drive.ply}" --res "${PROFILE_RES:-8192}" \
+    --modes "${PROFILE_MODE:-solid}" --runs 1 --out /tmp/hot-runs.jsonl > "$OUT/hotspots.log" 2>&1
+  say "hotspots: rc=$? in $((SECONDS - t0)) s"
+  ncu --import /tmp/hot.ncu-rep --page details >> "$OUT/hotspots.log" 2>&1
+  ncu --import /tmp/hot.ncu-rep --page source --csv --print-source cuda > /tmp/hot-src.csv 2>> "$OUT/hotspots.log"
+  cp /tmp/hot-src.csv "$OUT/hotspots-source.csv"
+  ncu --import /tmp/hot.ncu-rep --page source --csv --print-source sass > /tmp/hot-sass.csv 2>> "$OUT/hotspots.log"
+  gzip -c /tmp/hot-sass.csv > "$OUT/hotspots-sass.csv.gz"
+}
+
 step_sass() { # the kernels' SASS instruction mix (cuobjdump is on the GPU machine only)
   cuobjdump -sass "$BENCH" > /tmp/sass.txt 2>&1
   python3 - /tmp/sass.txt > "$OUT/sass-mix.txt" <<'PY'

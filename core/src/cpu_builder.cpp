@@ -220,20 +220,15 @@ private:
         makeRowClipper(tri, clipper);
         // The x span each row height allows (e x Z axes), shared by all slices.
         int64_t columnFirst[32], columnLast[32];
-        for (int64_t y = first[1]; y <= last[1]; ++y) {
-          columnFirst[y - o[1]] = first[0];
-          columnLast[y - o[1]] = last[0];
-          clipColumnSpan(clipper, y, columnFirst[y - o[1]], columnLast[y - o[1]]);
-        }
+        for (int64_t y = first[1]; y <= last[1]; ++y)
+          columnSpan(clipper, first, last, y, columnFirst[y - o[1]], columnLast[y - o[1]]);
         for (int64_t z = first[2]; z <= last[2]; ++z) {
-          int64_t y0 = first[1], y1 = last[1];
-          clipRowsOfSlice(clipper, z, y0, y1);
-          int64_t sliceFirst = first[0], sliceLast = last[0];
-          if (y0 <= y1) clipSliceSpan(clipper, z, sliceFirst, sliceLast);
+          int64_t y0, y1, sliceFirst, sliceLast;
+          sliceSpans(clipper, first, last, z, y0, y1, sliceFirst, sliceLast);
           for (int64_t y = y0; y <= y1 && sliceFirst <= sliceLast; ++y) {
             int64_t f = std::max(sliceFirst, columnFirst[y - o[1]]);
             int64_t l = std::min(sliceLast, columnLast[y - o[1]]);
-            clipRowByPlane(clipper, y, z, f, l);
+            clipRowByPlane(clipper.plane, y, z, f, l);
             forEachXRowOf(axis, L_, int(y - o[1]), int(z - o[2]), rowBits(o[0], f, l),
                           [&](int row, uint32_t bits) { rows[row] |= bits; });
           }

@@ -208,6 +208,7 @@ Tree buildTree(DeviceMemory& mem, HostScalars& scalars, const DeviceMesh& mesh, 
         HDT_CUDA_CHECK(cudaMemsetAsync(lf.pairStart.data(), 0, sizeof(uint32_t), s));
       }
       lf.triangle = std::move(pairs.triangle);
+      lf.pairCount = n;
       rank.reset();
       planLeafTasks(mem, lf, n);
       return tree;

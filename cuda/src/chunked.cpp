@@ -175,8 +175,9 @@ void hostClassifyUniform(Volume& v, int axes, const HostLines* lines) {
 } // namespace
 
 uint64_t fixedBytes(const PreparedMesh& mesh) {
-  // triangles, and T1's per-triangle counts and offsets
-  return uint64_t(mesh.triangles.size()) * (sizeof(LatticeTriangle) + 8);
+  // triangles, T1's per-triangle counts and offsets, T3's per-triangle
+  // flags, ranks and index list (TriangleTables; the setups count per pair)
+  return uint64_t(mesh.triangles.size()) * (sizeof(LatticeTriangle) + 8 + 9);
 }
 
 uint64_t estimateBytes(const PreparedMesh& mesh, double area, uint64_t rootPairs, uint64_t rootCells) {
@@ -193,7 +194,12 @@ uint64_t estimateBytes(const PreparedMesh& mesh, double area, uint64_t rootPairs
   if (!mesh.surfaceOnly)
     perLeaf += axes * (rowWords * 4 /*parity*/ + 13 /*line table*/) + 24 /*sort buffers*/ +
                (axes - 1) * L * L * 4 /*open meshes: pass-1 masks of axes 1, 2*/;
-  const double perLeafPair = 4 /*kept*/ + 16 /*T2 pairs, double-buffered*/ + 9 /*rank, mask, offset*/;
+  // T3's tables: a triangle's slices, row heights and ray lines within the
+  // leaves it meets, at most 3 L entries of 4 bytes a pair; about L in all
+  // on the shared meshes (neighbouring leaves share a triangle's slices);
+  // and each triangle's setup, counted per pair (a triangle has at least one).
+  const double perLeafPair = 4 /*kept*/ + 16 /*T2 pairs, double-buffered*/ + 9 /*rank, mask, offset*/ + 4 * L +
+                             double(sizeof(TriangleSetup) + 40) / 2;
   const double elements = 3.0 * leaves + double(rootCells);
   const double bytes = leaves * perLeaf + leafPairs * perLeafPair + elements * 12 /*word, coords*/;
   return uint64_t(1.25 * bytes);

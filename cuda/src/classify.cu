@@ -324,9 +324,9 @@ void launchCrossingsAxis(const LeafArgs& a, uint32_t taskBound, uint32_t* parity
 }
 
 template <int L>
-void launchCrossings(const LeafArgs& a, uint32_t bound, int axes, uint32_t* const parity[3], uint32_t* words,
-                     uint32_t* const masks[3], cudaStream_t s) {
-  launchCrossingsAxis<L, 0>(a, bound, parity[0], words, nullptr, s);
+void launchCrossings(const LeafArgs& a, uint32_t bound, int firstAxis, int axes, uint32_t* const parity[3],
+                     uint32_t* words, uint32_t* const masks[3], cudaStream_t s) {
+  if (firstAxis == 0) launchCrossingsAxis<L, 0>(a, bound, parity[0], words, nullptr, s);
   if (axes == 3) {
     launchCrossingsAxis<L, 1>(a, bound, parity[1], words, masks[1], s);
     launchCrossingsAxis<L, 2>(a, bound, parity[2], words, masks[2], s);
@@ -357,22 +357,22 @@ void launchSuffix(uint32_t n, const uint64_t* keys, const uint32_t* leafOf, int 
 
 } // namespace
 
-void leafCrossings(DeviceMemory& mem, const DeviceMesh& mesh, const GridSpec& grid, const Leaves& leaves, int axes,
-                   uint32_t* const parity[3], uint32_t* words, uint32_t* const masks[3]) {
-  if (leaves.count == 0) return;
+void leafCrossings(DeviceMemory& mem, const DeviceMesh& mesh, const GridSpec& grid, const Leaves& leaves,
+                   int firstAxis, int axes, uint32_t* const parity[3], uint32_t* words, uint32_t* const masks[3]) {
+  if (leaves.count == 0 || firstAxis >= axes) return;
   // Split leaves merge with XOR: their parity and masks start from zero
   // (plane 0 of the words is zero since T3).
   const int L = grid.leafSize;
-  for (int a = 0; a < axes; ++a) {
+  for (int a = firstAxis; a < axes; ++a) {
     if (parity[a]) zeroSplitLeaves(mem, leaves, parity[a], uint32_t(rowWordsFor(L)));
     if (words && a > 0) zeroSplitLeaves(mem, leaves, masks[a], uint32_t(L * L));
   }
   const LeafArgs a = leafArgs(mesh, grid, leaves);
   const uint32_t bound = leaves.taskBound;
   switch (L) {
-  case 8: launchCrossings<8>(a, bound, axes, parity, words, masks, mem.stream()); break;
-  case 16: launchCrossings<16>(a, bound, axes, parity, words, masks, mem.stream()); break;
-  default: launchCrossings<32>(a, bound, axes, parity, words, masks, mem.stream()); break;
+  case 8: launchCrossings<8>(a, bound, firstAxis, axes, parity, words, masks, mem.stream()); break;
+  case 16: launchCrossings<16>(a, bound, firstAxis, axes, parity, words, masks, mem.stream()); break;
+  default: launchCrossings<32>(a, bound, firstAxis, axes, parity, words, masks, mem.stream()); break;
   }
 }
 

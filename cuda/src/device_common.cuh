@@ -71,6 +71,18 @@ inline LeafArgs leafArgs(const DeviceMesh& mesh, const GridSpec& grid, const Lea
                   leaves.tasks.data(),  leaves.taskCount.data(),      grid.resolution};
 }
 
+// A span [first, last] of voxels at or after `base`, within 65536 of it, as
+// two 16-bit offsets; every empty span (first > last) as the one value 1.
+__host__ __device__ __forceinline__ uint32_t packSpan(int64_t first, int64_t last, int64_t base) {
+  return first > last ? 1u : uint32_t(first - base) | (uint32_t(last - base) << 16);
+}
+// The span clamped to [lo, hi]; empty when first > last.
+__device__ __forceinline__ void unpackSpan(uint32_t packed, int32_t base, int32_t lo, int32_t hi, int32_t& first,
+                                           int32_t& last) {
+  first = max(lo, base + int32_t(packed & 0xFFFFu));
+  last = min(hi, base + int32_t(packed >> 16));
+}
+
 // First voxel of the leaf at packed leaf coordinate c.
 __device__ __forceinline__ void leafOrigin(uint64_t c, int L, int64_t (&v0)[3]) {
   for (int a = 0; a < 3; ++a) v0[a] = int64_t(unpackCoord(c, a)) * L;

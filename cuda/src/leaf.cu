@@ -1,27 +1,33 @@
-// T3: the surface voxels of every leaf grid.
+// T3: the surface voxels of every leaf grid, and for solid builds
+// classification pass 1 along x in the same kernel.
 //
 // One warp per leaf task (a leaf, or a part of a leaf with very many pairs:
 // LeafTask); the leaf's row masks (one L-bit mask per row y + L z) live in
-// the warp's slice of shared memory. The task's (leaf, triangle) pairs are
-// taken B at a time, in three warp-wide steps that follow the CPU driver's
-// loops exactly (build_steps.hpp; same calls, same narrowing):
-//   1. one lane per pair: the triangle's row axis (rowAxisFor: the rows
-//      across which its shadow is smallest) and its voxel ranges in the leaf;
-//      then one lane per (pair, part) for its RowClipper in that frame
-//      (makeRowClipperPart), kept in shared memory for the batch;
-//   2. one lane per (pair, k): for slice z = k, clipRowsOfSlice (the rows
-//      that can meet the triangle) and clipSliceSpan (the slice's x span);
-//      for row height y = k, clipColumnSpan (the height's x span);
+// the warp's slice of shared memory. What depends on a triangle and a slice
+// but not on the leaf was evaluated once per triangle (TriangleTables); the
+// warp clamps table entries to its leaf and does the per-row work, in
+// warp-wide steps that follow the CPU driver's loops (build_steps.hpp; same
+// calls, same narrowing):
+//   1. one lane per pair: the triangle's row axis and voxel box (its setup)
+//      clamped to the leaf;
+//   2. one lane per (pair, k): slice z = k's rows and x span, and row height
+//      y = k's x span, from the tables (sliceSpans, columnSpan);
 //   3. one lane per (pair, row): the two spans intersected, clipRowByPlane,
 //      rowBits, ORed into the leaf's x-row masks (forEachXRowOf) with
 //      shared-memory atomics (OR commutes: scheduling cannot show).
 // Flattening to rows keeps all 32 lanes busy however unevenly the triangles
-// cover the leaf, and a row costs only its plane step: the twelve other axes
-// were settled per slice and per height in step 2. With the clipper in shared
-// memory, a lane holds no clipper in registers, which is what limited
-// occupancy. Finally the warp writes every word of the leaf exactly once,
-// coalesced: no global atomics, no read-modify-write, no zero fill beforehand
-// (the parts of a split leaf OR their words into zeroed ones instead).
+// cover the leaf, and a row costs only its plane step.
+//
+// With CROSS (solid builds), the warp then runs pass 1 along x on the same
+// pairs (classify.cu describes the method; the same calls): one lane per
+// pair for its LeafCrossings, one lane per (pair, ray line) for the hit
+// rays from the line table (raySpanAtW), one lane per hit ray for the
+// crossing; the row parities and "voxels before" masks are XORed in shared
+// memory. Finally the warp writes every word of the leaf exactly once,
+// coalesced, with the surface in plane 1 and the masks in plane 0: no global
+// atomics, no read-modify-write, no zero fill beforehand (the parts of a
+// split leaf merge into zeroed words instead: OR for the surface, XOR for
+// the masks, each on its own plane).
 #include "device_common.cuh"
 #include "phases.hpp"
 
@@ -31,99 +37,126 @@ namespace hdt {
 namespace cuda {
 namespace {
 
-constexpr int kWarpsPerBlock = 4;
-// 8 blocks of 4 warps per SM caps registers at 64: a few spills, but 32
-// warps instead of 24 hide more of the row steps' latency (measured: 8.0 vs 8.75 ms).
+// 4 warps a block (2 for L = 32: its shared rows and masks are 4x larger);
+// 8 blocks of 4 warps per SM cap registers at 64.
+template <int L>
+constexpr int warpsPerBlock() {
+  return L == 32 ? 2 : 4;
+}
 #ifndef HDT_CUDA_T3_MIN_BLOCKS
 #define HDT_CUDA_T3_MIN_BLOCKS 8
 #endif
 
-// Warp per split-leaf first part: zero the leaf's slice of `data`.
+// Thread per task: zero the leaf's slice of `data` for the first part of a
+// split leaf (rare: only dense clusters have more than kTaskPairs pairs).
 __global__ void zeroSplitKernel(const LeafTask* tasks, const uint32_t* taskCount, uint32_t* data, uint32_t perLeaf) {
-  const uint32_t t = (blockIdx.x * blockDim.x + threadIdx.x) >> 5;
+  const uint32_t t = blockIdx.x * blockDim.x + threadIdx.x;
   if (t >= *taskCount) return;
   const LeafTask task = tasks[t];
   if (!(task.flags & kTaskFirst)) return;
-  for (uint32_t i = threadIdx.x & 31; i < perLeaf; i += 32) data[size_t(task.leaf) * perLeaf + i] = 0;
+  for (uint32_t i = 0; i < perLeaf; ++i) data[size_t(task.leaf) * perLeaf + i] = 0;
 }
 
-// Pairs whose clippers are in shared memory at once. 4 or 6 (more resident
-// warps, fewer lanes busy in the per-pair steps) measured slower at 8192^3:
-// dragon T3 3.7 -> 4.2 / 4.8 ms, cycloidal-drive about the same.
-constexpr int kBatch = 8;
+constexpr int kBatch = int(kTaskPairs); // a task's pairs at once
 
 template <int L>
-struct SurfaceWarp {
-  RowClipper clip[kBatch];
-  LatticeTriangle tri[kBatch]; // in the frame of its row axis
-  int8_t axis[kBatch]; // row axis of each pair; the fields below are in its frame
-  int32_t x0[kBatch], x1[kBatch], y0[kBatch], y1[kBatch], z0[kBatch], nz[kBatch]; // leaf-relative
-  int8_t sliceY0[kBatch][L];  // shadow rows of each slice, leaf-relative
+struct SurfacePairs { // leaf-relative, in each pair's row-axis frame
+  uint32_t tri[kBatch];
+  uint64_t slice[kBatch], height[kBatch]; // table entries of the leaf's first slice and row height
+  int32_t baseX[kBatch], baseY[kBatch];   // the triangle box's first x and y
+  int8_t axis[kBatch], x0[kBatch], x1[kBatch], y0[kBatch], y1[kBatch], z0[kBatch], nz[kBatch];
+  int8_t sliceY0[kBatch][L];  // rows of each slice that can meet the triangle
   uint8_t sliceRows[kBatch][L];
-  int8_t sliceX0[kBatch][L], sliceX1[kBatch][L];   // x span of each slice (e x Y axes)
-  int8_t columnX0[kBatch][L], columnX1[kBatch][L]; // x span of each row height (e x Z axes)
-  uint32_t rows[L * L];
+  int8_t sliceX0[kBatch][L], sliceX1[kBatch][L];   // x span of each slice
+  int8_t columnX0[kBatch][L], columnX1[kBatch][L]; // x span of each row height
 };
 
 template <int L>
-__device__ __forceinline__ void leafSurface(const LeafArgs& a, const LeafTask& task, SurfaceWarp<L>& sh,
-                                            uint32_t* words) {
-  const int lane = threadIdx.x & 31;
-  const uint32_t leaf = task.leaf;
-  for (int r = lane; r < L * L; r += 32) sh.rows[r] = 0;
+struct CrossPairs { // x rays: u = y, w = z, leaf-relative
+  LeafCrossings crossings[kBatch];
+  uint64_t line[kBatch]; // line-table entry of the leaf's first ray line
+  int32_t baseU[kBatch];
+  int8_t u0[kBatch], u1[kBatch], w0[kBatch], nw[kBatch];
+  int8_t spanU0[kBatch][L]; // per (pair, ray line): first hit ray
+  uint8_t spanN[kBatch][L]; // and the number of hit rays
+};
 
-  int64_t v0[3];
-  leafOrigin(a.leafCoord[leaf], L, v0);
-  const uint32_t p1 = task.end;
-  for (uint32_t base = task.first; base < p1; base += kBatch) {
-    const int nb = int(min(uint32_t(kBatch), p1 - base));
-    __syncwarp(); // the previous batch is done with the shared clippers
-    if (lane < nb) { // in the frame of the triangle's row axis (rowAxisFor)
-      const LatticeTriangle original = a.tris[a.pairTri[base + lane]];
-      const int axis = rowAxisFor(original);
-      const LatticeTriangle t = permuteToRowAxis(original, axis);
-      int64_t o[3], first[3], last[3];
+template <int L, bool CROSS>
+struct LeafWarp {
+  union { // the surface steps are done before the crossing steps start
+    SurfacePairs<L> s;
+    CrossPairs<L> c;
+  } p;
+  uint32_t rows[L * L];                      // surface, one L-bit mask per x row
+  uint32_t masks[CROSS ? L * L : 1];         // XOR of before-masks per x row
+  uint32_t parity[CROSS ? L * L / 32 : 1];   // one bit per x row
+};
+
+struct LeafKernelArgs {
+  LeafArgs a;
+  const uint32_t* compactOf; // mesh triangle -> table index
+  const TriangleSetup* setup;
+  const uint64_t *sliceStart, *heightStart, *lineStart;
+  const uint2* slices;
+  const uint32_t *heights, *lines;
+  uint32_t* words;
+  uint32_t* parity; // CROSS: row parities along x, or null
+};
+
+template <int L>
+__device__ __forceinline__ void surfaceSteps(const LeafKernelArgs& k, const LeafTask& task, const int64_t (&v0)[3],
+                                             SurfacePairs<L>& sh, uint32_t* rows) {
+  const int lane = threadIdx.x & 31;
+  for (uint32_t base = task.first; base < task.end; base += kBatch) {
+    const int nb = int(min(uint32_t(kBatch), task.end - base));
+    __syncwarp(); // the previous batch is done with the shared arrays
+    if (lane < nb) {
+      const uint32_t j = k.compactOf[k.a.pairTri[base + lane]];
+      const TriangleSetup& ts = k.setup[j];
+      const int axis = ts.axis;
+      int64_t o[3];
       permutedOrigin(v0, axis, o);
-      leafVoxelRanges(t, o, L, a.resolution, first, last);
-      sh.tri[lane] = t;
+      int32_t f[3], l[3];
+      bool any = true;
+      for (int d = 0; d < 3; ++d) {
+        f[d] = int32_t(max(int64_t(ts.first[d]), o[d]) - o[d]);
+        l[d] = int32_t(min(int64_t(ts.last[d]), o[d] + L - 1) - o[d]);
+        any = any && f[d] <= l[d];
+      }
+      sh.tri[lane] = j;
       sh.axis[lane] = int8_t(axis);
-      sh.x0[lane] = int32_t(first[0] - o[0]);
-      sh.x1[lane] = int32_t(last[0] - o[0]);
-      sh.y0[lane] = int32_t(first[1] - o[1]);
-      sh.y1[lane] = int32_t(last[1] - o[1]);
-      sh.z0[lane] = int32_t(first[2] - o[2]);
-      sh.nz[lane] = last[2] >= first[2] ? int32_t(last[2] - first[2] + 1) : 0;
+      sh.x0[lane] = int8_t(f[0]);
+      sh.x1[lane] = int8_t(l[0]);
+      sh.y0[lane] = int8_t(f[1]);
+      sh.y1[lane] = int8_t(any ? l[1] : f[1] - 1);
+      sh.z0[lane] = int8_t(f[2]);
+      sh.nz[lane] = int8_t(any ? l[2] - f[2] + 1 : 0);
+      sh.baseX[lane] = int32_t(ts.first[0] - o[0]);
+      sh.baseY[lane] = int32_t(ts.first[1] - o[1]);
+      sh.slice[lane] = k.sliceStart[j] + uint64_t(o[2] + f[2] - ts.first[2]);
+      sh.height[lane] = k.heightStart[j] + uint64_t(o[1] + f[1] - ts.first[1]);
     }
     __syncwarp();
-    // The clippers, one lane per (pair, part): at most 4 rounds for 8 pairs
-    // instead of 13 parts in a row on one lane per pair.
-    for (int item = lane; item < nb * kRowClipperParts; item += 32)
-      makeRowClipperPart(sh.tri[item / kRowClipperParts], item % kRowClipperParts, sh.clip[item / kRowClipperParts]);
-    __syncwarp();
     warpForEachPairItem(
-        0, nb, [&](uint32_t j) { return max(sh.nz[j], sh.y1[j] - sh.y0[j] + 1); },
-        [&](uint32_t j, int k) {
-          int64_t o[3];
-          permutedOrigin(v0, sh.axis[j], o);
-          const int64_t x0 = o[0] + sh.x0[j], x1 = o[0] + sh.x1[j];
-          if (k < sh.nz[j]) {
-            const int64_t z = o[2] + sh.z0[j] + k;
-            int64_t ya = o[1] + sh.y0[j], yb = o[1] + sh.y1[j];
-            clipRowsOfSlice(sh.clip[j], z, ya, yb);
-            int64_t f = x0, l = x1;
-            if (ya <= yb) clipSliceSpan(sh.clip[j], z, f, l);
-            const bool rows = ya <= yb && f <= l;
-            sh.sliceY0[j][k] = int8_t(rows ? ya - o[1] : 0);
-            sh.sliceRows[j][k] = uint8_t(rows ? yb - ya + 1 : 0);
-            sh.sliceX0[j][k] = int8_t(rows ? f - o[0] : 1); // within the leaf when rows
-            sh.sliceX1[j][k] = int8_t(rows ? l - o[0] : 0);
+        0, nb, [&](uint32_t j) { return max(int(sh.nz[j]), sh.y1[j] - sh.y0[j] + 1); },
+        [&](uint32_t j, int kk) {
+          if (kk < sh.nz[j]) {
+            const uint2 e = k.slices[sh.slice[j] + kk];
+            int32_t ya, yb, xa, xb;
+            unpackSpan(e.x, sh.baseY[j], sh.y0[j], sh.y1[j], ya, yb);
+            unpackSpan(e.y, sh.baseX[j], sh.x0[j], sh.x1[j], xa, xb);
+            const bool hit = ya <= yb && xa <= xb;
+            sh.sliceY0[j][kk] = int8_t(hit ? ya : 0);
+            sh.sliceRows[j][kk] = uint8_t(hit ? yb - ya + 1 : 0);
+            sh.sliceX0[j][kk] = int8_t(hit ? xa : 1);
+            sh.sliceX1[j][kk] = int8_t(hit ? xb : 0);
           }
-          if (k <= sh.y1[j] - sh.y0[j]) {
-            const int dy = sh.y0[j] + k;
-            int64_t f = x0, l = x1;
-            clipColumnSpan(sh.clip[j], o[1] + dy, f, l);
-            sh.columnX0[j][dy] = int8_t(f > l ? 1 : f - o[0]); // empty kept as 1 > 0
-            sh.columnX1[j][dy] = int8_t(f > l ? 0 : l - o[0]);
+          if (kk <= sh.y1[j] - sh.y0[j]) {
+            int32_t xa, xb;
+            unpackSpan(k.heights[sh.height[j] + kk], sh.baseX[j], sh.x0[j], sh.x1[j], xa, xb);
+            const int dy = sh.y0[j] + kk;
+            sh.columnX0[j][dy] = int8_t(xa > xb ? 1 : xa); // empty kept as 1 > 0
+            sh.columnX1[j][dy] = int8_t(xa > xb ? 0 : xb);
           }
         });
     __syncwarp();
@@ -138,62 +171,148 @@ __device__ __forceinline__ void leafSurface(const LeafArgs& a, const LeafTask& t
           const int dy = sh.sliceY0[j][s] + r, dz = sh.z0[j] + int(s);
           int64_t f = o[0] + max(sh.sliceX0[j][s], sh.columnX0[j][dy]);
           int64_t l = o[0] + min(sh.sliceX1[j][s], sh.columnX1[j][dy]);
-          clipRowByPlane(sh.clip[j], o[1] + dy, o[2] + dz, f, l);
+          clipRowByPlane(k.setup[sh.tri[j]].plane, o[1] + dy, o[2] + dz, f, l);
           forEachXRowOf(axis, L, dy, dz, rowBits(o[0], f, l),
-                        [&](int row, uint32_t bits) { atomicOr(&sh.rows[row], bits); });
+                        [&](int row, uint32_t bits) { atomicOr(&rows[row], bits); });
         });
   }
+}
+
+// Pass 1 along x for the task's pairs (classify.cu's crossingsAlong with the
+// hit spans from the line table).
+template <int L>
+__device__ __forceinline__ void crossingSteps(const LeafKernelArgs& k, const LeafTask& task, const int64_t (&v0)[3],
+                                              CrossPairs<L>& sh, uint32_t* masks, uint32_t* parity) {
+  constexpr int U = rayAxisU(0), W = rayAxisW(0);
+  const int lane = threadIdx.x & 31;
+  for (uint32_t base = task.first; base < task.end; base += kBatch) {
+    const int nb = int(min(uint32_t(kBatch), task.end - base));
+    __syncwarp(); // the previous steps are done with the shared arrays
+    if (lane < nb) {
+      const uint32_t tri = k.a.pairTri[base + lane], j = k.compactOf[tri];
+      const TriangleSetup& ts = k.setup[j];
+      const int64_t u0 = max(int64_t(ts.u0), v0[U]), u1 = min(int64_t(ts.u1), v0[U] + L - 1);
+      const int64_t w0 = max(int64_t(ts.w0), v0[W]), w1 = min(int64_t(ts.w1), v0[W] + L - 1);
+      const bool any = u0 <= u1 && w0 <= w1;
+      if (any) makeLeafCrossings(k.a.tris[tri], 0, v0, L, sh.crossings[lane]);
+      sh.u0[lane] = int8_t(any ? u0 - v0[U] : 0);
+      sh.u1[lane] = int8_t(any ? u1 - v0[U] : -1);
+      sh.w0[lane] = int8_t(any ? w0 - v0[W] : 0);
+      sh.nw[lane] = int8_t(any ? w1 - w0 + 1 : 0);
+      sh.baseU[lane] = int32_t(ts.u0 - v0[U]);
+      sh.line[lane] = any ? k.lineStart[j] + uint64_t(w0 - ts.w0) : 0;
+    }
+    __syncwarp();
+    warpForEachPairItem(
+        0, nb, [&](uint32_t j) { return int(sh.nw[j]); },
+        [&](uint32_t j, int kk) {
+          int32_t f, l;
+          unpackSpan(k.lines[sh.line[j] + kk], sh.baseU[j], sh.u0[j], sh.u1[j], f, l);
+          sh.spanU0[j][kk] = int8_t(f <= l ? f : 0);
+          sh.spanN[j][kk] = uint8_t(f <= l ? l - f + 1 : 0);
+        });
+    __syncwarp();
+    warpForEachPairItem(
+        0, uint32_t(nb) * L,
+        [&](uint32_t e) { return int(e % L) < sh.nw[e / L] ? int(sh.spanN[e / L][e % L]) : 0; },
+        [&](uint32_t e, int r) {
+          const uint32_t j = e / L, kk = e % L;
+          const int u = sh.spanU0[j][kk] + r, w = sh.w0[j] + int(kk);
+          int before;
+          if (crossingInLeaf(sh.crossings[j], u, w, L, before)) {
+            const int row = u + L * w;
+            atomicXor(&parity[row >> 5], 1u << (row & 31));
+            atomicXor(&masks[row], maskBeforeCrossing(before));
+          }
+        });
+  }
+}
+
+template <int L, bool CROSS>
+__global__ void __launch_bounds__(32 * warpsPerBlock<L>(), HDT_CUDA_T3_MIN_BLOCKS * 4 / warpsPerBlock<L>())
+    leafKernel(LeafKernelArgs k) {
+  __shared__ LeafWarp<L, CROSS> shared[warpsPerBlock<L>()];
+  const int warp = threadIdx.x >> 5, lane = threadIdx.x & 31;
+  const uint32_t t = blockIdx.x * warpsPerBlock<L>() + warp;
+  if (t >= *k.a.taskCount) return; // warp-uniform
+  // One task a warp: a grid-stride loop over tasks measured slower
+  // (dragon 8192^3: T3 3.8 -> 4.0 ms, pass 1 1.9 -> 2.0).
+  const LeafTask task = k.a.tasks[t];
+  LeafWarp<L, CROSS>& sh = shared[warp];
+  int64_t v0[3];
+  leafOrigin(k.a.leafCoord[task.leaf], L, v0);
+  for (int r = lane; r < L * L; r += 32) {
+    sh.rows[r] = 0;
+    if (CROSS) sh.masks[r] = 0;
+  }
+  if (CROSS)
+    for (int i = lane; i < L * L / 32; i += 32) sh.parity[i] = 0;
+  surfaceSteps<L>(k, task, v0, sh.p.s, sh.rows);
+  if (CROSS) crossingSteps<L>(k, task, v0, sh.p.c, sh.masks, sh.parity);
   __syncwarp();
 
-  uint32_t* out = words + size_t(leaf) * leafWordCount(L);
+  const bool split = task.flags & kTaskSplit;
+  uint32_t* out = k.words + size_t(task.leaf) * leafWordCount(L);
   for (int w = lane; w < int(leafWordCount(L)); w += 32) {
-    const uint32_t v = spreadBits16(wordBitsFromRows(sh.rows, L, w)) << 1;
-    if (!(task.flags & kTaskSplit)) {
-      out[w] = v;
-    } else if (v) {
-      atomicOr(&out[w], v);
+    const uint32_t surface = spreadBits16(wordBitsFromRows(sh.rows, L, w)) << 1;
+    const uint32_t before = CROSS ? spreadBits16(wordBitsFromRows(sh.masks, L, w)) : 0u;
+    if (!split) {
+      out[w] = surface | before;
+    } else {
+      if (surface) atomicOr(&out[w], surface);
+      if (before) atomicXor(&out[w], before);
+    }
+  }
+  if (CROSS && k.parity) {
+    constexpr int RW = L * L / 32;
+    uint32_t* parity = k.parity + size_t(task.leaf) * RW;
+    for (int i = lane; i < RW; i += 32) {
+      if (!split) parity[i] = sh.parity[i];
+      else if (sh.parity[i]) atomicXor(&parity[i], sh.parity[i]);
     }
   }
 }
 
 template <int L>
-__global__ void __launch_bounds__(32 * kWarpsPerBlock, HDT_CUDA_T3_MIN_BLOCKS) leafSurfaceKernel(LeafArgs a, uint32_t* words) {
-  __shared__ SurfaceWarp<L> shared[kWarpsPerBlock];
-  const int warp = threadIdx.x >> 5;
-  const uint32_t t = blockIdx.x * kWarpsPerBlock + warp;
-  if (t >= *a.taskCount) return; // warp-uniform
-  // One task a warp: a grid-stride loop over tasks measured slower here and
-  // in classification (dragon 8192^3: T3 3.8 -> 4.0 ms, pass 1 1.9 -> 2.0).
-  leafSurface<L>(a, a.tasks[t], shared[warp], words);
-}
-
-
-template <int L>
-void launchLeafSurface(const LeafArgs& a, uint32_t taskBound, uint32_t* words, cudaStream_t s) {
-  leafSurfaceKernel<L><<<blocksFor(taskBound, kWarpsPerBlock), 32 * kWarpsPerBlock, 0, s>>>(a, words);
-  HDT_CUDA_CHECK_LAUNCH("leafSurfaceKernel");
+void launchLeaf(const LeafKernelArgs& k, uint32_t taskBound, bool crossings, cudaStream_t s) {
+  const unsigned blocks = blocksFor(taskBound, warpsPerBlock<L>()), threads = 32 * warpsPerBlock<L>();
+  if (crossings) leafKernel<L, true><<<blocks, threads, 0, s>>>(k);
+  else leafKernel<L, false><<<blocks, threads, 0, s>>>(k);
+  HDT_CUDA_CHECK_LAUNCH("leafKernel");
 }
 
 } // namespace
 
 void zeroSplitLeaves(DeviceMemory& mem, const Leaves& leaves, uint32_t* data, uint32_t perLeaf) {
   if (leaves.count == 0) return;
-  zeroSplitKernel<<<blocksFor(uint64_t(leaves.taskBound) * 32, 256), 256, 0, mem.stream()>>>(
-      leaves.tasks.data(), leaves.taskCount.data(), data, perLeaf);
+  zeroSplitKernel<<<blocksFor(leaves.taskBound, 256), 256, 0, mem.stream()>>>(leaves.tasks.data(),
+                                                                              leaves.taskCount.data(), data, perLeaf);
   HDT_CUDA_CHECK_LAUNCH("zeroSplitKernel");
 }
 
-void writeLeafSurfaces(DeviceMemory& mem, const DeviceMesh& mesh, const GridSpec& grid, const Leaves& leaves,
-                       uint32_t* words) {
+void writeLeafSurfaces(DeviceMemory& mem, HostScalars& scalars, const DeviceMesh& mesh, const GridSpec& grid,
+                       const Leaves& leaves, uint32_t* words, bool crossings, uint32_t* parityX) {
   if (leaves.count == 0) return;
-  zeroSplitLeaves(mem, leaves, words, leafWordCount(grid.leafSize));
-  const LeafArgs a = leafArgs(mesh, grid, leaves);
-  const uint32_t bound = leaves.taskBound;
-  switch (grid.leafSize) {
-  case 8: launchLeafSurface<8>(a, bound, words, mem.stream()); break;
-  case 16: launchLeafSurface<16>(a, bound, words, mem.stream()); break;
-  case 32: launchLeafSurface<32>(a, bound, words, mem.stream()); break;
-  default: throw Error(ErrorKind::InvalidArgument, "leaf size must be 8, 16 or 32");
+  const int L = grid.leafSize;
+  if (L != 8 && L != 16 && L != 32) throw Error(ErrorKind::InvalidArgument, "leaf size must be 8, 16 or 32");
+  const TriangleTables tables = buildTriangleTables(mem, scalars, mesh, grid, leaves, crossings);
+  zeroSplitLeaves(mem, leaves, words, leafWordCount(L));
+  if (crossings && parityX) zeroSplitLeaves(mem, leaves, parityX, uint32_t(rowWordsFor(L)));
+  const LeafKernelArgs k{leafArgs(mesh, grid, leaves),
+                         tables.compactOf.data(),
+                         tables.setup.data(),
+                         tables.sliceStart.data(),
+                         tables.heightStart.data(),
+                         tables.lineStart.data(),
+                         tables.slices.data(),
+                         tables.heights.data(),
+                         tables.lines.data(),
+                         words,
+                         parityX};
+  switch (L) {
+  case 8: launchLeaf<8>(k, leaves.taskBound, crossings, mem.stream()); break;
+  case 16: launchLeaf<16>(k, leaves.taskBound, crossings, mem.stream()); break;
+  default: launchLeaf<32>(k, leaves.taskBound, crossings, mem.stream()); break;
   }
 }
 

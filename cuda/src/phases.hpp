@@ -10,6 +10,7 @@
 
 #include "device_memory.hpp"
 
+#include "hdt/build_steps.hpp" // PlaneClipper
 #include "hdt/config.hpp"
 #include "hdt/lattice.hpp"
 #include "hdt/types.hpp"
@@ -79,6 +80,7 @@ struct Leaves {
   DeviceBuffer<LeafTask> tasks;     // in leaf order
   DeviceBuffer<uint32_t> taskCount; // one device scalar: tasks in use
   uint32_t taskBound = 0;           // host upper bound of taskCount (grid sizes)
+  uint32_t pairCount = 0;           // (leaf, triangle) pairs
 };
 
 // ---- T1 (mapping.cu) ---------------------------------------------------------
@@ -103,14 +105,49 @@ Tree buildTree(DeviceMemory& mem, HostScalars& scalars, const DeviceMesh& mesh, 
                uint64_t firstCell, uint64_t endCell, PairList rootPairs, bool unchunked,
                const std::function<void(int)>& afterLevel);
 
+// ---- per-triangle tables for the leaf kernels (triangle_tables.cu) -----------------
+// T3's slice and row-height spans (sliceSpans, columnSpan) and the x rays'
+// hit spans (raySpanAtW) depend on the triangle and the slice, height or ray
+// line only, not on the leaf: narrowing commutes with clamping to a leaf
+// (build_steps.hpp). A triangle meets 2 to 200 leaves at 8192^3 and its
+// slices are the same in each, so they are evaluated once per triangle here
+// (about 10x fewer evaluations than per (leaf, triangle) pair on CAD parts)
+// and the leaf kernels clamp table entries. Spans are packed as two 16-bit
+// offsets from the start of the triangle's range (packSpan).
+struct TriangleSetup {
+  PlaneClipper plane;        // in the triangle's row-axis frame (rowAxisFor)
+  int32_t first[3], last[3]; // voxel box in that frame, clamped to the leaves' box; empty: unused
+  int32_t axis;              // row axis
+  int32_t u0, u1, w0, w1;    // x rays (crossings): centre ranges along y and z, clamped likewise
+};
+struct TriangleTables {
+  uint32_t count = 0;                   // triangles with pairs among the leaves
+  DeviceBuffer<uint32_t> compactOf;    // per mesh triangle: its index below (if it has pairs)
+  DeviceBuffer<uint32_t> triangleOf;   // per table triangle: its mesh triangle (sized for all)
+  DeviceBuffer<TriangleSetup> setup;
+  DeviceBuffer<uint64_t> sliceStart, heightStart, lineStart; // per triangle: its first entry
+  DeviceBuffer<uint2> slices;      // per (triangle, slice z): rows (y), x span
+  DeviceBuffer<uint32_t> heights;  // per (triangle, row height y): x span
+  DeviceBuffer<uint32_t> lines;    // per (triangle, ray line z): hit rays (y); only with crossings
+};
+// Tables of the triangles that have pairs among `leaves`, over the leaves'
+// bounding box (a chunk's tables cover only its own part of the grid).
+TriangleTables buildTriangleTables(DeviceMemory& mem, HostScalars& scalars, const DeviceMesh& mesh,
+                                   const GridSpec& grid, const Leaves& leaves, bool crossings);
+
 // Zeroes `perLeaf` elements at leaf * perLeaf of every split leaf (before
 // its parts merge into them with atomics). In leaf.cu.
 void zeroSplitLeaves(DeviceMemory& mem, const Leaves& leaves, uint32_t* data, uint32_t perLeaf);
 
 // ---- T3 (leaf.cu) -------------------------------------------------------------
 // Writes every word of every leaf grid once: the surface plane (plane 1).
-void writeLeafSurfaces(DeviceMemory& mem, const DeviceMesh& mesh, const GridSpec& grid, const Leaves& leaves,
-                       uint32_t* words);
+// With `crossings` (solid builds) the same kernel also runs classification
+// pass 1 along x (see leafCrossings): the before-masks go to plane 0 of the
+// same words, written in the same store, and the row parities to
+// `parityX` when it is not null. The leaf's pairs and words are then read
+// and written once for both.
+void writeLeafSurfaces(DeviceMemory& mem, HostScalars& scalars, const DeviceMesh& mesh, const GridSpec& grid,
+                       const Leaves& leaves, uint32_t* words, bool crossings, uint32_t* parityX);
 
 // ---- classification (classify.cu) ---------------------------------------------
 // Words of one bit per leaf row: L * L / 32.
@@ -121,8 +158,9 @@ inline int rowWordsFor(int leafSize) { return leafSize * leafSize / 32; }
 // when `words` is given, the XOR of the crossings' "voxels before" masks per
 // row, pass 2's geometry: axis 0's into plane 0 of the leaf words (the x
 // rows), axes 1 and 2's (open meshes) into masks[a] (leaves * L * L).
-void leafCrossings(DeviceMemory& mem, const DeviceMesh& mesh, const GridSpec& grid, const Leaves& leaves, int axes,
-                   uint32_t* const parity[3], uint32_t* words, uint32_t* const masks[3]);
+// Runs the axes [firstAxis, axes): 1 when T3 has done axis 0.
+void leafCrossings(DeviceMemory& mem, const DeviceMesh& mesh, const GridSpec& grid, const Leaves& leaves,
+                   int firstAxis, int axes, uint32_t* const parity[3], uint32_t* words, uint32_t* const masks[3]);
 
 // The leaves of a chunk sorted by line along one axis, with the entry parity
 // of every leaf. Turns parity[a] (pass 1) into the exit parity in place.

@@ -40,18 +40,25 @@ struct AxisMasks {
   }
 };
 
-// Pass 1, lines, pass 2 and the uniform elements, all on the device.
-void classifyWhole(Session& s, Tree& tree, uint32_t* words) {
-  const int axes = axesFor(s.mesh);
-  const size_t rowWords = size_t(rowWordsFor(s.grid.leafSize));
-  DeviceBuffer<uint32_t> parity[3];
-  uint32_t* p[3] = {nullptr, nullptr, nullptr};
-  for (int a = 0; a < axes; ++a) {
-    parity[a] = DeviceBuffer<uint32_t>(s.memory, tree.leaves.count * rowWords);
-    p[a] = parity[a].data();
+// Pass 1's row parities per axis (leaves x rowWords each).
+struct AxisParity {
+  DeviceBuffer<uint32_t> buffer[3];
+  uint32_t* ptr[3] = {nullptr, nullptr, nullptr};
+  AxisParity(Session& s, uint32_t leaves, int axes) {
+    for (int a = 0; a < axes; ++a) {
+      buffer[a] = DeviceBuffer<uint32_t>(s.memory, size_t(leaves) * rowWordsFor(s.grid.leafSize));
+      ptr[a] = buffer[a].data();
+    }
   }
+};
+
+// Pass 1 of the axes T3 did not run (y and z of open meshes), lines, pass 2
+// and the uniform elements, all on the device.
+void classifyWhole(Session& s, Tree& tree, AxisParity& parity, uint32_t* words) {
+  const int axes = axesFor(s.mesh);
+  uint32_t* const* p = parity.ptr;
   AxisMasks masks(s, tree.leaves.count, axes);
-  leafCrossings(s.memory, s.deviceMesh, s.grid, tree.leaves, axes, p, words, masks.ptr);
+  leafCrossings(s.memory, s.deviceMesh, s.grid, tree.leaves, 1, axes, p, words, masks.ptr);
   LineTable tables[3];
   for (int a = 0; a < axes; ++a) {
     tables[a] = lineParity(s.memory, s.grid, tree.leaves, a, p[a]);
@@ -79,11 +86,14 @@ Volume buildWhole(Session& s, RootMapping root, bool keepResult) {
   s.progress(0.4, "leaf processing");
   const size_t wordCount = size_t(tree.leaves.count) * leafWordCount(g.leafSize);
   DeviceBuffer<uint32_t> words(s.memory, wordCount);
-  writeLeafSurfaces(s.memory, s.deviceMesh, g, tree.leaves, words.data());
+  const bool solid = !s.mesh.surfaceOnly;
+  AxisParity parity(s, tree.leaves.count, solid ? axesFor(s.mesh) : 0);
+  // Solid builds: T3 runs pass 1 along x too (its time counts as T3).
+  writeLeafSurfaces(s.memory, s.scalars, s.deviceMesh, g, tree.leaves, words.data(), solid, parity.ptr[0]);
   s.clock.mark(kLeaf);
 
   s.progress(0.7, "classification");
-  if (!s.mesh.surfaceOnly) classifyWhole(s, tree, words.data());
+  if (solid) classifyWhole(s, tree, parity, words.data());
   s.clock.mark(kClassify);
 
   Volume v;
@@ -136,7 +146,7 @@ ChunkTree buildChunkTree(Session& s, uint64_t firstCell, uint64_t endCell) {
   const size_t wordCount = size_t(leaves) * leafWordCount(g.leafSize);
   if (s.mesh.surfaceOnly) {
     DeviceBuffer<uint32_t> words(s.memory, wordCount);
-    writeLeafSurfaces(s.memory, s.deviceMesh, g, tree.leaves, words.data());
+    writeLeafSurfaces(s.memory, s.scalars, s.deviceMesh, g, tree.leaves, words.data(), false, nullptr);
     s.clock.mark(kLeaf);
     out.leafWords.resize(wordCount);
     download(s, out.leafWords.data(), words, wordCount);
@@ -152,7 +162,7 @@ ChunkTree buildChunkTree(Session& s, uint64_t firstCell, uint64_t endCell) {
       p[a] = parity[a].data();
     }
     uint32_t* const noMasks[3] = {nullptr, nullptr, nullptr};
-    leafCrossings(s.memory, s.deviceMesh, g, tree.leaves, axes, p, nullptr, noMasks);
+    leafCrossings(s.memory, s.deviceMesh, g, tree.leaves, 0, axes, p, nullptr, noMasks);
     s.clock.mark(kClassify);
     for (int a = 0; a < axes; ++a) {
       out.parity[a].resize(leaves * rowWords);
@@ -182,7 +192,8 @@ void buildChunkLeaves(Session& s, uint64_t firstCell, uint64_t endCell, uint32_t
   }
   const size_t wordCount = size_t(leafCount) * leafWordCount(g.leafSize);
   DeviceBuffer<uint32_t> words(s.memory, wordCount);
-  writeLeafSurfaces(s.memory, s.deviceMesh, g, tree.leaves, words.data());
+  // Pass 1 along x with T3 (the parities came from phase A).
+  writeLeafSurfaces(s.memory, s.scalars, s.deviceMesh, g, tree.leaves, words.data(), true, nullptr);
   s.clock.mark(kLeaf);
 
   const int axes = axesFor(s.mesh);
@@ -195,7 +206,7 @@ void buildChunkLeaves(Session& s, uint64_t firstCell, uint64_t endCell, uint32_t
   s.clock.mark(kUpload);
   AxisMasks masks(s, leafCount, axes);
   uint32_t* const noParity[3] = {nullptr, nullptr, nullptr};
-  leafCrossings(s.memory, s.deviceMesh, g, tree.leaves, axes, noParity, words.data(), masks.ptr);
+  leafCrossings(s.memory, s.deviceMesh, g, tree.leaves, 1, axes, noParity, words.data(), masks.ptr);
   const uint32_t* e[3] = {exitBuf[0].data(), exitBuf[1].data(), exitBuf[2].data()};
   const uint32_t* m[3] = {masks.ptr[0], masks.ptr[1], masks.ptr[2]};
   writeLeafInside(s.memory, g, tree.leaves, axes, e, m, words.data());

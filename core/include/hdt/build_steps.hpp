@@ -121,6 +121,36 @@ HDT_HD void narrowToBound(const LinearBound& b, int64_t B, int64_t& first, int64
 }
 } // namespace detail
 
+// T3: the plane axis of triangleOverlapsCube for rows of unit voxels along
+// x. The normal (up to 2^51) needs 128 bits: voxel i of row (y, z) meets the
+// plane iff |Pa i + Pb| <= R with Pa = 256 n_x and Pb = b0 + n_y cy + n_z cz.
+// The doubles only seed the search; the 128-bit test decides. Kept apart
+// from the other axes because it is the one step taken per row.
+struct PlaneClipper {
+  int64_t n[3];
+  int128_t b0, r;
+  // Seed: the plane meets the row's axis at
+  //   x = x0 + ky (cy - y0) + kz (cz - z0)  (voxel units),
+  // and the voxels within halfWidth of that point meet the plane.
+  double x0, ky, kz, halfWidth;
+  int64_t y0, z0;
+};
+
+HDT_HD void makePlaneClipper(const LatticeTriangle& t, PlaneClipper& p) {
+  const int64_t half = kLatticePerVoxel / 2;
+  triangleNormal(t, p.n);
+  p.r = int128_t(half) * (detail::abs64(p.n[0]) + detail::abs64(p.n[1]) + detail::abs64(p.n[2]));
+  p.b0 = int128_t(p.n[0]) * (half - t.v[0][0]) - int128_t(p.n[1]) * t.v[0][1] - int128_t(p.n[2]) * t.v[0][2];
+  // n.(c_i - v0) = 0 at i = (v0x - 128) / 256 - (n_y (cy - v0y) + n_z (cz - v0z)) / (256 n_x).
+  const double Pa = double(p.n[0]) * double(kLatticePerVoxel);
+  p.y0 = t.v[0][1];
+  p.z0 = t.v[0][2];
+  p.x0 = double(t.v[0][0] - half) / double(kLatticePerVoxel);
+  p.ky = p.n[0] == 0 ? 0.0 : -double(p.n[1]) / Pa;
+  p.kz = p.n[0] == 0 ? 0.0 : -double(p.n[2]) / Pa;
+  p.halfWidth = p.n[0] == 0 ? 0.0 : double(p.r) / (Pa > 0 ? Pa : -Pa);
+}
+
 // T3: whole-row overlap queries for one triangle. For a row of unit voxels
 // along x at (y, z), each of the 13 separating axes a of triangleOverlapsCube
 // says: voxel i overlaps on a iff
@@ -137,6 +167,10 @@ HDT_HD void narrowToBound(const LinearBound& b, int64_t B, int64_t& first, int64
 //   the plane (x, y, z)   per row:                     clipRowByPlane
 // so a row costs one plane step, not 13 axes. The setup depends on the
 // triangle only (makeRowClipper); clipRow composes all of it for one row.
+// Every step narrows by intersecting with an interval that depends on the
+// triangle and the slice or row alone, so narrowing commutes with clamping
+// to a leaf: a driver may evaluate a slice once for the whole triangle and
+// clamp the result to each leaf (sliceSpans, columnSpan).
 struct RowClipper {
   // Axes without an x component (box y, box z, e x X), as bounds on y:
   // |ay| * 256 y  vs  B = 128 ay + az cz.
@@ -147,16 +181,7 @@ struct RowClipper {
   int64_t sliceAz[3];
   detail::LinearBound column[3]; // e x Z: bound on i with B = ay cy
   int64_t columnAy[3];
-  // The plane axis (the normal, up to 2^51) needs 128 bits: |Pa i + Pb| <= R
-  // with Pa = 256 n_x and Pb = planeB0 + n_y cy + n_z cz. The doubles only
-  // seed the search; the 128-bit test decides.
-  int64_t n[3];
-  int128_t planeB0, planeR;
-  // Seed: the plane meets the row's axis at
-  //   x = planeX + planeKy (cy - planeY) + planeKz (cz - planeZ)  (voxel units),
-  // and the voxels within halfWidth of that point meet the plane.
-  double planeX, planeKy, planeKz, halfWidth;
-  int64_t planeY, planeZ;
+  PlaneClipper plane;
 };
 
 // The clipper is set up in independent parts, so that a GPU warp can build
@@ -202,18 +227,7 @@ HDT_HD void makeRowClipperPart(const LatticeTriangle& t, int part, RowClipper& c
     c.column[j] = detail::makeLinearBound(-edge(j, 1) * kLatticePerVoxel, lo, hi);
     c.columnAy[j] = edge(j, 0);
   } else {
-    triangleNormal(t, c.n);
-    c.planeR = int128_t(half) * (detail::abs64(c.n[0]) + detail::abs64(c.n[1]) + detail::abs64(c.n[2]));
-    c.planeB0 = int128_t(c.n[0]) * (half - t.v[0][0]) - int128_t(c.n[1]) * t.v[0][1] -
-                int128_t(c.n[2]) * t.v[0][2];
-    // n.(c_i - v0) = 0 at i = (v0x - 128) / 256 - (n_y (cy - v0y) + n_z (cz - v0z)) / (256 n_x).
-    const double Pa = double(c.n[0]) * double(kLatticePerVoxel);
-    c.planeY = t.v[0][1];
-    c.planeZ = t.v[0][2];
-    c.planeX = double(t.v[0][0] - half) / double(kLatticePerVoxel);
-    c.planeKy = c.n[0] == 0 ? 0.0 : -double(c.n[1]) / Pa;
-    c.planeKz = c.n[0] == 0 ? 0.0 : -double(c.n[2]) / Pa;
-    c.halfWidth = c.n[0] == 0 ? 0.0 : double(c.planeR) / (Pa > 0 ? Pa : -Pa);
+    makePlaneClipper(t, c.plane);
   }
 }
 
@@ -251,18 +265,18 @@ HDT_HD void clipColumnSpan(const RowClipper& c, int64_t y, int64_t& first, int64
 // two ends; each end is then settled exactly by stepping g by |Pa| in 128
 // bits. The walk is correct from any seed inside [first, last]; a good seed
 // only makes it short.
-HDT_HD void clipRowByPlane(const RowClipper& c, int64_t y, int64_t z, int64_t& first, int64_t& last) {
+HDT_HD void clipRowByPlane(const PlaneClipper& c, int64_t y, int64_t z, int64_t& first, int64_t& last) {
   if (first > last) return;
   const int64_t cy = latticeOfVoxelCentre(y), cz = latticeOfVoxelCentre(z);
-  const int128_t R = c.planeR;
-  const int128_t Pb = c.planeB0 + int128_t(c.n[1]) * cy + int128_t(c.n[2]) * cz;
+  const int128_t R = c.r;
+  const int128_t Pb = c.b0 + int128_t(c.n[1]) * cy + int128_t(c.n[2]) * cz;
   if (c.n[0] == 0) {
     if (Pb < -R || Pb > R) last = first - 1;
     return;
   }
   const int64_t step = detail::abs64(c.n[0]) * kLatticePerVoxel; // < 2^59
   const int128_t sPb = c.n[0] > 0 ? Pb : -Pb;
-  const double centre = c.planeX + c.planeKy * double(cy - c.planeY) + c.planeKz * double(cz - c.planeZ);
+  const double centre = c.x0 + c.ky * double(cy - c.y0) + c.kz * double(cz - c.z0);
   int64_t f = first, l = last;
   if (centre - c.halfWidth > double(first)) f = centre - c.halfWidth < double(last) ? int64_t(centre - c.halfWidth) : last;
   if (centre + c.halfWidth < double(last)) l = centre + c.halfWidth > double(first) ? int64_t(centre + c.halfWidth) : first;
@@ -317,7 +331,7 @@ HDT_HD void clipRow(const RowClipper& c, int64_t y, int64_t z, int64_t& first, i
   detail::narrowToBound(c.boxX, 0, first, last);
   clipSliceSpan(c, z, first, last);
   clipColumnSpan(c, y, first, last);
-  clipRowByPlane(c, y, z, first, last);
+  clipRowByPlane(c.plane, y, z, first, last);
 }
 
 // T3 may run its rows along any axis. Permuting the coordinates maps the 13
@@ -346,18 +360,47 @@ HDT_HD void permutedOrigin(const int64_t (&v0)[3], int axis, int64_t (&o)[3]) {
   for (int k = 0; k < 3; ++k) o[k] = v0[(axis + k) % 3];
 }
 
-// T3: the voxels of the triangle's voxel box (cellRange on the voxel
-// lattice, `resolution` voxels an axis) inside the leaf of L voxels an axis
-// at v0. Empty along an axis when first > last.
-HDT_HD void leafVoxelRanges(const LatticeTriangle& t, const int64_t (&v0)[3], int L, int64_t resolution,
-                            int64_t (&first)[3], int64_t (&last)[3]) {
+// T3: the triangle's voxel box on a grid of `resolution` voxels an axis
+// (the box axes, by cellRange). Empty along an axis when first > last.
+HDT_HD void triangleVoxelBox(const LatticeTriangle& t, int64_t resolution, int64_t (&first)[3], int64_t (&last)[3]) {
   int64_t lo[3], hi[3];
   triangleBounds(t, lo, hi);
+  for (int a = 0; a < 3; ++a) cellRange(lo[a], hi[a], kLatticePerVoxel, resolution, first[a], last[a]);
+}
+
+// T3: the voxels of the triangle's voxel box inside the leaf of L voxels an
+// axis at v0. Empty along an axis when first > last.
+HDT_HD void leafVoxelRanges(const LatticeTriangle& t, const int64_t (&v0)[3], int L, int64_t resolution,
+                            int64_t (&first)[3], int64_t (&last)[3]) {
+  triangleVoxelBox(t, resolution, first, last);
   for (int a = 0; a < 3; ++a) {
-    cellRange(lo[a], hi[a], kLatticePerVoxel, resolution, first[a], last[a]);
     if (first[a] < v0[a]) first[a] = v0[a];
     if (last[a] > v0[a] + L - 1) last[a] = v0[a] + L - 1;
   }
+}
+
+// T3 per slice z of the box [first, last]: the rows [y0, y1] that can meet
+// the triangle and the slice's x span [x0, x1] (none when y0 > y1 or
+// x0 > x1). The box may be the triangle's part in one leaf (the CPU driver)
+// or its whole voxel box, evaluated once and clamped to each leaf (the CUDA
+// driver): narrowing commutes with clamping, so both give the same voxels.
+HDT_HD void sliceSpans(const RowClipper& c, const int64_t (&first)[3], const int64_t (&last)[3], int64_t z,
+                       int64_t& y0, int64_t& y1, int64_t& x0, int64_t& x1) {
+  y0 = first[1];
+  y1 = last[1];
+  clipRowsOfSlice(c, z, y0, y1);
+  x0 = first[0];
+  x1 = last[0];
+  if (y0 <= y1) clipSliceSpan(c, z, x0, x1);
+}
+
+// T3 per row height y of the box: the x span the e x Z axes allow (as
+// sliceSpans, evaluated on a leaf part or on the whole box).
+HDT_HD void columnSpan(const RowClipper& c, const int64_t (&first)[3], const int64_t (&last)[3], int64_t y,
+                       int64_t& x0, int64_t& x1) {
+  x0 = first[0];
+  x1 = last[0];
+  clipColumnSpan(c, y, x0, x1);
 }
 
 // Where the bits of a permuted row land in the leaf's x rows (one L-bit mask

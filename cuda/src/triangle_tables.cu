@@ -1,0 +1,260 @@
+// Per-triangle tables for the leaf kernels (see TriangleTables in phases.hpp).
+//
+//   box      the leaves' bounding box (a chunk's leaves lie in a small part
+//            of the grid) and which triangles have leaf pairs at all;
+//   setup    one thread per triangle: row axis, plane clipper, voxel box in
+//            the row-axis frame and the x rays' centre ranges, both clamped
+//            to the leaves' box, and the entry counts of its tables;
+//   scans    CUB exclusive sums of the counts place each triangle's entries;
+//   entries  one thread per table entry (triangle found by binary search
+//            over the starts): sliceSpans, columnSpan or raySpanAtW on the
+//            whole box, as the CPU driver evaluates them on a leaf's part.
+#include "device_common.cuh"
+#include "phases.hpp"
+
+#include "hdt/build_steps.hpp"
+
+#include <cub/device/device_scan.cuh>
+#include <thrust/iterator/transform_iterator.h>
+
+namespace hdt {
+namespace cuda {
+namespace {
+
+constexpr int kBlock = 256;
+
+struct ToUint32 {
+  __host__ __device__ uint32_t operator()(uint8_t v) const { return v; }
+};
+constexpr int kRayAxis = 0; // the crossings T3 runs with: rays along x
+constexpr int kRayU = rayAxisU(kRayAxis), kRayW = rayAxisW(kRayAxis);
+
+// box[0..2]: minimum leaf coordinate per axis, box[3..5]: maximum.
+__global__ void leafBoxKernel(uint32_t n, const uint64_t* coord, uint32_t* box) {
+  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  const bool valid = i < n;
+  const uint64_t c = valid ? coord[i] : 0;
+  for (int a = 0; a < 3; ++a) {
+    const uint32_t v = unpackCoord(c, a);
+    const uint32_t lo = __reduce_min_sync(kFullMask, valid ? v : 0xFFFFFFFFu);
+    const uint32_t hi = __reduce_max_sync(kFullMask, valid ? v : 0u);
+    if ((threadIdx.x & 31) == 0) {
+      atomicMin(&box[a], lo);
+      atomicMax(&box[3 + a], hi);
+    }
+  }
+}
+
+__global__ void markUsedKernel(uint32_t n, const uint32_t* pairTri, uint8_t* used) {
+  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i < n) used[pairTri[i]] = 1; // same value from every writer
+}
+
+// The used triangles in index order: triangleOf[compactOf[t]] = t.
+__global__ void listUsedKernel(uint32_t n, const uint8_t* used, const uint32_t* compactOf, uint32_t* triangleOf,
+                               uint64_t* count) {
+  const uint32_t t = blockIdx.x * blockDim.x + threadIdx.x;
+  if (t >= n) return;
+  if (used[t]) triangleOf[compactOf[t]] = t;
+  if (t == n - 1) *count = compactOf[t] + used[t];
+}
+
+__global__ void setupKernel(uint32_t m, const uint32_t* triangleOf, const LatticeTriangle* tris,
+                            const uint32_t* leafBox, int L, int64_t resolution, bool crossings, TriangleSetup* setup,
+                            uint32_t* sliceCount, uint32_t* heightCount, uint32_t* lineCount) {
+  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= m) return;
+  const LatticeTriangle original = tris[triangleOf[i]];
+  const int axis = rowAxisFor(original);
+  const LatticeTriangle t = permuteToRowAxis(original, axis);
+  TriangleSetup s;
+  makePlaneClipper(t, s.plane);
+  s.axis = axis;
+  // The leaves' box in voxels, in the original frame and in the row-axis one.
+  int64_t lo[3], hi[3], plo[3], phi[3];
+  for (int a = 0; a < 3; ++a) {
+    lo[a] = int64_t(leafBox[a]) * L;
+    hi[a] = int64_t(leafBox[3 + a]) * L + L - 1;
+  }
+  permutedOrigin(lo, axis, plo);
+  permutedOrigin(hi, axis, phi);
+  int64_t first[3], last[3];
+  triangleVoxelBox(t, resolution, first, last);
+  bool any = true;
+  for (int a = 0; a < 3; ++a) {
+    first[a] = max(first[a], plo[a]);
+    last[a] = min(last[a], phi[a]);
+    any = any && first[a] <= last[a];
+    s.first[a] = int32_t(first[a]);
+    s.last[a] = int32_t(last[a]);
+  }
+  sliceCount[i] = any ? uint32_t(last[2] - first[2] + 1) : 0;
+  heightCount[i] = any ? uint32_t(last[1] - first[1] + 1) : 0;
+  uint32_t lines = 0;
+  s.u0 = s.w0 = 1;
+  s.u1 = s.w1 = 0;
+  if (crossings && any) {
+    int64_t tlo[3], thi[3], u0, u1, w0, w1;
+    triangleBounds(original, tlo, thi);
+    centreRange(tlo[kRayU], thi[kRayU], 0, int(resolution), u0, u1);
+    centreRange(tlo[kRayW], thi[kRayW], 0, int(resolution), w0, w1);
+    u0 = max(u0, lo[kRayU]);
+    u1 = min(u1, hi[kRayU]);
+    w0 = max(w0, lo[kRayW]);
+    w1 = min(w1, hi[kRayW]);
+    if (u0 <= u1 && w0 <= w1) {
+      s.u0 = int32_t(u0);
+      s.u1 = int32_t(u1);
+      s.w0 = int32_t(w0);
+      s.w1 = int32_t(w1);
+      lines = uint32_t(w1 - w0 + 1);
+    }
+  }
+  lineCount[i] = lines;
+  setup[i] = s;
+}
+
+// The triangle whose entries [start[j], start[j + 1]) hold entry e.
+__device__ __forceinline__ uint32_t ownerOf(const uint64_t* start, uint32_t n, uint64_t e) {
+  uint32_t lo = 0, hi = n; // start[lo] <= e < start[hi] (start[n] taken as infinite)
+  while (hi - lo > 1) {
+    const uint32_t mid = (lo + hi) / 2;
+    if (start[mid] <= e) lo = mid;
+    else hi = mid;
+  }
+  return lo;
+}
+
+__global__ void sliceEntriesKernel(uint64_t total, uint32_t n, const uint64_t* start, const uint32_t* triangleOf,
+                                   const LatticeTriangle* tris, const TriangleSetup* setup, uint2* slices) {
+  const uint64_t e = uint64_t(blockIdx.x) * blockDim.x + threadIdx.x;
+  if (e >= total) return;
+  const uint32_t j = ownerOf(start, n, e);
+  const TriangleSetup& s = setup[j];
+  const LatticeTriangle t = permuteToRowAxis(tris[triangleOf[j]], s.axis);
+  RowClipper c;
+  for (int part = 0; part < 5; ++part) makeRowClipperPart(t, part, c); // rows of a slice
+  for (int part = 6; part < 9; ++part) makeRowClipperPart(t, part, c); // the slice's x span
+  const int64_t first[3] = {s.first[0], s.first[1], s.first[2]}, last[3] = {s.last[0], s.last[1], s.last[2]};
+  int64_t y0, y1, x0, x1;
+  sliceSpans(c, first, last, first[2] + int64_t(e - start[j]), y0, y1, x0, x1);
+  slices[e] = make_uint2(packSpan(y0, y1, first[1]), packSpan(x0, x1, first[0]));
+}
+
+__global__ void heightEntriesKernel(uint64_t total, uint32_t n, const uint64_t* start, const uint32_t* triangleOf,
+                                    const LatticeTriangle* tris, const TriangleSetup* setup, uint32_t* heights) {
+  const uint64_t e = uint64_t(blockIdx.x) * blockDim.x + threadIdx.x;
+  if (e >= total) return;
+  const uint32_t j = ownerOf(start, n, e);
+  const TriangleSetup& s = setup[j];
+  const LatticeTriangle t = permuteToRowAxis(tris[triangleOf[j]], s.axis);
+  RowClipper c;
+  for (int part = 9; part < 12; ++part) makeRowClipperPart(t, part, c);
+  const int64_t first[3] = {s.first[0], s.first[1], s.first[2]}, last[3] = {s.last[0], s.last[1], s.last[2]};
+  int64_t x0, x1;
+  columnSpan(c, first, last, first[1] + int64_t(e - start[j]), x0, x1);
+  heights[e] = packSpan(x0, x1, first[0]);
+}
+
+__global__ void lineEntriesKernel(uint64_t total, uint32_t n, const uint64_t* start, const uint32_t* triangleOf,
+                                  const LatticeTriangle* tris, const TriangleSetup* setup, uint32_t* lines) {
+  const uint64_t e = uint64_t(blockIdx.x) * blockDim.x + threadIdx.x;
+  if (e >= total) return;
+  const uint32_t j = ownerOf(start, n, e);
+  const TriangleSetup& s = setup[j];
+  int64_t f = s.u0, l = s.u1;
+  raySpanAtW(tris[triangleOf[j]], kRayAxis, s.w0 + int64_t(e - start[j]), f, l);
+  lines[e] = packSpan(f, l, s.u0);
+}
+
+// The tables' sizes (into scalars 0..2): last start + last count.
+struct CountsAndStarts {
+  const uint32_t* count[3];
+  const uint64_t* start[3];
+};
+__global__ void tableTotalsKernel(uint32_t n, CountsAndStarts c, uint64_t* totals) {
+  for (int k = 0; k < 3; ++k) totals[k] = c.start[k][n - 1] + c.count[k][n - 1];
+}
+
+} // namespace
+
+TriangleTables buildTriangleTables(DeviceMemory& mem, HostScalars& scalars, const DeviceMesh& mesh,
+                                   const GridSpec& grid, const Leaves& leaves, bool crossings) {
+  const cudaStream_t s = mem.stream();
+  const uint32_t n = mesh.count;
+  TriangleTables t;
+  if (n == 0 || leaves.count == 0 || leaves.pairCount == 0) return t;
+
+  // The triangles with pairs here, and the leaves' box.
+  {
+    DeviceBuffer<uint8_t> used(mem, n);
+    HDT_CUDA_CHECK(cudaMemsetAsync(used.data(), 0, n, s));
+    markUsedKernel<<<blocksFor(leaves.pairCount, kBlock), kBlock, 0, s>>>(leaves.pairCount, leaves.triangle.data(),
+                                                                            used.data());
+    HDT_CUDA_CHECK_LAUNCH("markUsedKernel");
+    t.compactOf = DeviceBuffer<uint32_t>(mem, n);
+    const uint8_t* u = used.data();
+    uint32_t* c = t.compactOf.data();
+    auto flags = thrust::make_transform_iterator(u, ToUint32{});
+    runCub(mem, [&](void* temp, size_t& bytes) { return cub::DeviceScan::ExclusiveSum(temp, bytes, flags, c, n, s); });
+    t.triangleOf = DeviceBuffer<uint32_t>(mem, n);
+    listUsedKernel<<<blocksFor(n, kBlock), kBlock, 0, s>>>(n, u, c, t.triangleOf.data(), scalars.device());
+    HDT_CUDA_CHECK_LAUNCH("listUsedKernel");
+    scalars.fetch(s, 1);
+    t.count = uint32_t(scalars.host()[0]);
+  }
+  const uint32_t m = t.count;
+  DeviceBuffer<uint32_t> box(mem, 6);
+  HDT_CUDA_CHECK(cudaMemsetAsync(box.data(), 0xFF, 3 * sizeof(uint32_t), s));
+  HDT_CUDA_CHECK(cudaMemsetAsync(box.data() + 3, 0, 3 * sizeof(uint32_t), s));
+  leafBoxKernel<<<blocksFor(leaves.count, kBlock), kBlock, 0, s>>>(leaves.count, leaves.coord.data(), box.data());
+  HDT_CUDA_CHECK_LAUNCH("leafBoxKernel");
+
+  t.setup = DeviceBuffer<TriangleSetup>(mem, m);
+  t.sliceStart = DeviceBuffer<uint64_t>(mem, m);
+  t.heightStart = DeviceBuffer<uint64_t>(mem, m);
+  t.lineStart = DeviceBuffer<uint64_t>(mem, m);
+  DeviceBuffer<uint32_t> counts[3] = {DeviceBuffer<uint32_t>(mem, m), DeviceBuffer<uint32_t>(mem, m),
+                                      DeviceBuffer<uint32_t>(mem, m)};
+  setupKernel<<<blocksFor(m, kBlock), kBlock, 0, s>>>(m, t.triangleOf.data(), mesh.triangles, box.data(),
+                                                      grid.leafSize, grid.resolution, crossings, t.setup.data(),
+                                                      counts[0].data(), counts[1].data(), counts[2].data());
+  HDT_CUDA_CHECK_LAUNCH("setupKernel");
+  DeviceBuffer<uint64_t>* starts[3] = {&t.sliceStart, &t.heightStart, &t.lineStart};
+  for (int k = 0; k < 3; ++k) {
+    const uint32_t* in = counts[k].data();
+    uint64_t* out = starts[k]->data();
+    runCub(mem, [&](void* temp, size_t& bytes) { return cub::DeviceScan::ExclusiveSum(temp, bytes, in, out, m, s); });
+  }
+  const CountsAndStarts cs{{counts[0].data(), counts[1].data(), counts[2].data()},
+                           {t.sliceStart.data(), t.heightStart.data(), t.lineStart.data()}};
+  tableTotalsKernel<<<1, 1, 0, s>>>(m, cs, scalars.device());
+  HDT_CUDA_CHECK_LAUNCH("tableTotalsKernel");
+  scalars.fetch(s, 3);
+  const uint64_t total[3] = {scalars.host()[0], scalars.host()[1], scalars.host()[2]};
+  for (auto& c : counts) c.reset();
+
+  t.slices = DeviceBuffer<uint2>(mem, total[0]);
+  t.heights = DeviceBuffer<uint32_t>(mem, total[1]);
+  t.lines = DeviceBuffer<uint32_t>(mem, total[2]);
+  const uint32_t* of = t.triangleOf.data();
+  if (total[0]) {
+    sliceEntriesKernel<<<blocksFor(total[0], kBlock), kBlock, 0, s>>>(total[0], m, t.sliceStart.data(), of,
+                                                                      mesh.triangles, t.setup.data(), t.slices.data());
+    HDT_CUDA_CHECK_LAUNCH("sliceEntriesKernel");
+  }
+  if (total[1]) {
+    heightEntriesKernel<<<blocksFor(total[1], kBlock), kBlock, 0, s>>>(
+        total[1], m, t.heightStart.data(), of, mesh.triangles, t.setup.data(), t.heights.data());
+    HDT_CUDA_CHECK_LAUNCH("heightEntriesKernel");
+  }
+  if (total[2]) {
+    lineEntriesKernel<<<blocksFor(total[2], kBlock), kBlock, 0, s>>>(total[2], m, t.lineStart.data(), of,
+                                                                     mesh.triangles, t.setup.data(), t.lines.data());
+    HDT_CUDA_CHECK_LAUNCH("lineEntriesKernel");
+  }
+  return t;
+}
+
+} // namespace cuda
+} // namespace hdt
