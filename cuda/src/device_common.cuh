@@ -93,12 +93,26 @@ __device__ __forceinline__ void leafOrigin(uint64_t c, int L, int64_t (&v0)[3]) 
 // Each pair of a leaf brings a variable number of independent items (slices
 // of rows for T3, lines of rays for classification). The warp that owns the
 // leaf takes its pairs 32 at a time: every lane counts its pair's items, a
-// warp scan lays the counts end to end, and the lanes then take the items
-// round-robin, so a triangle that covers the whole leaf is shared by all 32
+// warp scan lays the counts end to end, and the lanes then take the items 32
+// at a time, so a triangle that covers the whole leaf is shared by all 32
 // lanes instead of serialising one of them.
+//
+// Per round of 32 items, each lane whose run of items meets the round marks
+// where its run starts in it (one bit, OR-reduced over the warp) and leaves
+// its lane and run start in the warp's slots; an item's owner is then the
+// last mark at or before it: one reduction, one count-leading-zeros and a
+// slot read, instead of a five-step shuffle search (ncu: that search was a
+// sixth of T3's instructions).
+struct WarpSlots {
+  int32_t start[32]; // run start (item number) of the lane that marked slot i
+  uint8_t lane[32];  // and that lane
+};
+
 template <class Count, class Item>
-__device__ __forceinline__ void warpForEachPairItem(uint32_t p0, uint32_t p1, Count count, Item item) {
+__device__ __forceinline__ void warpForEachPairItem(uint32_t p0, uint32_t p1, WarpSlots& slots, Count count,
+                                                    Item item) {
   const int lane = threadIdx.x & 31;
+  const uint32_t upTo = lane == 31 ? kFullMask : (2u << lane) - 1u; // bits 0..lane
   for (uint32_t base = p0; base < p1; base += 32) {
     const int c = base + lane < p1 ? count(base + lane) : 0;
     int incl = c;
@@ -108,16 +122,22 @@ __device__ __forceinline__ void warpForEachPairItem(uint32_t p0, uint32_t p1, Co
       if (lane >= o) incl += v;
     }
     const int total = __shfl_sync(kFullMask, incl, 31);
+    const int start = incl - c;
     for (int t0 = 0; t0 < total; t0 += 32) {
-      const int t = t0 + lane;
-      // Owner of item t: the first lane whose inclusive count exceeds t.
-      int owner = 0;
-#pragma unroll
-      for (int step = 16; step > 0; step >>= 1) {
-        if (__shfl_sync(kFullMask, incl, owner + step - 1) <= t) owner += step;
+      const bool marks = c > 0 && start < t0 + 32 && incl > t0;
+      const int at = max(start, t0) - t0;
+      __syncwarp(); // the previous round has read the slots
+      if (marks) {
+        slots.start[at] = start;
+        slots.lane[at] = uint8_t(lane);
       }
-      const int first = __shfl_sync(kFullMask, incl - c, owner);
-      if (t < total) item(base + owner, t - first);
+      const uint32_t m = __reduce_or_sync(kFullMask, marks ? 1u << at : 0u);
+      __syncwarp();
+      const int t = t0 + lane;
+      if (t < total) {
+        const int q = 31 - __clz(int(m & upTo)); // the last mark at or before this item
+        item(base + slots.lane[q], t - slots.start[q]);
+      }
     }
   }
 }

@@ -90,6 +90,7 @@ struct LeafWarp {
   uint32_t rows[L * L];                      // surface, one L-bit mask per x row
   uint32_t masks[CROSS ? L * L : 1];         // XOR of before-masks per x row
   uint32_t parity[CROSS ? L * L / 32 : 1];   // one bit per x row
+  WarpSlots slots;
 };
 
 struct LeafKernelArgs {
@@ -105,7 +106,7 @@ struct LeafKernelArgs {
 
 template <int L>
 __device__ __forceinline__ void surfaceSteps(const LeafKernelArgs& k, const LeafTask& task, const int64_t (&v0)[3],
-                                             SurfacePairs<L>& sh, uint32_t* rows) {
+                                             SurfacePairs<L>& sh, uint32_t* rows, WarpSlots& slots) {
   const int lane = threadIdx.x & 31;
   for (uint32_t base = task.first; base < task.end; base += kBatch) {
     const int nb = int(min(uint32_t(kBatch), task.end - base));
@@ -138,7 +139,7 @@ __device__ __forceinline__ void surfaceSteps(const LeafKernelArgs& k, const Leaf
     }
     __syncwarp();
     warpForEachPairItem(
-        0, nb, [&](uint32_t j) { return max(int(sh.nz[j]), sh.y1[j] - sh.y0[j] + 1); },
+        0, nb, slots, [&](uint32_t j) { return max(int(sh.nz[j]), sh.y1[j] - sh.y0[j] + 1); },
         [&](uint32_t j, int kk) {
           if (kk < sh.nz[j]) {
             const uint2 e = k.slices[sh.slice[j] + kk];
@@ -161,7 +162,7 @@ __device__ __forceinline__ void surfaceSteps(const LeafKernelArgs& k, const Leaf
         });
     __syncwarp();
     warpForEachPairItem(
-        0, uint32_t(nb) * L,
+        0, uint32_t(nb) * L, slots,
         [&](uint32_t e) { return int(e % L) < sh.nz[e / L] ? int(sh.sliceRows[e / L][e % L]) : 0; },
         [&](uint32_t e, int r) {
           const uint32_t j = e / L, s = e % L;
@@ -182,7 +183,7 @@ __device__ __forceinline__ void surfaceSteps(const LeafKernelArgs& k, const Leaf
 // hit spans from the line table).
 template <int L>
 __device__ __forceinline__ void crossingSteps(const LeafKernelArgs& k, const LeafTask& task, const int64_t (&v0)[3],
-                                              CrossPairs<L>& sh, uint32_t* masks, uint32_t* parity) {
+                                              CrossPairs<L>& sh, uint32_t* masks, uint32_t* parity, WarpSlots& slots) {
   constexpr int U = rayAxisU(0), W = rayAxisW(0);
   const int lane = threadIdx.x & 31;
   for (uint32_t base = task.first; base < task.end; base += kBatch) {
@@ -204,7 +205,7 @@ __device__ __forceinline__ void crossingSteps(const LeafKernelArgs& k, const Lea
     }
     __syncwarp();
     warpForEachPairItem(
-        0, nb, [&](uint32_t j) { return int(sh.nw[j]); },
+        0, nb, slots, [&](uint32_t j) { return int(sh.nw[j]); },
         [&](uint32_t j, int kk) {
           int32_t f, l;
           unpackSpan(k.lines[sh.line[j] + kk], sh.baseU[j], sh.u0[j], sh.u1[j], f, l);
@@ -213,7 +214,7 @@ __device__ __forceinline__ void crossingSteps(const LeafKernelArgs& k, const Lea
         });
     __syncwarp();
     warpForEachPairItem(
-        0, uint32_t(nb) * L,
+        0, uint32_t(nb) * L, slots,
         [&](uint32_t e) { return int(e % L) < sh.nw[e / L] ? int(sh.spanN[e / L][e % L]) : 0; },
         [&](uint32_t e, int r) {
           const uint32_t j = e / L, kk = e % L;
@@ -247,18 +248,22 @@ __global__ void __launch_bounds__(32 * warpsPerBlock<L>(), HDT_CUDA_T3_MIN_BLOCK
   }
   if (CROSS)
     for (int i = lane; i < L * L / 32; i += 32) sh.parity[i] = 0;
-  surfaceSteps<L>(k, task, v0, sh.p.s, sh.rows);
-  if (CROSS) crossingSteps<L>(k, task, v0, sh.p.c, sh.masks, sh.parity);
+  surfaceSteps<L>(k, task, v0, sh.p.s, sh.rows, sh.slots);
+  if (CROSS) crossingSteps<L>(k, task, v0, sh.p.c, sh.masks, sh.parity, sh.slots);
   __syncwarp();
 
   const bool split = task.flags & kTaskSplit;
   uint32_t* out = k.words + size_t(task.leaf) * leafWordCount(L);
-  for (int w = lane; w < int(leafWordCount(L)); w += 32) {
+  auto word = [&](int w) {
     const uint32_t surface = spreadBits16(wordBitsFromRows(sh.rows, L, w)) << 1;
-    const uint32_t before = CROSS ? spreadBits16(wordBitsFromRows(sh.masks, L, w)) : 0u;
-    if (!split) {
-      out[w] = surface | before;
-    } else {
+    return CROSS ? surface | spreadBits16(wordBitsFromRows(sh.masks, L, w)) : surface;
+  };
+  if (!split) { // warp-uniform
+#pragma unroll 4
+    for (int w = lane; w < int(leafWordCount(L)); w += 32) out[w] = word(w);
+  } else {
+    for (int w = lane; w < int(leafWordCount(L)); w += 32) {
+      const uint32_t v = word(w), surface = v & 0xAAAAAAAAu, before = v & 0x55555555u;
       if (surface) atomicOr(&out[w], surface);
       if (before) atomicXor(&out[w], before);
     }

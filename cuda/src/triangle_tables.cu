@@ -6,14 +6,16 @@
 //            the row-axis frame and the x rays' centre ranges, both clamped
 //            to the leaves' box, and the entry counts of its tables;
 //   scans    CUB exclusive sums of the counts place each triangle's entries;
-//   entries  one thread per table entry (triangle found by binary search
-//            over the starts): sliceSpans, columnSpan or raySpanAtW on the
-//            whole box, as the CPU driver evaluates them on a leaf's part.
+//   entries  one thread per table entry (its triangle from a max-scan of
+//            the triangles' first entries): sliceSpans, columnSpan or
+//            raySpanAtW on the whole box, as the CPU driver evaluates them
+//            on a leaf's part.
 #include "device_common.cuh"
 #include "phases.hpp"
 
 #include "hdt/build_steps.hpp"
 
+#include <cub/device/device_reduce.cuh>
 #include <cub/device/device_scan.cuh>
 #include <thrust/iterator/transform_iterator.h>
 
@@ -23,27 +25,36 @@ namespace {
 
 constexpr int kBlock = 256;
 
+struct MaxU32 { // (cub::Max is gone from CUDA 13, cuda::maximum new in 12.x)
+  __host__ __device__ uint32_t operator()(uint32_t a, uint32_t b) const { return a > b ? a : b; }
+};
 struct ToUint32 {
   __host__ __device__ uint32_t operator()(uint8_t v) const { return v; }
 };
 constexpr int kRayAxis = 0; // the crossings T3 runs with: rays along x
 constexpr int kRayU = rayAxisU(kRayAxis), kRayW = rayAxisW(kRayAxis);
 
-// box[0..2]: minimum leaf coordinate per axis, box[3..5]: maximum.
-__global__ void leafBoxKernel(uint32_t n, const uint64_t* coord, uint32_t* box) {
-  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
-  const bool valid = i < n;
-  const uint64_t c = valid ? coord[i] : 0;
-  for (int a = 0; a < 3; ++a) {
-    const uint32_t v = unpackCoord(c, a);
-    const uint32_t lo = __reduce_min_sync(kFullMask, valid ? v : 0xFFFFFFFFu);
-    const uint32_t hi = __reduce_max_sync(kFullMask, valid ? v : 0u);
-    if ((threadIdx.x & 31) == 0) {
-      atomicMin(&box[a], lo);
-      atomicMax(&box[3 + a], hi);
-    }
+// The leaves' bounding box in leaf units: a CUB reduction of per-leaf boxes.
+struct LeafBox {
+  uint32_t lo[3], hi[3];
+};
+struct LeafBoxOf {
+  __host__ __device__ LeafBox operator()(uint64_t c) const {
+    LeafBox b;
+    for (int a = 0; a < 3; ++a) b.lo[a] = b.hi[a] = unpackCoord(c, a);
+    return b;
   }
-}
+};
+struct MergeLeafBoxes {
+  __host__ __device__ LeafBox operator()(const LeafBox& x, const LeafBox& y) const {
+    LeafBox b;
+    for (int a = 0; a < 3; ++a) {
+      b.lo[a] = x.lo[a] < y.lo[a] ? x.lo[a] : y.lo[a];
+      b.hi[a] = x.hi[a] > y.hi[a] ? x.hi[a] : y.hi[a];
+    }
+    return b;
+  }
+};
 
 __global__ void markUsedKernel(uint32_t n, const uint32_t* pairTri, uint8_t* used) {
   const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
@@ -60,7 +71,7 @@ __global__ void listUsedKernel(uint32_t n, const uint8_t* used, const uint32_t* 
 }
 
 __global__ void setupKernel(uint32_t m, const uint32_t* triangleOf, const LatticeTriangle* tris,
-                            const uint32_t* leafBox, int L, int64_t resolution, bool crossings, TriangleSetup* setup,
+                            const LeafBox* leafBox, int L, int64_t resolution, bool crossings, TriangleSetup* setup,
                             uint32_t* sliceCount, uint32_t* heightCount, uint32_t* lineCount) {
   const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i >= m) return;
@@ -73,8 +84,8 @@ __global__ void setupKernel(uint32_t m, const uint32_t* triangleOf, const Lattic
   // The leaves' box in voxels, in the original frame and in the row-axis one.
   int64_t lo[3], hi[3], plo[3], phi[3];
   for (int a = 0; a < 3; ++a) {
-    lo[a] = int64_t(leafBox[a]) * L;
-    hi[a] = int64_t(leafBox[3 + a]) * L + L - 1;
+    lo[a] = int64_t(leafBox->lo[a]) * L;
+    hi[a] = int64_t(leafBox->hi[a]) * L + L - 1;
   }
   permutedOrigin(lo, axis, plo);
   permutedOrigin(hi, axis, phi);
@@ -114,22 +125,33 @@ __global__ void setupKernel(uint32_t m, const uint32_t* triangleOf, const Lattic
   setup[i] = s;
 }
 
-// The triangle whose entries [start[j], start[j + 1]) hold entry e.
-__device__ __forceinline__ uint32_t ownerOf(const uint64_t* start, uint32_t n, uint64_t e) {
-  uint32_t lo = 0, hi = n; // start[lo] <= e < start[hi] (start[n] taken as infinite)
-  while (hi - lo > 1) {
-    const uint32_t mid = (lo + hi) / 2;
-    if (start[mid] <= e) lo = mid;
-    else hi = mid;
-  }
-  return lo;
+// The owner of every entry of a table: each triangle with entries marks its
+// first one, and an inclusive max-scan carries the mark over the rest (one
+// load an entry instead of a binary search over the starts).
+__global__ void markFirstEntriesKernel(uint32_t m, const uint64_t* start, const uint32_t* count, uint32_t* owner) {
+  const uint32_t j = blockIdx.x * blockDim.x + threadIdx.x;
+  if (j < m && count[j] > 0) owner[start[j]] = j;
 }
 
-__global__ void sliceEntriesKernel(uint64_t total, uint32_t n, const uint64_t* start, const uint32_t* triangleOf,
+DeviceBuffer<uint32_t> entryOwners(DeviceMemory& mem, uint32_t m, const uint64_t* start, const uint32_t* count,
+                                   uint64_t total) {
+  const cudaStream_t s = mem.stream();
+  DeviceBuffer<uint32_t> owner(mem, total);
+  HDT_CUDA_CHECK(cudaMemsetAsync(owner.data(), 0, total * sizeof(uint32_t), s));
+  markFirstEntriesKernel<<<blocksFor(m, kBlock), kBlock, 0, s>>>(m, start, count, owner.data());
+  HDT_CUDA_CHECK_LAUNCH("markFirstEntriesKernel");
+  uint32_t* o = owner.data();
+  runCub(mem, [&](void* temp, size_t& bytes) {
+    return cub::DeviceScan::InclusiveScan(temp, bytes, o, o, MaxU32{}, total, s);
+  });
+  return owner;
+}
+
+__global__ void sliceEntriesKernel(uint64_t total, const uint32_t* owner, const uint64_t* start, const uint32_t* triangleOf,
                                    const LatticeTriangle* tris, const TriangleSetup* setup, uint2* slices) {
   const uint64_t e = uint64_t(blockIdx.x) * blockDim.x + threadIdx.x;
   if (e >= total) return;
-  const uint32_t j = ownerOf(start, n, e);
+  const uint32_t j = owner[e];
   const TriangleSetup& s = setup[j];
   const LatticeTriangle t = permuteToRowAxis(tris[triangleOf[j]], s.axis);
   RowClipper c;
@@ -141,11 +163,11 @@ __global__ void sliceEntriesKernel(uint64_t total, uint32_t n, const uint64_t* s
   slices[e] = make_uint2(packSpan(y0, y1, first[1]), packSpan(x0, x1, first[0]));
 }
 
-__global__ void heightEntriesKernel(uint64_t total, uint32_t n, const uint64_t* start, const uint32_t* triangleOf,
+__global__ void heightEntriesKernel(uint64_t total, const uint32_t* owner, const uint64_t* start, const uint32_t* triangleOf,
                                     const LatticeTriangle* tris, const TriangleSetup* setup, uint32_t* heights) {
   const uint64_t e = uint64_t(blockIdx.x) * blockDim.x + threadIdx.x;
   if (e >= total) return;
-  const uint32_t j = ownerOf(start, n, e);
+  const uint32_t j = owner[e];
   const TriangleSetup& s = setup[j];
   const LatticeTriangle t = permuteToRowAxis(tris[triangleOf[j]], s.axis);
   RowClipper c;
@@ -156,11 +178,11 @@ __global__ void heightEntriesKernel(uint64_t total, uint32_t n, const uint64_t* 
   heights[e] = packSpan(x0, x1, first[0]);
 }
 
-__global__ void lineEntriesKernel(uint64_t total, uint32_t n, const uint64_t* start, const uint32_t* triangleOf,
+__global__ void lineEntriesKernel(uint64_t total, const uint32_t* owner, const uint64_t* start, const uint32_t* triangleOf,
                                   const LatticeTriangle* tris, const TriangleSetup* setup, uint32_t* lines) {
   const uint64_t e = uint64_t(blockIdx.x) * blockDim.x + threadIdx.x;
   if (e >= total) return;
-  const uint32_t j = ownerOf(start, n, e);
+  const uint32_t j = owner[e];
   const TriangleSetup& s = setup[j];
   int64_t f = s.u0, l = s.u1;
   raySpanAtW(tris[triangleOf[j]], kRayAxis, s.w0 + int64_t(e - start[j]), f, l);
@@ -204,11 +226,15 @@ TriangleTables buildTriangleTables(DeviceMemory& mem, HostScalars& scalars, cons
     t.count = uint32_t(scalars.host()[0]);
   }
   const uint32_t m = t.count;
-  DeviceBuffer<uint32_t> box(mem, 6);
-  HDT_CUDA_CHECK(cudaMemsetAsync(box.data(), 0xFF, 3 * sizeof(uint32_t), s));
-  HDT_CUDA_CHECK(cudaMemsetAsync(box.data() + 3, 0, 3 * sizeof(uint32_t), s));
-  leafBoxKernel<<<blocksFor(leaves.count, kBlock), kBlock, 0, s>>>(leaves.count, leaves.coord.data(), box.data());
-  HDT_CUDA_CHECK_LAUNCH("leafBoxKernel");
+  DeviceBuffer<LeafBox> box(mem, 1);
+  {
+    auto boxes = thrust::make_transform_iterator(leaves.coord.data(), LeafBoxOf{});
+    LeafBox* out = box.data();
+    const LeafBox empty{{0xFFFFFFFFu, 0xFFFFFFFFu, 0xFFFFFFFFu}, {0, 0, 0}};
+    runCub(mem, [&](void* temp, size_t& bytes) {
+      return cub::DeviceReduce::Reduce(temp, bytes, boxes, out, leaves.count, MergeLeafBoxes{}, empty, s);
+    });
+  }
 
   t.setup = DeviceBuffer<TriangleSetup>(mem, m);
   t.sliceStart = DeviceBuffer<uint64_t>(mem, m);
@@ -232,24 +258,26 @@ TriangleTables buildTriangleTables(DeviceMemory& mem, HostScalars& scalars, cons
   HDT_CUDA_CHECK_LAUNCH("tableTotalsKernel");
   scalars.fetch(s, 3);
   const uint64_t total[3] = {scalars.host()[0], scalars.host()[1], scalars.host()[2]};
-  for (auto& c : counts) c.reset();
 
   t.slices = DeviceBuffer<uint2>(mem, total[0]);
   t.heights = DeviceBuffer<uint32_t>(mem, total[1]);
   t.lines = DeviceBuffer<uint32_t>(mem, total[2]);
   const uint32_t* of = t.triangleOf.data();
   if (total[0]) {
-    sliceEntriesKernel<<<blocksFor(total[0], kBlock), kBlock, 0, s>>>(total[0], m, t.sliceStart.data(), of,
+    const DeviceBuffer<uint32_t> owner = entryOwners(mem, m, t.sliceStart.data(), counts[0].data(), total[0]);
+    sliceEntriesKernel<<<blocksFor(total[0], kBlock), kBlock, 0, s>>>(total[0], owner.data(), t.sliceStart.data(), of,
                                                                       mesh.triangles, t.setup.data(), t.slices.data());
     HDT_CUDA_CHECK_LAUNCH("sliceEntriesKernel");
   }
   if (total[1]) {
+    const DeviceBuffer<uint32_t> owner = entryOwners(mem, m, t.heightStart.data(), counts[1].data(), total[1]);
     heightEntriesKernel<<<blocksFor(total[1], kBlock), kBlock, 0, s>>>(
-        total[1], m, t.heightStart.data(), of, mesh.triangles, t.setup.data(), t.heights.data());
+        total[1], owner.data(), t.heightStart.data(), of, mesh.triangles, t.setup.data(), t.heights.data());
     HDT_CUDA_CHECK_LAUNCH("heightEntriesKernel");
   }
   if (total[2]) {
-    lineEntriesKernel<<<blocksFor(total[2], kBlock), kBlock, 0, s>>>(total[2], m, t.lineStart.data(), of,
+    const DeviceBuffer<uint32_t> owner = entryOwners(mem, m, t.lineStart.data(), counts[2].data(), total[2]);
+    lineEntriesKernel<<<blocksFor(total[2], kBlock), kBlock, 0, s>>>(total[2], owner.data(), t.lineStart.data(), of,
                                                                      mesh.triangles, t.setup.data(), t.lines.data());
     HDT_CUDA_CHECK_LAUNCH("lineEntriesKernel");
   }
