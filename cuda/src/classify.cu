@@ -13,6 +13,10 @@
 //            masks (pass 2's geometry, computed once) go to plane 0 of the
 //            leaf words for axis 0 (the x rows: free room) and to masks[a]
 //            for the other axes of open meshes;
+//            Along x the T3 kernel (leaf.cu) runs this pass on the same
+//            pairs, with the hit spans from per-triangle tables; the kernel
+//            here runs y and z of open meshes and chunk phase A (parities
+//            only, before the leaf words exist);
 //   lines    per axis, the leaves sorted by line key (w, u, along) with a
 //            radix sort on 3 log2(N/L) bits; one warp per line runs a suffix
 //            XOR scan (shuffles, 32 leaves a step) that turns the pass-1
