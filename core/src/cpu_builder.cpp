@@ -229,7 +229,7 @@ private:
             int64_t f = std::max(sliceFirst, columnFirst[y - o[1]]);
             int64_t l = std::min(sliceLast, columnLast[y - o[1]]);
             clipRowByPlane(clipper.plane, y, z, f, l);
-            forEachXRowOf(axis, L_, int(y - o[1]), int(z - o[2]), rowBits(o[0], f, l),
+            forEachXRowOf(axis, L_, int(y - o[1]), int(z - o[2]), int(f - o[0]), int(l - o[0]),
                           [&](int row, uint32_t bits) { rows[row] |= bits; });
           }
         }

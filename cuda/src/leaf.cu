@@ -13,7 +13,7 @@
 //   2. one lane per (pair, k): slice z = k's rows and x span, and row height
 //      y = k's x span, from the tables (sliceSpans, columnSpan);
 //   3. one lane per (pair, row): the two spans intersected, clipRowByPlane,
-//      rowBits, ORed into the leaf's x-row masks (forEachXRowOf) with
+//      the run ORed into the leaf's x-row masks (forEachXRowOf) with
 //      shared-memory atomics (OR commutes: scheduling cannot show).
 // Flattening to rows keeps all 32 lanes busy however unevenly the triangles
 // cover the leaf, and a row costs only its plane step.
@@ -92,8 +92,8 @@ struct LeafWarp {
     SurfacePairs<L> s;
     CrossPairs<L> c;
   } p;
-  uint32_t rows[L * L];                      // surface, one L-bit mask per x row
-  uint32_t masks[CROSS ? L * L : 1];         // XOR of before-masks per x row
+  alignas(16) uint32_t rows[L * L];              // surface, one L-bit mask per x row
+  alignas(16) uint32_t masks[CROSS ? L * L : 4]; // XOR of before-masks per x row
   uint32_t parity[CROSS ? L * L / 32 : 1];   // one bit per x row
   WarpSlots slots;
 };
@@ -178,7 +178,7 @@ __device__ __forceinline__ void surfaceSteps(const LeafKernelArgs& k, const Leaf
           int64_t f = o[0] + max(sh.sliceX0[j][s], sh.columnX0[j][dy]);
           int64_t l = o[0] + min(sh.sliceX1[j][s], sh.columnX1[j][dy]);
           clipRowByPlane(k.setup[sh.tri[j]].plane, o[1] + dy, o[2] + dz, f, l);
-          forEachXRowOf(axis, L, dy, dz, rowBits(o[0], f, l),
+          forEachXRowOf(axis, L, dy, dz, int(f - o[0]), int(l - o[0]),
                         [&](int row, uint32_t bits) { atomicOr(&rows[row], bits); });
         });
   }
@@ -195,12 +195,12 @@ __device__ __forceinline__ void crossingSteps(const LeafKernelArgs& k, const Lea
     const int nb = int(min(uint32_t(kBatch), task.end - base));
     __syncwarp(); // the previous steps are done with the shared arrays
     if (lane < nb) {
-      const uint32_t tri = k.a.pairTri[base + lane], j = k.compactOf[tri];
+      const uint32_t j = k.compactOf[k.a.pairTri[base + lane]];
       const TriangleSetup& ts = k.setup[j];
       const int64_t u0 = max(int64_t(ts.u0), v0[U]), u1 = min(int64_t(ts.u1), v0[U] + L - 1);
       const int64_t w0 = max(int64_t(ts.w0), v0[W]), w1 = min(int64_t(ts.w1), v0[W] + L - 1);
       const bool any = u0 <= u1 && w0 <= w1;
-      if (any) makeLeafCrossings(k.a.tris[tri], 0, v0, L, sh.crossings[lane]);
+      if (any) makeLeafCrossings(ts.cross, 0, v0, L, sh.crossings[lane]);
       sh.u0[lane] = int8_t(any ? u0 - v0[U] : 0);
       sh.u1[lane] = int8_t(any ? u1 - v0[U] : -1);
       sh.w0[lane] = int8_t(any ? w0 - v0[W] : 0);
@@ -247,9 +247,9 @@ __global__ void __launch_bounds__(32 * warpsPerBlock<L>(), HDT_CUDA_T3_MIN_BLOCK
   LeafWarp<L, CROSS>& sh = shared[warp];
   int64_t v0[3];
   leafOrigin(k.a.leafCoord[task.leaf], L, v0);
-  for (int r = lane; r < L * L; r += 32) {
-    sh.rows[r] = 0;
-    if (CROSS) sh.masks[r] = 0;
+  for (int q = lane; q < L * L / 4; q += 32) { // 16-byte stores
+    reinterpret_cast<uint4*>(sh.rows)[q] = make_uint4(0, 0, 0, 0);
+    if (CROSS) reinterpret_cast<uint4*>(sh.masks)[q] = make_uint4(0, 0, 0, 0);
   }
   if (CROSS)
     for (int i = lane; i < L * L / 32; i += 32) sh.parity[i] = 0;

@@ -119,6 +119,7 @@ struct TriangleSetup {
   int32_t first[3], last[3]; // voxel box in that frame, clamped to the leaves' box; empty: unused
   int32_t axis;              // row axis
   int32_t u0, u1, w0, w1;    // x rays (crossings): centre ranges along y and z, clamped likewise
+  RayCrossingSetup cross;    // x rays: the triangle's part of LeafCrossings
 };
 struct TriangleTables {
   uint32_t count = 0;                   // triangles with pairs among the leaves

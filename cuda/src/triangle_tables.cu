@@ -119,6 +119,7 @@ __global__ void setupKernel(uint32_t m, const uint32_t* triangleOf, const Lattic
       s.w0 = int32_t(w0);
       s.w1 = int32_t(w1);
       lines = uint32_t(w1 - w0 + 1);
+      makeRayCrossingSetup(original, kRayAxis, s.cross);
     }
   }
   lineCount[i] = lines;

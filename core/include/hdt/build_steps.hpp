@@ -403,30 +403,23 @@ HDT_HD void columnSpan(const RowClipper& c, const int64_t (&first)[3], const int
   clipColumnSpan(c, y, x0, x1);
 }
 
-// Where the bits of a permuted row land in the leaf's x rows (one L-bit mask
+// Where a permuted row's voxels land in the leaf's x rows (one L-bit mask
 // per row y + L z): calls set(rowIndex, mask) once per x row touched. The
-// row is at (h, s) = (row height, slice), leaf-relative, and `bits` holds
-// its voxels along `axis`.
+// row is at (h, s) = (row height, slice), leaf-relative, and its voxels are
+// the run [first, last] along `axis` (leaf-relative; none when first > last).
+// A run along y or z sets one bit in each of consecutive x rows, so it is
+// walked as a run, not bit by bit.
 template <class Set>
-HDT_HD void forEachXRowOf(int axis, int L, int h, int s, uint32_t bits, Set&& set) {
+HDT_HD void forEachXRowOf(int axis, int L, int h, int s, int first, int last, Set&& set) {
+  if (first > last) return;
   if (axis == 0) { // (x, y, z) = (i, h, s)
-    if (bits) set(h + L * s, bits);
-    return;
+    const uint32_t upto = last == 31 ? 0xFFFFFFFFu : ((1u << (last + 1)) - 1u);
+    set(h + L * s, upto & ~((1u << first) - 1u));
+  } else if (axis == 1) { // (x, y, z) = (s, i, h): x rows i + L h, bit s
+    for (int i = first; i <= last; ++i) set(i + L * h, 1u << s);
+  } else { // axis 2: (x, y, z) = (h, s, i): x rows s + L i, bit h
+    for (int i = first; i <= last; ++i) set(s + L * i, 1u << h);
   }
-  while (bits) {
-    const int i = detail::lowestBit(bits);
-    bits &= bits - 1;
-    if (axis == 1) set(i + L * h, 1u << s); // (x, y, z) = (s, i, h)
-    else set(s + L * i, 1u << h);           // axis 2: (x, y, z) = (h, s, i)
-  }
-}
-
-// Bits [first - x0, last - x0] of a leaf row starting at voxel x0.
-HDT_HD uint32_t rowBits(int64_t x0, int64_t first, int64_t last) {
-  if (first > last) return 0;
-  const int f = int(first - x0), l = int(last - x0);
-  const uint32_t upto = l == 31 ? 0xFFFFFFFFu : ((1u << (l + 1)) - 1u);
-  return upto & ~((1u << f) - 1u);
 }
 
 // Classification: the rays along `axis` through the voxel centres of the
@@ -520,23 +513,49 @@ struct LeafCrossings {
   double invPerVoxel; // 1 / perVoxel, for the estimate
 };
 
-// v0: the leaf's first voxel; only for triangles whose projection along
-// `axis` has area (raySpanAtW finds no hit otherwise).
-HDT_HD void makeLeafCrossings(const LatticeTriangle& t, int axis, const int64_t (&v0)[3], int L, LeafCrossings& c) {
+// What LeafCrossings takes from the triangle alone (per triangle and axis),
+// so that a driver can set it up once per triangle: with s the sign of
+// n_axis, t at the leaf's first ray is
+//   s (n . v_0) - s n_U pu0 - s n_W pw0 - den * (leaf start)
+// (rayCrossing's numerator, shifted to the leaf; exact in 128 bits).
+struct RayCrossingSetup {
+  int128_t sDot;      // s (n . v_0)
+  int64_t snU, snW;   // s n_U, s n_W
+  uint64_t den;       // |n_axis|
+  double invPerVoxel; // 1 / (256 den)
+};
+
+HDT_HD void makeRayCrossingSetup(const LatticeTriangle& t, int axis, RayCrossingSetup& r) {
   const int U = rayAxisU(axis), W = rayAxisW(axis);
   int64_t n[3];
   triangleNormal(t, n);
   const int64_t s = n[axis] < 0 ? -1 : 1;
+  r.sDot = (int128_t(n[axis]) * t.v[0][axis] + int128_t(n[U]) * t.v[0][U] + int128_t(n[W]) * t.v[0][W]) * s;
+  r.snU = s * n[U];
+  r.snW = s * n[W];
+  r.den = uint64_t(s * n[axis]);
+  r.invPerVoxel = r.den == 0 ? 0.0 : 1.0 / double(r.den * uint64_t(kLatticePerVoxel));
+}
+
+// v0: the leaf's first voxel; only for triangles whose projection along
+// `axis` has area (raySpanAtW finds no hit otherwise).
+HDT_HD void makeLeafCrossings(const RayCrossingSetup& r, int axis, const int64_t (&v0)[3], int L, LeafCrossings& c) {
+  const int U = rayAxisU(axis), W = rayAxisW(axis);
   const int64_t pu0 = latticeOfVoxelCentre(v0[U]), pw0 = latticeOfVoxelCentre(v0[W]);
-  const int128_t num0 = int128_t(n[axis]) * t.v[0][axis] - int128_t(n[U]) * (pu0 - t.v[0][U]) -
-                        int128_t(n[W]) * (pw0 - t.v[0][W]);
-  c.den = uint64_t(s * n[axis]);
-  c.t00 = num0 * s - int128_t(latticeOfVoxel(v0[axis])) * int128_t(c.den);
-  c.stepU = -s * n[U] * kLatticePerVoxel;
-  c.stepW = -s * n[W] * kLatticePerVoxel;
-  c.perVoxel = c.den * uint64_t(kLatticePerVoxel);
+  c.den = r.den;
+  c.t00 = r.sDot - int128_t(r.snU) * pu0 - int128_t(r.snW) * pw0 -
+          int128_t(latticeOfVoxel(v0[axis])) * int128_t(r.den);
+  c.stepU = -r.snU * kLatticePerVoxel;
+  c.stepW = -r.snW * kLatticePerVoxel;
+  c.perVoxel = r.den * uint64_t(kLatticePerVoxel);
   c.extent = c.perVoxel * uint64_t(L);
-  c.invPerVoxel = c.den == 0 ? 0.0 : 1.0 / double(c.perVoxel);
+  c.invPerVoxel = r.invPerVoxel;
+}
+
+HDT_HD void makeLeafCrossings(const LatticeTriangle& t, int axis, const int64_t (&v0)[3], int L, LeafCrossings& c) {
+  RayCrossingSetup r;
+  makeRayCrossingSetup(t, axis, r);
+  makeLeafCrossings(r, axis, v0, L, c);
 }
 
 // crossingInLeaf for the ray at leaf-relative (du, dw) of a LeafCrossings.
