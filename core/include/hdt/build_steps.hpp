@@ -505,6 +505,12 @@ HDT_HD constexpr uint32_t maskBeforeCrossing(int before) {
 // estimate that an exact product check settles.
 struct LeafCrossings {
   int128_t t00;       // t at the leaf's first ray (du = dw = 0)
+  // For a ray that hits the triangle the crossing lies within the
+  // triangle's extent along the axis, so |t| <= den * (that extent's
+  // farthest point from the leaf start). When that bound is below 2^62, t
+  // of every hit ray fits 64 bits and is computed in 64-bit wrapping
+  // arithmetic from t00's low bits: exact, and no 128-bit product a ray.
+  bool narrow;
   int64_t stepU;      // t(du + 1) - t(du), < 2^59 in magnitude
   int64_t stepW;      // t(dw + 1) - t(dw)
   uint64_t den;       // |n_axis| > 0
@@ -523,6 +529,7 @@ struct RayCrossingSetup {
   int64_t snU, snW;   // s n_U, s n_W
   uint64_t den;       // |n_axis|
   double invPerVoxel; // 1 / (256 den)
+  int64_t lo, hi;     // the triangle's lattice extent along the axis
 };
 
 HDT_HD void makeRayCrossingSetup(const LatticeTriangle& t, int axis, RayCrossingSetup& r) {
@@ -535,6 +542,8 @@ HDT_HD void makeRayCrossingSetup(const LatticeTriangle& t, int axis, RayCrossing
   r.snW = s * n[W];
   r.den = uint64_t(s * n[axis]);
   r.invPerVoxel = r.den == 0 ? 0.0 : 1.0 / double(r.den * uint64_t(kLatticePerVoxel));
+  r.lo = detail::min3(t.v[0][axis], t.v[1][axis], t.v[2][axis]);
+  r.hi = detail::max3(t.v[0][axis], t.v[1][axis], t.v[2][axis]);
 }
 
 // v0: the leaf's first voxel; only for triangles whose projection along
@@ -550,6 +559,11 @@ HDT_HD void makeLeafCrossings(const RayCrossingSetup& r, int axis, const int64_t
   c.perVoxel = r.den * uint64_t(kLatticePerVoxel);
   c.extent = c.perVoxel * uint64_t(L);
   c.invPerVoxel = r.invPerVoxel;
+  // |t| <= den * e for hit rays; den < 2^51 and e < 2^25, so the product is
+  // taken in double, with a factor 2 of margin for its rounding.
+  const int64_t a = latticeOfVoxel(v0[axis]);
+  const int64_t e = detail::abs64(r.hi - a) > detail::abs64(r.lo - a) ? detail::abs64(r.hi - a) : detail::abs64(r.lo - a);
+  c.narrow = double(r.den) * double(e) < 4611686018427387904.0; // 2^62
 }
 
 HDT_HD void makeLeafCrossings(const LatticeTriangle& t, int axis, const int64_t (&v0)[3], int L, LeafCrossings& c) {
@@ -560,10 +574,18 @@ HDT_HD void makeLeafCrossings(const LatticeTriangle& t, int axis, const int64_t 
 
 // crossingInLeaf for the ray at leaf-relative (du, dw) of a LeafCrossings.
 HDT_HD bool crossingInLeaf(const LeafCrossings& c, int du, int dw, int L, int& before) {
-  const int128_t t = c.t00 + int128_t(c.stepU) * du + int128_t(c.stepW) * dw;
-  if (t < 0 || t >= int128_t(c.extent)) return false;
+  uint64_t tt;
+  if (c.narrow) { // |t| < 2^62: the low 64 bits are t (two's complement)
+    const int64_t t = int64_t(uint64_t(c.t00) + uint64_t(c.stepU) * uint64_t(int64_t(du)) +
+                              uint64_t(c.stepW) * uint64_t(int64_t(dw)));
+    if (t < 0 || uint64_t(t) >= c.extent) return false;
+    tt = uint64_t(t);
+  } else {
+    const int128_t t = c.t00 + int128_t(c.stepU) * du + int128_t(c.stepW) * dw;
+    if (t < 0 || t >= int128_t(c.extent)) return false;
+    tt = uint64_t(t);
+  }
   const uint64_t half = c.den * uint64_t(kLatticePerVoxel / 2);
-  const uint64_t tt = uint64_t(t);
   if (tt <= half) { // no centre before the crossing
     before = 0;
     return true;
