@@ -132,14 +132,7 @@ __device__ __forceinline__ void leafCrossingsAxis(const LeafArgs& a, const LeafT
       else if (sh.parity[i]) atomicXor(&parity[leaf * RW + i], sh.parity[i]);
     }
   }
-  if (MASKS && AXIS == 0) { // plane 0 is zero since T3
-    uint32_t* out = words + leaf * leafWordCount(L);
-    for (int w = lane; w < int(leafWordCount(L)); w += 32) {
-      const uint32_t v = spreadBits16(wordBitsFromRows(sh.masks, L, w));
-      if (!split) out[w] |= v;
-      else if (v) atomicXor(&out[w], v);
-    }
-  } else if (MASKS) {
+  if (MASKS) { // axes 1 and 2 (axis 0's masks come from T3, in the leaf words)
     for (int r = lane; r < L * L; r += 32) {
       if (!split) masks[leaf * L * L + r] = sh.masks[r];
       else if (sh.masks[r]) atomicXor(&masks[leaf * L * L + r], sh.masks[r]);
@@ -215,11 +208,11 @@ __global__ void lineSuffixKernel(uint32_t n, const uint64_t* keys, const uint32_
 }
 
 // ---- pass 2 -----------------------------------------------------------------------------
-// Closed meshes: one thread per 4 leaf words (one 16-byte load), inside =
-// exit parity of the row XOR the row's mask (plane 0 of the word since
-// pass 1). Words that do not change (outside rows without crossings: parity
-// and mask both zero) are not written back, which spares about a third of
-// the writes on the shared meshes.
+// Closed meshes: one thread per 4 leaf words (one 16-byte access), inside =
+// exit parity of the row XOR the row's mask. T3 left plane 0 = the mask
+// where not surface, which is already the answer for rows with exit parity
+// 0: only rows with exit parity 1 are read and rewritten (flipped where not
+// surface), about half the leaf words on the shared meshes.
 template <int L>
 __global__ void leafInsideClosedKernel(uint64_t quadCount, const uint32_t* exitParity, uint4* words) {
   constexpr int RW = L * L / 32;
@@ -229,6 +222,9 @@ __global__ void leafInsideClosedKernel(uint64_t quadCount, const uint32_t* exitP
   const uint64_t leaf = g / kQuads;
   const int w = int(g % kQuads) * 4;
   const uint32_t* parity = exitParity + leaf * RW;
+  if (!(rowBitsToWordBits(parity, L, w) | rowBitsToWordBits(parity, L, w + 1) | rowBitsToWordBits(parity, L, w + 2) |
+        rowBitsToWordBits(parity, L, w + 3)))
+    return; // all four words are final
   const uint4 old = words[g];
   auto update = [&](uint32_t word, int k) {
     // plane 0 where inside and not surface (the surface bit is plane 1)
@@ -338,7 +334,7 @@ void launchCrossingsAxis(const LeafArgs& a, uint32_t taskBound, uint32_t* parity
 template <int L>
 void launchCrossings(const LeafArgs& a, uint32_t bound, int firstAxis, int axes, uint32_t* const parity[3],
                      uint32_t* words, uint32_t* const masks[3], cudaStream_t s) {
-  if (firstAxis == 0) launchCrossingsAxis<L, 0>(a, bound, parity[0], words, nullptr, s);
+  if (firstAxis == 0) launchCrossingsAxis<L, 0>(a, bound, parity[0], nullptr, nullptr, s); // parities only
   if (axes == 3) {
     launchCrossingsAxis<L, 1>(a, bound, parity[1], words, masks[1], s);
     launchCrossingsAxis<L, 2>(a, bound, parity[2], words, masks[2], s);

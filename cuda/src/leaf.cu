@@ -259,9 +259,15 @@ __global__ void __launch_bounds__(32 * warpsPerBlock<L>(), HDT_CUDA_T3_MIN_BLOCK
 
   const bool split = task.flags & kTaskSplit;
   uint32_t* out = k.words + size_t(task.leaf) * leafWordCount(L);
+  // Plane 0 holds the masks where not surface: for rows whose exit parity
+  // turns out 0 that is the final inside plane, so pass 2 leaves them alone.
+  // (The parts of a split leaf XOR whole masks; clearMasksUnderSurface
+  // finishes those.)
   auto word = [&](int w) {
-    const uint32_t surface = spreadBits16(wordBitsFromRows(sh.rows, L, w)) << 1;
-    return CROSS ? surface | spreadBits16(wordBitsFromRows(sh.masks, L, w)) : surface;
+    const uint32_t surface = wordBitsFromRows(sh.rows, L, w);
+    if (!CROSS) return spreadBits16(surface) << 1;
+    const uint32_t before = wordBitsFromRows(sh.masks, L, w);
+    return (spreadBits16(surface) << 1) | spreadBits16(split ? before : before & ~surface);
   };
   if (!split) { // warp-uniform; 16-byte stores (a leaf is 128, 1024 or 8192 bytes)
     uint4* out4 = reinterpret_cast<uint4*>(out);
@@ -282,6 +288,18 @@ __global__ void __launch_bounds__(32 * warpsPerBlock<L>(), HDT_CUDA_T3_MIN_BLOCK
       else if (sh.parity[i]) atomicXor(&parity[i], sh.parity[i]);
     }
   }
+}
+
+// Thread per task: plane 0 cleared where plane 1 is set, for split leaves
+// once all their parts have merged (first part only).
+__global__ void clearMasksUnderSurfaceKernel(const LeafTask* tasks, const uint32_t* taskCount, uint32_t* words,
+                                             uint32_t perLeaf) {
+  const uint32_t t = blockIdx.x * blockDim.x + threadIdx.x;
+  if (t >= *taskCount) return;
+  const LeafTask task = tasks[t];
+  if (!(task.flags & kTaskFirst)) return;
+  uint32_t* w = words + size_t(task.leaf) * perLeaf;
+  for (uint32_t i = 0; i < perLeaf; ++i) w[i] &= ~((w[i] >> 1) & 0x55555555u);
 }
 
 template <int L>
@@ -324,6 +342,11 @@ void writeLeafSurfaces(DeviceMemory& mem, HostScalars& scalars, const DeviceMesh
   case 8: launchLeaf<8>(k, leaves.taskBound, crossings, mem.stream()); break;
   case 16: launchLeaf<16>(k, leaves.taskBound, crossings, mem.stream()); break;
   default: launchLeaf<32>(k, leaves.taskBound, crossings, mem.stream()); break;
+  }
+  if (crossings) {
+    clearMasksUnderSurfaceKernel<<<blocksFor(leaves.taskBound, 256), 256, 0, mem.stream()>>>(
+        leaves.tasks.data(), leaves.taskCount.data(), words, leafWordCount(L));
+    HDT_CUDA_CHECK_LAUNCH("clearMasksUnderSurfaceKernel");
   }
 }
 
