@@ -194,12 +194,14 @@ uint64_t estimateBytes(const PreparedMesh& mesh, double area, uint64_t rootPairs
   if (!mesh.surfaceOnly)
     perLeaf += axes * (rowWords * 4 /*parity*/ + 13 /*line table*/) + 24 /*sort buffers*/ +
                (axes - 1) * L * L * 4 /*open meshes: pass-1 masks of axes 1, 2*/;
-  // T3's tables: a triangle's slices, row heights and ray lines within the
-  // leaves it meets, at most 3 L entries of 4 bytes a pair; about L in all
-  // on the shared meshes (neighbouring leaves share a triangle's slices);
-  // and each triangle's setup, counted per pair (a triangle has at least one).
-  const double perLeafPair = 4 /*kept*/ + 16 /*T2 pairs, double-buffered*/ + 9 /*rank, mask, offset*/ + 4 * L +
-                             double(sizeof(TriangleSetup) + 40) / 2;
+  // T3's tables (a triangle's slices, row heights and ray lines, 4-8 bytes
+  // each, and its setup): measured 18-73 bytes a real pair on the shared
+  // meshes at 8192^3 (CAD parts share a triangle's slices among many
+  // leaves, scans less so); 24 a pair of this estimate, which counts about
+  // 3x the real pairs. An estimate too low costs a failed one-piece try
+  // (then chunks), one too high needless chunks: 200 bytes here chunked
+  // cycloidal-drive at 16384^3 (15 GB real) on an 80 GB GPU.
+  const double perLeafPair = 4 /*kept*/ + 16 /*T2 pairs, double-buffered*/ + 9 /*rank, mask, offset*/ + 24;
   const double elements = 3.0 * leaves + double(rootCells);
   const double bytes = leaves * perLeaf + leafPairs * perLeafPair + elements * 12 /*word, coords*/;
   return uint64_t(1.25 * bytes);
