@@ -58,10 +58,11 @@ __global__ void zeroSplitKernel(const LeafTask* tasks, const uint32_t* taskCount
 }
 
 // Pairs a warp holds in shared memory at once. Most leaves have one or two;
-// 8 (a task's 32 in four batches) keeps the warp's shared memory small:
-// cycloidal-drive 8192^3 T3 18.6 -> 18.3 ms solid, 11.2 -> 10.0 ms surface,
-// dragon 4.1 -> 3.6 ms (32 registers fewer spared nothing: occupancy is
-// capped by registers at 64 per thread either way).
+// 8 (a task's 32 in four batches) keeps the warp's shared memory small.
+// Measured on cycloidal-drive 8192^3 (bench, T3 solid / surface): 32 pairs
+// 18.6 / 11.2 ms, 8 pairs 18.3 / 10.0 ms, 8 pairs with 12 blocks an SM
+// (42 registers) 17.4 / 11.3 ms, 16 pairs with 10 blocks 19.4 / 9.7 ms:
+// within the spread between machines but for the dragon (4.1 -> 3.6 ms).
 constexpr int kBatch = 8;
 
 template <int L>
