@@ -110,15 +110,25 @@ struct LeafKernelArgs {
   uint32_t* parity; // CROSS: row parities along x, or null
 };
 
+// The task's pairs kBatch at a time: batch(base, nb, j) with j the table
+// index of lane's pair (lanes < nb), once the previous batch is done with
+// the warp's shared arrays.
+template <class Batch>
+__device__ __forceinline__ void forEachBatch(const LeafKernelArgs& k, const LeafTask& task, Batch&& batch) {
+  const int lane = threadIdx.x & 31;
+  for (uint32_t base = task.first; base < task.end; base += kBatch) {
+    const int nb = int(min(uint32_t(kBatch), task.end - base));
+    __syncwarp();
+    batch(nb, lane < nb ? k.compactOf[k.a.pairTri[base + lane]] : 0u);
+  }
+}
+
 template <int L>
 __device__ __forceinline__ void surfaceSteps(const LeafKernelArgs& k, const LeafTask& task, const int64_t (&v0)[3],
                                              SurfacePairs<L>& sh, uint32_t* rows, WarpSlots& slots) {
   const int lane = threadIdx.x & 31;
-  for (uint32_t base = task.first; base < task.end; base += kBatch) {
-    const int nb = int(min(uint32_t(kBatch), task.end - base));
-    __syncwarp(); // the previous batch is done with the shared arrays
+  forEachBatch(k, task, [&](int nb, uint32_t j) {
     if (lane < nb) {
-      const uint32_t j = k.compactOf[k.a.pairTri[base + lane]];
       const TriangleSetup& ts = k.setup[j];
       const int axis = ts.axis;
       int64_t o[3];
@@ -182,7 +192,7 @@ __device__ __forceinline__ void surfaceSteps(const LeafKernelArgs& k, const Leaf
           forEachXRowOf(axis, L, dy, dz, int(f - o[0]), int(l - o[0]),
                         [&](int row, uint32_t bits) { atomicOr(&rows[row], bits); });
         });
-  }
+  });
 }
 
 // Hit rays a lane takes at once: half the rounds of item bookkeeping, and
@@ -201,11 +211,8 @@ __device__ __forceinline__ void crossingSteps(const LeafKernelArgs& k, const Lea
                                               CrossPairs<L>& sh, uint32_t* masks, uint32_t* parity, WarpSlots& slots) {
   constexpr int U = rayAxisU(0), W = rayAxisW(0);
   const int lane = threadIdx.x & 31;
-  for (uint32_t base = task.first; base < task.end; base += kBatch) {
-    const int nb = int(min(uint32_t(kBatch), task.end - base));
-    __syncwarp(); // the previous steps are done with the shared arrays
+  forEachBatch(k, task, [&](int nb, uint32_t j) {
     if (lane < nb) {
-      const uint32_t j = k.compactOf[k.a.pairTri[base + lane]];
       const TriangleSetup& ts = k.setup[j];
       const int64_t u0 = max(int64_t(ts.u0), v0[U]), u1 = min(int64_t(ts.u1), v0[U] + L - 1);
       const int64_t w0 = max(int64_t(ts.w0), v0[W]), w1 = min(int64_t(ts.w1), v0[W] + L - 1);
@@ -247,7 +254,7 @@ __device__ __forceinline__ void crossingSteps(const LeafKernelArgs& k, const Lea
             }
           }
         });
-  }
+  });
 }
 
 template <int L, bool CROSS>

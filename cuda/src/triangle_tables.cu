@@ -148,46 +148,76 @@ DeviceBuffer<uint32_t> entryOwners(DeviceMemory& mem, uint32_t m, const uint64_t
   return owner;
 }
 
-__global__ void sliceEntriesKernel(uint64_t total, const uint32_t* owner, const uint64_t* start, const uint32_t* triangleOf,
-                                   const LatticeTriangle* tris, const TriangleSetup* setup, uint2* slices) {
+// One thread per table entry: its triangle (mesh and table index), setup
+// and place k in the triangle's run; `Entry` evaluates and stores it.
+struct EntryArgs {
+  const uint32_t* owner;
+  const uint64_t* start;
+  const uint32_t* triangleOf;
+  const LatticeTriangle* tris;
+  const TriangleSetup* setup;
+};
+template <class Entry>
+__global__ void entriesKernel(uint64_t total, EntryArgs a, Entry entry) {
   const uint64_t e = uint64_t(blockIdx.x) * blockDim.x + threadIdx.x;
   if (e >= total) return;
-  const uint32_t j = owner[e];
-  const TriangleSetup& s = setup[j];
-  const LatticeTriangle t = permuteToRowAxis(tris[triangleOf[j]], s.axis);
-  RowClipper c;
-  for (int part = 0; part < 5; ++part) makeRowClipperPart(t, part, c); // rows of a slice
-  for (int part = 6; part < 9; ++part) makeRowClipperPart(t, part, c); // the slice's x span
-  const int64_t first[3] = {s.first[0], s.first[1], s.first[2]}, last[3] = {s.last[0], s.last[1], s.last[2]};
-  int64_t y0, y1, x0, x1;
-  sliceSpans(c, first, last, first[2] + int64_t(e - start[j]), y0, y1, x0, x1);
-  slices[e] = make_uint2(packSpan(y0, y1, first[1]), packSpan(x0, x1, first[0]));
+  const uint32_t j = a.owner[e];
+  entry(a.tris[a.triangleOf[j]], a.setup[j], int64_t(e - a.start[j]), e);
 }
 
-__global__ void heightEntriesKernel(uint64_t total, const uint32_t* owner, const uint64_t* start, const uint32_t* triangleOf,
-                                    const LatticeTriangle* tris, const TriangleSetup* setup, uint32_t* heights) {
-  const uint64_t e = uint64_t(blockIdx.x) * blockDim.x + threadIdx.x;
-  if (e >= total) return;
-  const uint32_t j = owner[e];
-  const TriangleSetup& s = setup[j];
-  const LatticeTriangle t = permuteToRowAxis(tris[triangleOf[j]], s.axis);
-  RowClipper c;
-  for (int part = 9; part < 12; ++part) makeRowClipperPart(t, part, c);
-  const int64_t first[3] = {s.first[0], s.first[1], s.first[2]}, last[3] = {s.last[0], s.last[1], s.last[2]};
-  int64_t x0, x1;
-  columnSpan(c, first, last, first[1] + int64_t(e - start[j]), x0, x1);
-  heights[e] = packSpan(x0, x1, first[0]);
+__device__ __forceinline__ void boxOf(const TriangleSetup& s, int64_t (&first)[3], int64_t (&last)[3]) {
+  for (int d = 0; d < 3; ++d) {
+    first[d] = s.first[d];
+    last[d] = s.last[d];
+  }
 }
 
-__global__ void lineEntriesKernel(uint64_t total, const uint32_t* owner, const uint64_t* start, const uint32_t* triangleOf,
-                                  const LatticeTriangle* tris, const TriangleSetup* setup, uint32_t* lines) {
-  const uint64_t e = uint64_t(blockIdx.x) * blockDim.x + threadIdx.x;
-  if (e >= total) return;
-  const uint32_t j = owner[e];
-  const TriangleSetup& s = setup[j];
-  int64_t f = s.u0, l = s.u1;
-  raySpanAtW(tris[triangleOf[j]], kRayAxis, s.w0 + int64_t(e - start[j]), f, l);
-  lines[e] = packSpan(f, l, s.u0);
+struct SliceEntry { // rows and x span of slice z = first z + k
+  uint2* out;
+  __device__ void operator()(const LatticeTriangle& original, const TriangleSetup& s, int64_t k, uint64_t e) const {
+    const LatticeTriangle t = permuteToRowAxis(original, s.axis);
+    RowClipper c;
+    for (int part = 0; part < 5; ++part) makeRowClipperPart(t, part, c); // rows of a slice
+    for (int part = 6; part < 9; ++part) makeRowClipperPart(t, part, c); // the slice's x span
+    int64_t first[3], last[3], y0, y1, x0, x1;
+    boxOf(s, first, last);
+    sliceSpans(c, first, last, first[2] + k, y0, y1, x0, x1);
+    out[e] = make_uint2(packSpan(y0, y1, first[1]), packSpan(x0, x1, first[0]));
+  }
+};
+
+struct HeightEntry { // x span of row height y = first y + k
+  uint32_t* out;
+  __device__ void operator()(const LatticeTriangle& original, const TriangleSetup& s, int64_t k, uint64_t e) const {
+    const LatticeTriangle t = permuteToRowAxis(original, s.axis);
+    RowClipper c;
+    for (int part = 9; part < 12; ++part) makeRowClipperPart(t, part, c);
+    int64_t first[3], last[3], x0, x1;
+    boxOf(s, first, last);
+    columnSpan(c, first, last, first[1] + k, x0, x1);
+    out[e] = packSpan(x0, x1, first[0]);
+  }
+};
+
+struct LineEntry { // hit rays of the x-ray line z = w0 + k
+  uint32_t* out;
+  __device__ void operator()(const LatticeTriangle& original, const TriangleSetup& s, int64_t k, uint64_t e) const {
+    int64_t f = s.u0, l = s.u1;
+    raySpanAtW(original, kRayAxis, s.w0 + k, f, l);
+    out[e] = packSpan(f, l, s.u0);
+  }
+};
+
+// Fills one table of `total` entries whose triangles start at `start`.
+template <class Entry>
+void fillTable(DeviceMemory& mem, uint32_t m, const uint64_t* start, const uint32_t* count, uint64_t total,
+               EntryArgs a, Entry entry) {
+  if (total == 0) return;
+  const DeviceBuffer<uint32_t> owner = entryOwners(mem, m, start, count, total);
+  a.owner = owner.data();
+  a.start = start;
+  entriesKernel<<<blocksFor(total, kBlock), kBlock, 0, mem.stream()>>>(total, a, entry);
+  HDT_CUDA_CHECK_LAUNCH("entriesKernel");
 }
 
 // The tables' sizes (into scalars 0..2): last start + last count.
@@ -263,25 +293,10 @@ TriangleTables buildTriangleTables(DeviceMemory& mem, HostScalars& scalars, cons
   t.slices = DeviceBuffer<uint2>(mem, total[0]);
   t.heights = DeviceBuffer<uint32_t>(mem, total[1]);
   t.lines = DeviceBuffer<uint32_t>(mem, total[2]);
-  const uint32_t* of = t.triangleOf.data();
-  if (total[0]) {
-    const DeviceBuffer<uint32_t> owner = entryOwners(mem, m, t.sliceStart.data(), counts[0].data(), total[0]);
-    sliceEntriesKernel<<<blocksFor(total[0], kBlock), kBlock, 0, s>>>(total[0], owner.data(), t.sliceStart.data(), of,
-                                                                      mesh.triangles, t.setup.data(), t.slices.data());
-    HDT_CUDA_CHECK_LAUNCH("sliceEntriesKernel");
-  }
-  if (total[1]) {
-    const DeviceBuffer<uint32_t> owner = entryOwners(mem, m, t.heightStart.data(), counts[1].data(), total[1]);
-    heightEntriesKernel<<<blocksFor(total[1], kBlock), kBlock, 0, s>>>(
-        total[1], owner.data(), t.heightStart.data(), of, mesh.triangles, t.setup.data(), t.heights.data());
-    HDT_CUDA_CHECK_LAUNCH("heightEntriesKernel");
-  }
-  if (total[2]) {
-    const DeviceBuffer<uint32_t> owner = entryOwners(mem, m, t.lineStart.data(), counts[2].data(), total[2]);
-    lineEntriesKernel<<<blocksFor(total[2], kBlock), kBlock, 0, s>>>(total[2], owner.data(), t.lineStart.data(), of,
-                                                                     mesh.triangles, t.setup.data(), t.lines.data());
-    HDT_CUDA_CHECK_LAUNCH("lineEntriesKernel");
-  }
+  const EntryArgs args{nullptr, nullptr, t.triangleOf.data(), mesh.triangles, t.setup.data()};
+  fillTable(mem, m, t.sliceStart.data(), counts[0].data(), total[0], args, SliceEntry{t.slices.data()});
+  fillTable(mem, m, t.heightStart.data(), counts[1].data(), total[1], args, HeightEntry{t.heights.data()});
+  fillTable(mem, m, t.lineStart.data(), counts[2].data(), total[2], args, LineEntry{t.lines.data()});
   return t;
 }
 
