@@ -51,15 +51,6 @@ HDT_HD bool triangleOverlapsElement(const LatticeTriangle& t, uint64_t cell, int
 }
 
 namespace detail {
-// Index of the lowest set bit of a non-zero mask.
-HDT_HD int lowestBit(uint32_t m) {
-#if defined(__CUDA_ARCH__)
-  return __ffs(int(m)) - 1;
-#else
-  return __builtin_ctz(m);
-#endif
-}
-
 // ceil(a / b) and floor(a / b) for b > 0, from the estimate a * (1 / b) in
 // double, corrected exactly with integer products. The estimate is within one
 // of the quotient for the magnitudes here (|a| < 2^60, quotients < 2^42), so
@@ -184,9 +175,9 @@ struct RowClipper {
   PlaneClipper plane;
 };
 
-// The clipper is set up in independent parts, so that a GPU warp can build
-// the parts of several triangles at once: 0-4 the row axes, 5 box x, 6-8 the
-// slice axes, 9-11 the column axes, 12 the plane.
+// The clipper is set up in independent parts, so that a driver can build
+// only the parts a step needs (the CUDA driver's per-triangle tables): 0-4
+// the row axes, 5 box x, 6-8 the slice axes, 9-11 the column axes, 12 the plane.
 constexpr int kRowClipperParts = 13;
 
 HDT_HD void makeRowClipperPart(const LatticeTriangle& t, int part, RowClipper& c) {
@@ -403,6 +394,9 @@ HDT_HD void columnSpan(const RowClipper& c, const int64_t (&first)[3], const int
   clipColumnSpan(c, y, x0, x1);
 }
 
+// Mask of the L voxels of a leaf row (L <= 32): bits 0 .. L - 1.
+HDT_HD constexpr uint32_t fullRowMask(int L) { return L == 32 ? 0xFFFFFFFFu : ((1u << L) - 1u); }
+
 // Where a permuted row's voxels land in the leaf's x rows (one L-bit mask
 // per row y + L z): calls set(rowIndex, mask) once per x row touched. The
 // row is at (h, s) = (row height, slice), leaf-relative, and its voxels are
@@ -413,8 +407,7 @@ template <class Set>
 HDT_HD void forEachXRowOf(int axis, int L, int h, int s, int first, int last, Set&& set) {
   if (first > last) return;
   if (axis == 0) { // (x, y, z) = (i, h, s)
-    const uint32_t upto = last == 31 ? 0xFFFFFFFFu : ((1u << (last + 1)) - 1u);
-    set(h + L * s, upto & ~((1u << first) - 1u));
+    set(h + L * s, fullRowMask(last + 1) & ~fullRowMask(first));
   } else if (axis == 1) { // (x, y, z) = (s, i, h): x rows i + L h, bit s
     for (int i = first; i <= last; ++i) set(i + L * h, 1u << s);
   } else { // axis 2: (x, y, z) = (h, s, i): x rows s + L i, bit h
@@ -698,7 +691,5 @@ HDT_HD uint32_t withInsidePlane(uint32_t word, uint32_t inside) {
   return (word & 0xAAAAAAAAu) | (spreadBits16(inside) & ~(word >> 1) & 0x55555555u);
 }
 
-// Mask of the L voxels of a leaf row (L <= 32).
-HDT_HD constexpr uint32_t fullRowMask(int L) { return L == 32 ? 0xFFFFFFFFu : ((1u << L) - 1u); }
 
 } // namespace hdt
