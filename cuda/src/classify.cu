@@ -10,13 +10,12 @@
 //            crossing flips the row's parity bit and XORs its "voxels before
 //            the crossing" mask into the row's mask; both are XORs, so
 //            scheduling cannot show. The parity bits go to parity[a]; the
-//            masks (pass 2's geometry, computed once) go to plane 0 of the
-//            leaf words for axis 0 (the x rows: free room) and to masks[a]
-//            for the other axes of open meshes;
+//            masks (pass 2's geometry, computed once) go to masks[a].
 //            Along x the T3 kernel (leaf.cu) runs this pass on the same
-//            pairs, with the hit spans from per-triangle tables; the kernel
-//            here runs y and z of open meshes and chunk phase A (parities
-//            only, before the leaf words exist);
+//            pairs, with the hit spans from per-triangle tables, and puts
+//            the masks in plane 0 of the leaf words (the x rows: free room);
+//            the kernel here runs y and z of open meshes (with masks) and
+//            chunk phase A (parities only, before the leaf words exist);
 //   lines    per axis, the leaves sorted by line key (w, u, along) with a
 //            radix sort on 3 log2(N/L) bits; one warp per line runs a suffix
 //            XOR scan (shuffles, 32 leaves a step) that turns the pass-1
@@ -109,13 +108,11 @@ __device__ __forceinline__ void crossingsAlong(const LeafArgs& a, const LeafTask
   }
 }
 
-// Per task and axis: parity[a] (when given) and, when MASKS, axis 0's masks
-// into plane 0 of the leaf words and the other axes' into masks[a]. The
+// Per task and axis: parity[a] (when given) and, when MASKS, masks[a]. The
 // parts of a split leaf XOR theirs into zeroed outputs (XOR commutes).
 template <int L, int AXIS, bool MASKS>
 __device__ __forceinline__ void leafCrossingsAxis(const LeafArgs& a, const LeafTask& task, const int64_t (&v0)[3],
-                                                  CrossingWarp<L>& sh, uint32_t* parity, uint32_t* words,
-                                                  uint32_t* masks) {
+                                                  CrossingWarp<L>& sh, uint32_t* parity, uint32_t* masks) {
   constexpr int RW = L * L / 32;
   const int lane = threadIdx.x & 31;
   const bool split = task.flags & kTaskSplit;
@@ -132,7 +129,7 @@ __device__ __forceinline__ void leafCrossingsAxis(const LeafArgs& a, const LeafT
       else if (sh.parity[i]) atomicXor(&parity[leaf * RW + i], sh.parity[i]);
     }
   }
-  if (MASKS) { // axes 1 and 2 (axis 0's masks come from T3, in the leaf words)
+  if (MASKS) {
     for (int r = lane; r < L * L; r += 32) {
       if (!split) masks[leaf * L * L + r] = sh.masks[r];
       else if (sh.masks[r]) atomicXor(&masks[leaf * L * L + r], sh.masks[r]);
@@ -143,8 +140,7 @@ __device__ __forceinline__ void leafCrossingsAxis(const LeafArgs& a, const LeafT
 // One launch per axis: the three axes in one kernel made it too large for
 // the instruction cache (ncu: warps stalled on instruction fetch).
 template <int L, int AXIS, bool MASKS>
-__global__ void __launch_bounds__(32 * kCrossWarps) leafCrossingsKernel(LeafArgs a, uint32_t* parity, uint32_t* words,
-                                                                        uint32_t* masks) {
+__global__ void __launch_bounds__(32 * kCrossWarps) leafCrossingsKernel(LeafArgs a, uint32_t* parity, uint32_t* masks) {
   __shared__ CrossingWarp<L> shared[kCrossWarps];
   const int warp = threadIdx.x >> 5;
   const uint32_t t = blockIdx.x * kCrossWarps + warp;
@@ -152,7 +148,7 @@ __global__ void __launch_bounds__(32 * kCrossWarps) leafCrossingsKernel(LeafArgs
   const LeafTask task = a.tasks[t];
   int64_t v0[3];
   leafOrigin(a.leafCoord[task.leaf], L, v0);
-  leafCrossingsAxis<L, AXIS, MASKS>(a, task, v0, shared[warp], parity, words, masks);
+  leafCrossingsAxis<L, AXIS, MASKS>(a, task, v0, shared[warp], parity, masks);
 }
 
 // ---- lines ----------------------------------------------------------------------------
@@ -321,23 +317,22 @@ __global__ void uniformKernel(uint32_t count, ElementWord* words, const uint64_t
 }
 
 template <int L, int AXIS>
-void launchCrossingsAxis(const LeafArgs& a, uint32_t taskBound, uint32_t* parity, uint32_t* words, uint32_t* masks,
-                         cudaStream_t s) {
+void launchCrossingsAxis(const LeafArgs& a, uint32_t taskBound, uint32_t* parity, uint32_t* masks, cudaStream_t s) {
   const unsigned blocks = blocksFor(taskBound, kCrossWarps), threads = 32 * kCrossWarps;
-  if (words)
-    leafCrossingsKernel<L, AXIS, true><<<blocks, threads, 0, s>>>(a, parity, words, masks);
+  if (masks)
+    leafCrossingsKernel<L, AXIS, true><<<blocks, threads, 0, s>>>(a, parity, masks);
   else
-    leafCrossingsKernel<L, AXIS, false><<<blocks, threads, 0, s>>>(a, parity, nullptr, nullptr);
+    leafCrossingsKernel<L, AXIS, false><<<blocks, threads, 0, s>>>(a, parity, nullptr);
   HDT_CUDA_CHECK_LAUNCH("leafCrossingsKernel");
 }
 
 template <int L>
 void launchCrossings(const LeafArgs& a, uint32_t bound, int firstAxis, int axes, uint32_t* const parity[3],
-                     uint32_t* words, uint32_t* const masks[3], cudaStream_t s) {
-  if (firstAxis == 0) launchCrossingsAxis<L, 0>(a, bound, parity[0], nullptr, nullptr, s); // parities only
+                     uint32_t* const masks[3], cudaStream_t s) {
+  if (firstAxis == 0) launchCrossingsAxis<L, 0>(a, bound, parity[0], masks[0], s);
   if (axes == 3) {
-    launchCrossingsAxis<L, 1>(a, bound, parity[1], words, masks[1], s);
-    launchCrossingsAxis<L, 2>(a, bound, parity[2], words, masks[2], s);
+    launchCrossingsAxis<L, 1>(a, bound, parity[1], masks[1], s);
+    launchCrossingsAxis<L, 2>(a, bound, parity[2], masks[2], s);
   }
 }
 
@@ -366,21 +361,20 @@ void launchSuffix(uint32_t n, const uint64_t* keys, const uint32_t* leafOf, int 
 } // namespace
 
 void leafCrossings(DeviceMemory& mem, const DeviceMesh& mesh, const GridSpec& grid, const Leaves& leaves,
-                   int firstAxis, int axes, uint32_t* const parity[3], uint32_t* words, uint32_t* const masks[3]) {
+                   int firstAxis, int axes, uint32_t* const parity[3], uint32_t* const masks[3]) {
   if (leaves.count == 0 || firstAxis >= axes) return;
-  // Split leaves merge with XOR: their parity and masks start from zero
-  // (plane 0 of the words is zero since T3).
+  // Split leaves merge with XOR: their parity and masks start from zero.
   const int L = grid.leafSize;
   for (int a = firstAxis; a < axes; ++a) {
     if (parity[a]) zeroSplitLeaves(mem, leaves, parity[a], uint32_t(rowWordsFor(L)));
-    if (words && a > 0) zeroSplitLeaves(mem, leaves, masks[a], uint32_t(L * L));
+    if (masks[a]) zeroSplitLeaves(mem, leaves, masks[a], uint32_t(L * L));
   }
   const LeafArgs a = leafArgs(mesh, grid, leaves);
   const uint32_t bound = leaves.taskBound;
   switch (L) {
-  case 8: launchCrossings<8>(a, bound, firstAxis, axes, parity, words, masks, mem.stream()); break;
-  case 16: launchCrossings<16>(a, bound, firstAxis, axes, parity, words, masks, mem.stream()); break;
-  default: launchCrossings<32>(a, bound, firstAxis, axes, parity, words, masks, mem.stream()); break;
+  case 8: launchCrossings<8>(a, bound, firstAxis, axes, parity, masks, mem.stream()); break;
+  case 16: launchCrossings<16>(a, bound, firstAxis, axes, parity, masks, mem.stream()); break;
+  default: launchCrossings<32>(a, bound, firstAxis, axes, parity, masks, mem.stream()); break;
   }
 }
 

@@ -112,7 +112,7 @@ template <class Count, class Item>
 __device__ __forceinline__ void warpForEachPairItem(uint32_t p0, uint32_t p1, WarpSlots& slots, Count count,
                                                     Item item) {
   const int lane = threadIdx.x & 31;
-  const uint32_t upTo = lane == 31 ? kFullMask : (2u << lane) - 1u; // bits 0..lane
+  const uint32_t upTo = fullRowMask(lane + 1); // bits 0..lane
   for (uint32_t base = p0; base < p1; base += 32) {
     const int c = base + lane < p1 ? count(base + lane) : 0;
     int incl = c;

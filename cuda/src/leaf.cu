@@ -1,29 +1,30 @@
 // T3: the surface voxels of every leaf grid, and for solid builds
 // classification pass 1 along x in the same kernel.
 //
-// One warp per leaf task (a leaf, or a part of a leaf with very many pairs:
-// LeafTask); the leaf's row masks (one L-bit mask per row y + L z) live in
-// the warp's slice of shared memory. What depends on a triangle and a slice
-// but not on the leaf was evaluated once per triangle (TriangleTables); the
-// warp clamps table entries to its leaf and does the per-row work, in
-// warp-wide steps that follow the CPU driver's loops (build_steps.hpp; same
-// calls, same narrowing):
+// One warp per group of consecutive leaf tasks (a task is a leaf, or a part
+// of a leaf with very many pairs: LeafTask); each leaf's voxels live in the
+// warp's slice of shared memory as one bit each. What depends on a triangle
+// and a slice but not on the leaf was evaluated once per triangle
+// (TriangleTables); the warp clamps table entries to each pair's leaf and
+// does the per-row work, in warp-wide steps over the pairs of all its leaves
+// that follow the CPU driver's loops (build_steps.hpp; same calls, same
+// narrowing):
 //   1. one lane per pair: the triangle's row axis and voxel box (its setup)
-//      clamped to the leaf;
+//      clamped to the pair's leaf;
 //   2. one lane per (pair, k): slice z = k's rows and x span, and row height
 //      y = k's x span, from the tables (sliceSpans, columnSpan);
 //   3. one lane per (pair, row): the two spans intersected, clipRowByPlane,
-//      the run ORed into the leaf's x-row masks (forEachXRowOf) with
+//      the run ORed into the leaf's x rows (forEachXRowOf) with
 //      shared-memory atomics (OR commutes: scheduling cannot show).
 // Flattening to rows keeps all 32 lanes busy however unevenly the triangles
-// cover the leaf, and a row costs only its plane step.
+// cover the leaves, and a row costs only its plane step.
 //
 // With CROSS (solid builds), the warp then runs pass 1 along x on the same
 // pairs (classify.cu describes the method; the same calls): one lane per
 // pair for its LeafCrossings, one lane per (pair, ray line) for the hit
 // rays from the line table (raySpanAtW), one lane per hit ray for the
 // crossing; the row parities and "voxels before" masks are XORed in shared
-// memory. Finally the warp writes every word of the leaf exactly once,
+// memory. Finally the warp writes every word of its leaves exactly once,
 // coalesced, with the surface in plane 1 and the masks in plane 0: no global
 // atomics, no read-modify-write, no zero fill beforehand (the parts of a
 // split leaf merge into zeroed words instead: OR for the surface, XOR for
@@ -37,8 +38,17 @@ namespace hdt {
 namespace cuda {
 namespace {
 
-// 4 warps a block (2 for L = 32: its shared rows and masks are 4x larger);
-// 8 blocks of 4 warps per SM cap registers at 64.
+// Tasks (leaves) a warp takes at once. Most leaves have one or two pairs:
+// a warp with one leaf ran its per-pair steps with a lane or two busy and
+// ended every item loop with a part-filled round. With four leaves the
+// pairs of all four share the steps (1 for L = 32, whose bit arrays are 8x
+// larger).
+template <int L>
+constexpr int leavesPerWarp() {
+  return L == 32 ? 1 : 4;
+}
+// 4 warps a block (2 for L = 32); 8 blocks of 4 warps per SM cap registers
+// at 64.
 template <int L>
 constexpr int warpsPerBlock() {
   return L == 32 ? 2 : 4;
@@ -47,55 +57,71 @@ constexpr int warpsPerBlock() {
 #define HDT_CUDA_T3_MIN_BLOCKS 8
 #endif
 
-// Thread per task: zero the leaf's slice of `data` for the first part of a
-// split leaf (rare: only dense clusters have more than kTaskPairs pairs).
-__global__ void zeroSplitKernel(const LeafTask* tasks, const uint32_t* taskCount, uint32_t* data, uint32_t perLeaf) {
-  const uint32_t t = blockIdx.x * blockDim.x + threadIdx.x;
-  if (t >= *taskCount) return;
-  const LeafTask task = tasks[t];
-  if (!(task.flags & kTaskFirst)) return;
-  for (uint32_t i = 0; i < perLeaf; ++i) data[size_t(task.leaf) * perLeaf + i] = 0;
+// Pairs a warp holds in shared memory at once: a batch usually holds all the
+// pairs of the warp's leaves (1.8 a leaf on CAD parts, 2-4 on scans).
+#ifndef HDT_CUDA_T3_BATCH
+#define HDT_CUDA_T3_BATCH 16
+#endif
+template <int L>
+constexpr int batchPairs() {
+  return L == 32 ? 8 : HDT_CUDA_T3_BATCH;
 }
 
-// Pairs a warp holds in shared memory at once. Most leaves have one or two;
-// 8 (a task's 32 in four batches) keeps the warp's shared memory small.
-// Measured on cycloidal-drive 8192^3 (bench, T3 solid / surface): 32 pairs
-// 18.6 / 11.2 ms, 8 pairs 18.3 / 10.0 ms, 8 pairs with 12 blocks an SM
-// (42 registers) 17.4 / 11.3 ms, 16 pairs with 10 blocks 19.4 / 9.7 ms:
-// within the spread between machines but for the dragon (4.1 -> 3.6 ms).
-constexpr int kBatch = 8;
+// A leaf's voxels as one bit each, in leaf-word order: bit x of x row r is
+// bit r L + x (a leaf word w holds the bits 16 w .. 16 w + 15).
+template <int L>
+constexpr int voxelWords() {
+  return L * L * L / 32;
+}
+template <int L>
+__device__ __forceinline__ void orRow(uint32_t* bits, int row, uint32_t mask) {
+  atomicOr(&bits[(row * L) >> 5], mask << ((row * L) & 31));
+}
+template <int L>
+__device__ __forceinline__ void xorRow(uint32_t* bits, int row, uint32_t mask) {
+  atomicXor(&bits[(row * L) >> 5], mask << ((row * L) & 31));
+}
+// The 16 voxel bits of leaf word w.
+__device__ __forceinline__ uint32_t wordBits(const uint32_t* bits, int w) {
+  return (bits[w >> 1] >> ((w & 1) * 16)) & 0xFFFFu;
+}
 
 template <int L>
 struct SurfacePairs { // leaf-relative, in each pair's row-axis frame
-  uint32_t tri[kBatch];
-  uint64_t slice[kBatch], height[kBatch]; // table entries of the leaf's first slice and row height
-  int32_t baseX[kBatch], baseY[kBatch];   // the triangle box's first x and y
-  int8_t axis[kBatch], x0[kBatch], x1[kBatch], y0[kBatch], y1[kBatch], z0[kBatch], nz[kBatch];
-  int8_t sliceY0[kBatch][L];  // rows of each slice that can meet the triangle
-  uint8_t sliceRows[kBatch][L];
-  int8_t sliceX0[kBatch][L], sliceX1[kBatch][L];   // x span of each slice
-  int8_t columnX0[kBatch][L], columnX1[kBatch][L]; // x span of each row height
+  static constexpr int B = batchPairs<L>();
+  uint32_t setup[B];                    // table index of the pair's triangle
+  uint64_t slice[B], height[B];         // table entries of the leaf's first slice and row height
+  int32_t baseX[B], baseY[B];           // the triangle box's first x and y
+  int8_t leaf[B], axis[B], x0[B], x1[B], y0[B], y1[B], z0[B], nz[B];
+  int8_t sliceY0[B][L]; // rows of each slice that can meet the triangle
+  uint8_t sliceRows[B][L];
+  int8_t sliceX0[B][L], sliceX1[B][L];   // x span of each slice
+  int8_t columnX0[B][L], columnX1[B][L]; // x span of each row height
 };
 
 template <int L>
 struct CrossPairs { // x rays: u = y, w = z, leaf-relative
-  LeafCrossings crossings[kBatch];
-  uint64_t line[kBatch]; // line-table entry of the leaf's first ray line
-  int32_t baseU[kBatch];
-  int8_t u0[kBatch], u1[kBatch], w0[kBatch], nw[kBatch];
-  int8_t spanU0[kBatch][L]; // per (pair, ray line): first hit ray
-  uint8_t spanN[kBatch][L]; // and the number of hit rays
+  static constexpr int B = batchPairs<L>();
+  LeafCrossings crossings[B];
+  uint64_t line[B]; // line-table entry of the leaf's first ray line
+  int32_t baseU[B];
+  int8_t leaf[B], u0[B], u1[B], w0[B], nw[B];
+  int8_t spanU0[B][L]; // per (pair, ray line): first hit ray
+  uint8_t spanN[B][L]; // and the number of hit rays
 };
 
 template <int L, bool CROSS>
 struct LeafWarp {
+  static constexpr int G = leavesPerWarp<L>();
   union { // the surface steps are done before the crossing steps start
     SurfacePairs<L> s;
     CrossPairs<L> c;
   } p;
-  alignas(16) uint32_t rows[L * L];              // surface, one L-bit mask per x row
-  alignas(16) uint32_t masks[CROSS ? L * L : 4]; // XOR of before-masks per x row
-  uint32_t parity[CROSS ? L * L / 32 : 1];   // one bit per x row
+  alignas(16) uint32_t surface[G][voxelWords<L>()];
+  alignas(16) uint32_t masks[CROSS ? G : 1][CROSS ? voxelWords<L>() : 4]; // XOR of before-masks
+  uint32_t parity[CROSS ? G : 1][L * L / 32];                            // one bit per x row
+  int64_t origin[G][3]; // first voxel of each leaf
+  uint32_t end[G];      // end of each leaf's pairs (the leaves' pairs are consecutive)
   WarpSlots slots;
 };
 
@@ -110,29 +136,36 @@ struct LeafKernelArgs {
   uint32_t* parity; // CROSS: row parities along x, or null
 };
 
-// The task's pairs kBatch at a time: batch(base, nb, j) with j the table
-// index of lane's pair (lanes < nb), once the previous batch is done with
-// the warp's shared arrays.
-template <class Batch>
-__device__ __forceinline__ void forEachBatch(const LeafKernelArgs& k, const LeafTask& task, Batch&& batch) {
+// The warp's pairs [first, end) a batch at a time, once the previous batch is
+// done with the warp's shared arrays: batch(nb, g, j) on every lane, where
+// lanes < nb hold a pair, g its leaf (0 .. n - 1) and j its table index.
+template <int L, bool CROSS, class Batch>
+__device__ __forceinline__ void forEachBatch(const LeafKernelArgs& k, const LeafWarp<L, CROSS>& sh, uint32_t first,
+                                             uint32_t end, int n, Batch&& batch) {
+  constexpr int B = batchPairs<L>();
   const int lane = threadIdx.x & 31;
-  for (uint32_t base = task.first; base < task.end; base += kBatch) {
-    const int nb = int(min(uint32_t(kBatch), task.end - base));
+  for (uint32_t base = first; base < end; base += B) {
+    const int nb = int(min(uint32_t(B), end - base));
     __syncwarp();
-    batch(nb, lane < nb ? k.compactOf[k.a.pairTri[base + lane]] : 0u);
+    const uint32_t p = base + lane;
+    int g = 0;
+#pragma unroll
+    for (int i = 0; i + 1 < LeafWarp<L, CROSS>::G; ++i) g += (i + 1 < n && p >= sh.end[i]) ? 1 : 0;
+    batch(nb, g, lane < nb ? k.compactOf[k.a.pairTri[p]] : 0u);
   }
 }
 
-template <int L>
-__device__ __forceinline__ void surfaceSteps(const LeafKernelArgs& k, const LeafTask& task, const int64_t (&v0)[3],
-                                             SurfacePairs<L>& sh, uint32_t* rows, WarpSlots& slots) {
+template <int L, bool CROSS>
+__device__ __forceinline__ void surfaceSteps(const LeafKernelArgs& k, uint32_t first, uint32_t end, int n,
+                                             LeafWarp<L, CROSS>& w) {
+  SurfacePairs<L>& sh = w.p.s;
   const int lane = threadIdx.x & 31;
-  forEachBatch(k, task, [&](int nb, uint32_t j) {
+  forEachBatch(k, w, first, end, n, [&](int nb, int g, uint32_t j) {
     if (lane < nb) {
       const TriangleSetup& ts = k.setup[j];
       const int axis = ts.axis;
       int64_t o[3];
-      permutedOrigin(v0, axis, o);
+      permutedOrigin(w.origin[g], axis, o);
       int32_t f[3], l[3];
       bool any = true;
       for (int d = 0; d < 3; ++d) {
@@ -140,7 +173,8 @@ __device__ __forceinline__ void surfaceSteps(const LeafKernelArgs& k, const Leaf
         l[d] = int32_t(min(int64_t(ts.last[d]), o[d] + L - 1) - o[d]);
         any = any && f[d] <= l[d];
       }
-      sh.tri[lane] = j;
+      sh.setup[lane] = j;
+      sh.leaf[lane] = int8_t(g);
       sh.axis[lane] = int8_t(axis);
       sh.x0[lane] = int8_t(f[0]);
       sh.x1[lane] = int8_t(l[0]);
@@ -155,7 +189,7 @@ __device__ __forceinline__ void surfaceSteps(const LeafKernelArgs& k, const Leaf
     }
     __syncwarp();
     warpForEachPairItem(
-        0, nb, slots, [&](uint32_t j) { return max(int(sh.nz[j]), sh.y1[j] - sh.y0[j] + 1); },
+        0, nb, w.slots, [&](uint32_t j) { return max(int(sh.nz[j]), sh.y1[j] - sh.y0[j] + 1); },
         [&](uint32_t j, int kk) {
           if (kk < sh.nz[j]) {
             const uint2 e = k.slices[sh.slice[j] + kk];
@@ -178,19 +212,20 @@ __device__ __forceinline__ void surfaceSteps(const LeafKernelArgs& k, const Leaf
         });
     __syncwarp();
     warpForEachPairItem(
-        0, uint32_t(nb) * L, slots,
+        0, uint32_t(nb) * L, w.slots,
         [&](uint32_t e) { return int(e % L) < sh.nz[e / L] ? int(sh.sliceRows[e / L][e % L]) : 0; },
         [&](uint32_t e, int r) {
           const uint32_t j = e / L, s = e % L;
-          const int axis = sh.axis[j];
+          const int axis = sh.axis[j], leaf = sh.leaf[j];
           int64_t o[3];
-          permutedOrigin(v0, axis, o);
+          permutedOrigin(w.origin[leaf], axis, o);
           const int dy = sh.sliceY0[j][s] + r, dz = sh.z0[j] + int(s);
           int64_t f = o[0] + max(sh.sliceX0[j][s], sh.columnX0[j][dy]);
           int64_t l = o[0] + min(sh.sliceX1[j][s], sh.columnX1[j][dy]);
-          clipRowByPlane(k.setup[sh.tri[j]].plane, o[1] + dy, o[2] + dz, f, l);
+          clipRowByPlane(k.setup[sh.setup[j]].plane, o[1] + dy, o[2] + dz, f, l);
+          uint32_t* bits = w.surface[leaf];
           forEachXRowOf(axis, L, dy, dz, int(f - o[0]), int(l - o[0]),
-                        [&](int row, uint32_t bits) { atomicOr(&rows[row], bits); });
+                        [&](int row, uint32_t m) { orRow<L>(bits, row, m); });
         });
   });
 }
@@ -204,20 +239,23 @@ __device__ __forceinline__ void surfaceSteps(const LeafKernelArgs& k, const Leaf
 #endif
 constexpr int kRaysPerItem = HDT_CUDA_RAYS_PER_ITEM;
 
-// Pass 1 along x for the task's pairs (classify.cu's crossingsAlong with the
+// Pass 1 along x for the warp's pairs (classify.cu's crossingsAlong with the
 // hit spans from the line table).
 template <int L>
-__device__ __forceinline__ void crossingSteps(const LeafKernelArgs& k, const LeafTask& task, const int64_t (&v0)[3],
-                                              CrossPairs<L>& sh, uint32_t* masks, uint32_t* parity, WarpSlots& slots) {
+__device__ __forceinline__ void crossingSteps(const LeafKernelArgs& k, uint32_t first, uint32_t end, int n,
+                                              LeafWarp<L, true>& w) {
   constexpr int U = rayAxisU(0), W = rayAxisW(0);
+  CrossPairs<L>& sh = w.p.c;
   const int lane = threadIdx.x & 31;
-  forEachBatch(k, task, [&](int nb, uint32_t j) {
+  forEachBatch(k, w, first, end, n, [&](int nb, int g, uint32_t j) {
     if (lane < nb) {
       const TriangleSetup& ts = k.setup[j];
+      const int64_t(&v0)[3] = w.origin[g];
       const int64_t u0 = max(int64_t(ts.u0), v0[U]), u1 = min(int64_t(ts.u1), v0[U] + L - 1);
       const int64_t w0 = max(int64_t(ts.w0), v0[W]), w1 = min(int64_t(ts.w1), v0[W] + L - 1);
       const bool any = u0 <= u1 && w0 <= w1;
       if (any) makeLeafCrossings(ts.cross, 0, v0, L, sh.crossings[lane]);
+      sh.leaf[lane] = int8_t(g);
       sh.u0[lane] = int8_t(any ? u0 - v0[U] : 0);
       sh.u1[lane] = int8_t(any ? u1 - v0[U] : -1);
       sh.w0[lane] = int8_t(any ? w0 - v0[W] : 0);
@@ -227,7 +265,7 @@ __device__ __forceinline__ void crossingSteps(const LeafKernelArgs& k, const Lea
     }
     __syncwarp();
     warpForEachPairItem(
-        0, nb, slots, [&](uint32_t j) { return int(sh.nw[j]); },
+        0, nb, w.slots, [&](uint32_t j) { return int(sh.nw[j]); },
         [&](uint32_t j, int kk) {
           int32_t f, l;
           unpackSpan(k.lines[sh.line[j] + kk], sh.baseU[j], sh.u0[j], sh.u1[j], f, l);
@@ -236,61 +274,42 @@ __device__ __forceinline__ void crossingSteps(const LeafKernelArgs& k, const Lea
         });
     __syncwarp();
     warpForEachPairItem(
-        0, uint32_t(nb) * L, slots,
+        0, uint32_t(nb) * L, w.slots,
         [&](uint32_t e) {
           return int(e % L) < sh.nw[e / L] ? (int(sh.spanN[e / L][e % L]) + kRaysPerItem - 1) / kRaysPerItem : 0;
         },
         [&](uint32_t e, int r) {
           const uint32_t j = e / L, kk = e % L;
-          const int w = sh.w0[j] + int(kk), u0 = sh.spanU0[j][kk], n = sh.spanN[j][kk];
+          const int leaf = sh.leaf[j], wl = sh.w0[j] + int(kk), u0 = sh.spanU0[j][kk], nu = sh.spanN[j][kk];
 #pragma unroll
           for (int i = 0; i < kRaysPerItem; ++i) {
             const int u = u0 + kRaysPerItem * r + i;
             int before;
-            if (u < u0 + n && crossingInLeaf(sh.crossings[j], u, w, L, before)) {
-              const int row = u + L * w;
-              atomicXor(&parity[row >> 5], 1u << (row & 31));
-              atomicXor(&masks[row], maskBeforeCrossing(before));
+            if (u < u0 + nu && crossingInLeaf(sh.crossings[j], u, wl, L, before)) {
+              const int row = u + L * wl;
+              atomicXor(&w.parity[leaf][row >> 5], 1u << (row & 31));
+              xorRow<L>(w.masks[leaf], row, maskBeforeCrossing(before));
             }
           }
         });
   });
 }
 
+// Every word of one leaf, once: the surface in plane 1 and, with CROSS, the
+// masks in plane 0 where not surface; for rows whose exit parity turns out
+// 0 that is the final inside plane, so pass 2 leaves them alone. The parts
+// of a split leaf merge into zeroed words instead (OR on plane 1, XOR of
+// whole masks on plane 0; clearMasksUnderSurface finishes those).
 template <int L, bool CROSS>
-__global__ void __launch_bounds__(32 * warpsPerBlock<L>(), HDT_CUDA_T3_MIN_BLOCKS * 4 / warpsPerBlock<L>())
-    leafKernel(LeafKernelArgs k) {
-  __shared__ LeafWarp<L, CROSS> shared[warpsPerBlock<L>()];
-  const int warp = threadIdx.x >> 5, lane = threadIdx.x & 31;
-  const uint32_t t = blockIdx.x * warpsPerBlock<L>() + warp;
-  if (t >= *k.a.taskCount) return; // warp-uniform
-  // One task a warp: a grid-stride loop over tasks measured slower
-  // (dragon 8192^3: T3 3.8 -> 4.0 ms, pass 1 1.9 -> 2.0).
-  const LeafTask task = k.a.tasks[t];
-  LeafWarp<L, CROSS>& sh = shared[warp];
-  int64_t v0[3];
-  leafOrigin(k.a.leafCoord[task.leaf], L, v0);
-  for (int q = lane; q < L * L / 4; q += 32) { // 16-byte stores
-    reinterpret_cast<uint4*>(sh.rows)[q] = make_uint4(0, 0, 0, 0);
-    if (CROSS) reinterpret_cast<uint4*>(sh.masks)[q] = make_uint4(0, 0, 0, 0);
-  }
-  if (CROSS)
-    for (int i = lane; i < L * L / 32; i += 32) sh.parity[i] = 0;
-  surfaceSteps<L>(k, task, v0, sh.p.s, sh.rows, sh.slots);
-  if (CROSS) crossingSteps<L>(k, task, v0, sh.p.c, sh.masks, sh.parity, sh.slots);
-  __syncwarp();
-
-  const bool split = task.flags & kTaskSplit;
-  uint32_t* out = k.words + size_t(task.leaf) * leafWordCount(L);
-  // Plane 0 holds the masks where not surface: for rows whose exit parity
-  // turns out 0 that is the final inside plane, so pass 2 leaves them alone.
-  // (The parts of a split leaf XOR whole masks; clearMasksUnderSurface
-  // finishes those.)
+__device__ __forceinline__ void writeLeaf(const LeafKernelArgs& k, uint32_t leaf, bool split, const uint32_t* surface,
+                                          const uint32_t* masks, const uint32_t* parity) {
+  const int lane = threadIdx.x & 31;
+  uint32_t* out = k.words + size_t(leaf) * leafWordCount(L);
   auto word = [&](int w) {
-    const uint32_t surface = wordBitsFromRows(sh.rows, L, w);
-    if (!CROSS) return spreadBits16(surface) << 1;
-    const uint32_t before = wordBitsFromRows(sh.masks, L, w);
-    return (spreadBits16(surface) << 1) | spreadBits16(split ? before : before & ~surface);
+    const uint32_t s = wordBits(surface, w);
+    if (!CROSS) return spreadBits16(s) << 1;
+    const uint32_t before = wordBits(masks, w);
+    return (spreadBits16(s) << 1) | spreadBits16(split ? before : before & ~s);
   };
   if (!split) { // warp-uniform; 16-byte stores (a leaf is 128, 1024 or 8192 bytes)
     uint4* out4 = reinterpret_cast<uint4*>(out);
@@ -298,36 +317,89 @@ __global__ void __launch_bounds__(32 * warpsPerBlock<L>(), HDT_CUDA_T3_MIN_BLOCK
       out4[q] = make_uint4(word(4 * q), word(4 * q + 1), word(4 * q + 2), word(4 * q + 3));
   } else {
     for (int w = lane; w < int(leafWordCount(L)); w += 32) {
-      const uint32_t v = word(w), surface = v & 0xAAAAAAAAu, before = v & 0x55555555u;
-      if (surface) atomicOr(&out[w], surface);
+      const uint32_t v = word(w), s = v & 0xAAAAAAAAu, before = v & 0x55555555u;
+      if (s) atomicOr(&out[w], s);
       if (before) atomicXor(&out[w], before);
     }
   }
   if (CROSS && k.parity) {
     constexpr int RW = L * L / 32;
-    uint32_t* parity = k.parity + size_t(task.leaf) * RW;
+    uint32_t* p = k.parity + size_t(leaf) * RW;
     for (int i = lane; i < RW; i += 32) {
-      if (!split) parity[i] = sh.parity[i];
-      else if (sh.parity[i]) atomicXor(&parity[i], sh.parity[i]);
+      if (!split) p[i] = parity[i];
+      else if (parity[i]) atomicXor(&p[i], parity[i]);
     }
   }
 }
 
-// Thread per task: plane 0 cleared where plane 1 is set, for split leaves
-// once all their parts have merged (first part only).
-__global__ void clearMasksUnderSurfaceKernel(const LeafTask* tasks, const uint32_t* taskCount, uint32_t* words,
-                                             uint32_t perLeaf) {
+template <int L, bool CROSS>
+__global__ void __launch_bounds__(32 * warpsPerBlock<L>(), HDT_CUDA_T3_MIN_BLOCKS * 4 / warpsPerBlock<L>())
+    leafKernel(LeafKernelArgs k) {
+  constexpr int G = leavesPerWarp<L>();
+  __shared__ LeafWarp<L, CROSS> shared[warpsPerBlock<L>()];
+  const int warp = threadIdx.x >> 5, lane = threadIdx.x & 31;
+  const uint32_t tasks = *k.a.taskCount;
+  const uint32_t t0 = (blockIdx.x * warpsPerBlock<L>() + warp) * G;
+  if (t0 >= tasks) return; // warp-uniform
+  // One group of tasks a warp: a grid-stride loop over tasks measured slower
+  // (dragon 8192^3: T3 3.8 -> 4.0 ms, pass 1 1.9 -> 2.0).
+  const int n = int(min(uint32_t(G), tasks - t0));
+  LeafWarp<L, CROSS>& sh = shared[warp];
+  LeafTask task{}; // lane g < n: the warp's task g
+  if (lane < n) {
+    task = k.a.tasks[t0 + lane];
+    leafOrigin(k.a.leafCoord[task.leaf], L, sh.origin[lane]);
+    sh.end[lane] = task.end;
+  }
+  const uint32_t first = __shfl_sync(kFullMask, task.first, 0), end = __shfl_sync(kFullMask, task.end, n - 1);
+  for (int q = lane; q < n * voxelWords<L>() / 4; q += 32) { // 16-byte stores
+    reinterpret_cast<uint4*>(sh.surface)[q] = make_uint4(0, 0, 0, 0);
+    if (CROSS) reinterpret_cast<uint4*>(sh.masks)[q] = make_uint4(0, 0, 0, 0);
+  }
+  if (CROSS)
+    for (int i = lane; i < n * L * L / 32; i += 32) (&sh.parity[0][0])[i] = 0;
+  surfaceSteps<L, CROSS>(k, first, end, n, sh);
+  if constexpr (CROSS) crossingSteps<L>(k, first, end, n, sh);
+  __syncwarp();
+  for (int g = 0; g < n; ++g) {
+    const uint32_t leaf = __shfl_sync(kFullMask, task.leaf, g);
+    const bool split = __shfl_sync(kFullMask, task.flags, g) & kTaskSplit;
+    writeLeaf<L, CROSS>(k, leaf, split, sh.surface[g], sh.masks[CROSS ? g : 0], sh.parity[CROSS ? g : 0]);
+  }
+}
+
+// Thread per task, on the first part of each split leaf only: zeroes the
+// leaf's outputs before its parts merge into them, and finishes the words
+// once they have (plane 0 cleared where plane 1 is set).
+struct ZeroWord {
+  __device__ uint32_t operator()(uint32_t) const { return 0; }
+};
+struct ClearMasksUnderSurface {
+  __device__ uint32_t operator()(uint32_t w) const { return w & ~((w >> 1) & 0x55555555u); }
+};
+template <class Op>
+__global__ void splitLeafKernel(const LeafTask* tasks, const uint32_t* taskCount, uint32_t* data, uint32_t perLeaf,
+                                Op op) {
   const uint32_t t = blockIdx.x * blockDim.x + threadIdx.x;
   if (t >= *taskCount) return;
   const LeafTask task = tasks[t];
   if (!(task.flags & kTaskFirst)) return;
-  uint32_t* w = words + size_t(task.leaf) * perLeaf;
-  for (uint32_t i = 0; i < perLeaf; ++i) w[i] &= ~((w[i] >> 1) & 0x55555555u);
+  uint32_t* d = data + size_t(task.leaf) * perLeaf;
+  for (uint32_t i = 0; i < perLeaf; ++i) d[i] = op(d[i]);
+}
+
+template <class Op>
+void forEachSplitLeaf(DeviceMemory& mem, const Leaves& leaves, uint32_t* data, uint32_t perLeaf, Op op) {
+  if (leaves.count == 0) return;
+  splitLeafKernel<<<blocksFor(leaves.taskBound, 256), 256, 0, mem.stream()>>>(
+      leaves.tasks.data(), leaves.taskCount.data(), data, perLeaf, op);
+  HDT_CUDA_CHECK_LAUNCH("splitLeafKernel");
 }
 
 template <int L>
 void launchLeaf(const LeafKernelArgs& k, uint32_t taskBound, bool crossings, cudaStream_t s) {
-  const unsigned blocks = blocksFor(taskBound, warpsPerBlock<L>()), threads = 32 * warpsPerBlock<L>();
+  const unsigned blocks = blocksFor(taskBound, warpsPerBlock<L>() * leavesPerWarp<L>());
+  const unsigned threads = 32 * warpsPerBlock<L>();
   if (crossings) leafKernel<L, true><<<blocks, threads, 0, s>>>(k);
   else leafKernel<L, false><<<blocks, threads, 0, s>>>(k);
   HDT_CUDA_CHECK_LAUNCH("leafKernel");
@@ -336,10 +408,7 @@ void launchLeaf(const LeafKernelArgs& k, uint32_t taskBound, bool crossings, cud
 } // namespace
 
 void zeroSplitLeaves(DeviceMemory& mem, const Leaves& leaves, uint32_t* data, uint32_t perLeaf) {
-  if (leaves.count == 0) return;
-  zeroSplitKernel<<<blocksFor(leaves.taskBound, 256), 256, 0, mem.stream()>>>(leaves.tasks.data(),
-                                                                              leaves.taskCount.data(), data, perLeaf);
-  HDT_CUDA_CHECK_LAUNCH("zeroSplitKernel");
+  forEachSplitLeaf(mem, leaves, data, perLeaf, ZeroWord{});
 }
 
 void writeLeafSurfaces(DeviceMemory& mem, HostScalars& scalars, const DeviceMesh& mesh, const GridSpec& grid,
@@ -366,11 +435,7 @@ void writeLeafSurfaces(DeviceMemory& mem, HostScalars& scalars, const DeviceMesh
   case 16: launchLeaf<16>(k, leaves.taskBound, crossings, mem.stream()); break;
   default: launchLeaf<32>(k, leaves.taskBound, crossings, mem.stream()); break;
   }
-  if (crossings) {
-    clearMasksUnderSurfaceKernel<<<blocksFor(leaves.taskBound, 256), 256, 0, mem.stream()>>>(
-        leaves.tasks.data(), leaves.taskCount.data(), words, leafWordCount(L));
-    HDT_CUDA_CHECK_LAUNCH("clearMasksUnderSurfaceKernel");
-  }
+  if (crossings) forEachSplitLeaf(mem, leaves, words, leafWordCount(L), ClearMasksUnderSurface{});
 }
 
 } // namespace cuda

@@ -116,7 +116,7 @@ Tree buildTree(DeviceMemory& mem, HostScalars& scalars, const DeviceMesh& mesh, 
 // offsets from the start of the triangle's range (packSpan).
 struct TriangleSetup {
   PlaneClipper plane;        // in the triangle's row-axis frame (rowAxisFor)
-  int32_t first[3], last[3]; // voxel box in that frame, clamped to the leaves' box; empty: unused
+  int32_t first[3], last[3]; // voxel box in that frame, clamped to the leaves' box (may be empty)
   int32_t axis;              // row axis
   int32_t u0, u1, w0, w1;    // x rays (crossings): centre ranges along y and z, clamped likewise
   RayCrossingSetup cross;    // x rays: the triangle's part of LeafCrossings
@@ -156,12 +156,12 @@ inline int rowWordsFor(int leafSize) { return leafSize * leafSize / 32; }
 
 // Pass 1: per leaf, ray axis and row, the crossings inside the leaf:
 // parity[a] (leaves * rowWords, one bit per row; skipped when null) and,
-// when `words` is given, the XOR of the crossings' "voxels before" masks per
-// row, pass 2's geometry: axis 0's into plane 0 of the leaf words (the x
-// rows), axes 1 and 2's (open meshes) into masks[a] (leaves * L * L).
-// Runs the axes [firstAxis, axes): 1 when T3 has done axis 0.
+// where masks[a] is not null, the XOR of the crossings' "voxels before"
+// masks per row, pass 2's geometry (leaves * L * L). Runs the axes
+// [firstAxis, axes): 1 when T3 has done axis 0 (whose masks T3 puts in
+// plane 0 of the leaf words).
 void leafCrossings(DeviceMemory& mem, const DeviceMesh& mesh, const GridSpec& grid, const Leaves& leaves,
-                   int firstAxis, int axes, uint32_t* const parity[3], uint32_t* words, uint32_t* const masks[3]);
+                   int firstAxis, int axes, uint32_t* const parity[3], uint32_t* const masks[3]);
 
 // The leaves of a chunk sorted by line along one axis, with the entry parity
 // of every leaf. Turns parity[a] (pass 1) into the exit parity in place.

@@ -27,38 +27,37 @@ std::function<void(int)> branchingProgress(Session& s) {
   return [&s](int level) { s.progress(0.1 + 0.3 * double(level + 1) / double(s.grid.height + 1), "branching"); };
 }
 
-// Buffers of pass 1 that pass 2 reads: per-axis masks for open meshes.
-struct AxisMasks {
+// Classification buffers of `perLeaf` words a leaf for the ray axes
+// [firstAxis, axes); ptr[a] is null for the others.
+struct AxisBuffers {
   DeviceBuffer<uint32_t> buffer[3];
   uint32_t* ptr[3] = {nullptr, nullptr, nullptr};
-  AxisMasks(Session& s, uint32_t leaves, int axes) {
-    const size_t perLeaf = size_t(s.grid.leafSize) * s.grid.leafSize;
-    for (int a = 1; a < axes; ++a) {
+  AxisBuffers(Session& s, uint32_t leaves, size_t perLeaf, int firstAxis, int axes) {
+    for (int a = firstAxis; a < axes; ++a) {
       buffer[a] = DeviceBuffer<uint32_t>(s.memory, leaves * perLeaf);
       ptr[a] = buffer[a].data();
     }
   }
 };
 
-// Pass 1's row parities per axis (leaves x rowWords each).
-struct AxisParity {
-  DeviceBuffer<uint32_t> buffer[3];
-  uint32_t* ptr[3] = {nullptr, nullptr, nullptr};
-  AxisParity(Session& s, uint32_t leaves, int axes) {
-    for (int a = 0; a < axes; ++a) {
-      buffer[a] = DeviceBuffer<uint32_t>(s.memory, size_t(leaves) * rowWordsFor(s.grid.leafSize));
-      ptr[a] = buffer[a].data();
-    }
-  }
-};
+// Pass 1's row parities (exit parities after the line step), one bit a row.
+AxisBuffers parityBuffers(Session& s, uint32_t leaves, int axes) {
+  return AxisBuffers(s, leaves, size_t(rowWordsFor(s.grid.leafSize)), 0, axes);
+}
+
+// Pass 1's before-masks that pass 2 reads, one word a row: y and z of open
+// meshes (T3 puts axis 0's in plane 0 of the leaf words).
+AxisBuffers maskBuffers(Session& s, uint32_t leaves, int axes) {
+  return AxisBuffers(s, leaves, size_t(s.grid.leafSize) * s.grid.leafSize, 1, axes);
+}
 
 // Pass 1 of the axes T3 did not run (y and z of open meshes), lines, pass 2
 // and the uniform elements, all on the device.
-void classifyWhole(Session& s, Tree& tree, AxisParity& parity, uint32_t* words) {
+void classifyWhole(Session& s, Tree& tree, AxisBuffers& parity, uint32_t* words) {
   const int axes = axesFor(s.mesh);
   uint32_t* const* p = parity.ptr;
-  AxisMasks masks(s, tree.leaves.count, axes);
-  leafCrossings(s.memory, s.deviceMesh, s.grid, tree.leaves, 1, axes, p, words, masks.ptr);
+  AxisBuffers masks = maskBuffers(s, tree.leaves.count, axes);
+  leafCrossings(s.memory, s.deviceMesh, s.grid, tree.leaves, 1, axes, p, masks.ptr);
   LineTable tables[3];
   for (int a = 0; a < axes; ++a) {
     tables[a] = lineParity(s.memory, s.grid, tree.leaves, a, p[a]);
@@ -87,7 +86,7 @@ Volume buildWhole(Session& s, RootMapping root, bool keepResult) {
   const size_t wordCount = size_t(tree.leaves.count) * leafWordCount(g.leafSize);
   DeviceBuffer<uint32_t> words(s.memory, wordCount);
   const bool solid = !s.mesh.surfaceOnly;
-  AxisParity parity(s, tree.leaves.count, solid ? axesFor(s.mesh) : 0);
+  AxisBuffers parity = parityBuffers(s, tree.leaves.count, solid ? axesFor(s.mesh) : 0);
   // Solid builds: T3 runs pass 1 along x too (its time counts as T3).
   writeLeafSurfaces(s.memory, s.scalars, s.deviceMesh, g, tree.leaves, words.data(), solid, parity.ptr[0]);
   s.clock.mark(kLeaf);
@@ -155,18 +154,13 @@ ChunkTree buildChunkTree(Session& s, uint64_t firstCell, uint64_t endCell) {
     const int axes = axesFor(s.mesh);
     Reservation room(s.memory, (wordCount + size_t(axes - 1) * leaves * g.leafSize * g.leafSize) * sizeof(uint32_t));
     const size_t rowWords = size_t(rowWordsFor(g.leafSize));
-    DeviceBuffer<uint32_t> parity[3];
-    uint32_t* p[3] = {nullptr, nullptr, nullptr};
-    for (int a = 0; a < axes; ++a) {
-      parity[a] = DeviceBuffer<uint32_t>(s.memory, leaves * rowWords);
-      p[a] = parity[a].data();
-    }
+    AxisBuffers parity = parityBuffers(s, leaves, axes);
     uint32_t* const noMasks[3] = {nullptr, nullptr, nullptr};
-    leafCrossings(s.memory, s.deviceMesh, g, tree.leaves, 0, axes, p, nullptr, noMasks);
+    leafCrossings(s.memory, s.deviceMesh, g, tree.leaves, 0, axes, parity.ptr, noMasks);
     s.clock.mark(kClassify);
     for (int a = 0; a < axes; ++a) {
       out.parity[a].resize(leaves * rowWords);
-      download(s, out.parity[a].data(), parity[a], leaves * rowWords);
+      download(s, out.parity[a].data(), parity.buffer[a], leaves * rowWords);
     }
     out.leafCoord.resize(leaves);
     download(s, out.leafCoord.data(), tree.leaves.coord, leaves);
@@ -198,16 +192,13 @@ void buildChunkLeaves(Session& s, uint64_t firstCell, uint64_t endCell, uint32_t
 
   const int axes = axesFor(s.mesh);
   const size_t rowWords = size_t(rowWordsFor(g.leafSize));
-  DeviceBuffer<uint32_t> exitBuf[3];
-  for (int a = 0; a < axes; ++a) {
-    exitBuf[a] = DeviceBuffer<uint32_t>(s.memory, leafCount * rowWords);
-    upload(s, exitBuf[a], exitParity[a], leafCount * rowWords);
-  }
+  AxisBuffers exitBuf = parityBuffers(s, leafCount, axes);
+  for (int a = 0; a < axes; ++a) upload(s, exitBuf.buffer[a], exitParity[a], leafCount * rowWords);
   s.clock.mark(kUpload);
-  AxisMasks masks(s, leafCount, axes);
+  AxisBuffers masks = maskBuffers(s, leafCount, axes);
   uint32_t* const noParity[3] = {nullptr, nullptr, nullptr};
-  leafCrossings(s.memory, s.deviceMesh, g, tree.leaves, 1, axes, noParity, words.data(), masks.ptr);
-  const uint32_t* e[3] = {exitBuf[0].data(), exitBuf[1].data(), exitBuf[2].data()};
+  leafCrossings(s.memory, s.deviceMesh, g, tree.leaves, 1, axes, noParity, masks.ptr);
+  const uint32_t* e[3] = {exitBuf.ptr[0], exitBuf.ptr[1], exitBuf.ptr[2]};
   const uint32_t* m[3] = {masks.ptr[0], masks.ptr[1], masks.ptr[2]};
   writeLeafInside(s.memory, g, tree.leaves, axes, e, m, words.data());
   s.clock.mark(kClassify);

@@ -107,12 +107,9 @@ __global__ void setupKernel(uint32_t m, const uint32_t* triangleOf, const Lattic
   if (crossings && any) {
     int64_t tlo[3], thi[3], u0, u1, w0, w1;
     triangleBounds(original, tlo, thi);
-    centreRange(tlo[kRayU], thi[kRayU], 0, int(resolution), u0, u1);
-    centreRange(tlo[kRayW], thi[kRayW], 0, int(resolution), w0, w1);
-    u0 = max(u0, lo[kRayU]);
-    u1 = min(u1, hi[kRayU]);
-    w0 = max(w0, lo[kRayW]);
-    w1 = min(w1, hi[kRayW]);
+    // centreRange clamps to [v0, v0 + L): here the leaves' box.
+    centreRange(tlo[kRayU], thi[kRayU], lo[kRayU], int(hi[kRayU] - lo[kRayU] + 1), u0, u1);
+    centreRange(tlo[kRayW], thi[kRayW], lo[kRayW], int(hi[kRayW] - lo[kRayW] + 1), w0, w1);
     if (u0 <= u1 && w0 <= w1) {
       s.u0 = int32_t(u0);
       s.u1 = int32_t(u1);
