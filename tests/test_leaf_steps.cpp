@@ -40,6 +40,20 @@ TEST(LeafSteps, CeilAndFloorDivisionMatchIntegerDivision) {
   }
 }
 
+// The leaf kernels write words with interleavePlanes; the reference is the
+// two spreads. Every 16-bit plane 0 against varied plane 1, both halves.
+TEST(LeafSteps, InterleavePlanesEqualsTwoSpreads) {
+  std::mt19937_64 rng(11);
+  for (uint32_t a = 0; a < 0x10000u; ++a) {
+    const uint32_t b = uint32_t(rng());
+    for (bool hi : {false, true}) {
+      const uint32_t p0 = hi ? (a << 16) | uint32_t(rng() & 0xFFFFu) : a | uint32_t(rng() << 16);
+      const uint32_t want = spreadBits16(hi ? p0 >> 16 : p0) | (spreadBits16(hi ? b >> 16 : b) << 1);
+      ASSERT_EQ(want, interleavePlanes(p0, b, hi)) << std::hex << p0 << " " << b << " hi " << hi;
+    }
+  }
+}
+
 // The voxels of row (y, z) in [x0, x1] that overlap, as [first, last]; the
 // overlap set of a convex triangle and a row is an interval, checked too.
 void referenceRow(const LatticeTriangle& t, int64_t y, int64_t z, int64_t x0, int64_t x1, int64_t& first,
@@ -250,6 +264,70 @@ TEST_P(RaySpanScale, SpanEqualsPerRayHitTest) {
   }
   EXPECT_GT(hits, 100);
   EXPECT_GT(inLeaf, 100);
+}
+
+// narrowToLeafCrossings only skips work: every ray whose crossing lies in
+// the leaf stays in the narrowed span. And it does skip: leaves stacked
+// along the ray axis over the triangle each see the triangle's hit rays, but
+// only about one leaf's worth of them survive in all (counted where the
+// crossings are narrow: others are left whole, and huge triangles are).
+TEST_P(RaySpanScale, NarrowedSpanKeepsEveryCrossingInTheLeaf) {
+  const int64_t spread = GetParam();
+  std::mt19937_64 rng(uint64_t(spread) * 31 + 5);
+  uint64_t spans = 0, kept = 0, crossings = 0, keptLines = 0, all = 0;
+  for (int i = 0; i < 40; ++i) {
+    const int snap = i % 3 == 0 ? 7 : (i % 3 == 1 ? 8 : 0);
+    const int64_t centre = int64_t(rng() % uint64_t(kMaxLattice - 2 * spread)) + spread;
+    LatticeTriangle t;
+    for (int v = 0; v < 3; ++v)
+      for (int k = 0; k < 3; ++k) t.v[v][k] = coord(rng, centre, spread, snap);
+    if (i % 5 == 2) t.v[1][i % 3] = t.v[2][i % 3] = t.v[0][i % 3]; // axis-aligned plane
+    for (int axis = 0; axis < 3; ++axis) {
+      const int U = rayAxisU(axis), W = rayAxisW(axis);
+      int64_t lo[3], hi[3];
+      triangleBounds(t, lo, hi);
+      for (int L : {8, 16, 32}) {
+        int64_t v0[3];
+        v0[U] = std::max<int64_t>(0, lo[U] / kLatticePerVoxel - int64_t(rng() % uint64_t(L)));
+        v0[W] = std::max<int64_t>(0, lo[W] / kLatticePerVoxel - int64_t(rng() % uint64_t(L)));
+        const int64_t first = std::max<int64_t>(0, lo[axis] / kLatticePerVoxel / L - 1);
+        const int64_t last = std::min(first + 40, hi[axis] / kLatticePerVoxel / L + 1);
+        for (int64_t leaf = first; leaf <= last; ++leaf) {
+          v0[axis] = leaf * L;
+          LeafCrossings lc;
+          makeLeafCrossings(t, axis, v0, L, lc);
+          for (int dw = 0; dw < L; ++dw) {
+            int64_t f = v0[U], l = v0[U] + L - 1;
+            raySpanAtW(t, axis, v0[W] + dw, f, l);
+            if (f > l) continue;
+            const int sf = int(f - v0[U]), sl = int(l - v0[U]);
+            int nf = sf, nl = sl;
+            narrowToLeafCrossings(lc, dw, nf, nl);
+            if (nf <= nl) {
+              ASSERT_GE(nf, sf);
+              ASSERT_LE(nl, sl);
+              if (lc.narrow) kept += uint64_t(nl - nf + 1), ++keptLines;
+            }
+            if (lc.narrow) spans += uint64_t(sl - sf + 1);
+            for (int du = sf; du <= sl; ++du) {
+              int before;
+              if (!crossingInLeaf(lc, du, dw, L, before)) continue;
+              ++all;
+              if (lc.narrow) ++crossings;
+              ASSERT_TRUE(du >= nf && du <= nl) << "axis " << axis << " L=" << L << " leaf " << leaf << " ray "
+                                                << du << " not in [" << nf << ", " << nl << "]";
+            }
+          }
+        }
+      }
+    }
+  }
+  ASSERT_GT(all, 0u);
+  if (spread > (int64_t(1) << 20)) return; // no narrow crossings at this size
+  ASSERT_GT(crossings, 0u);
+  // Each narrowed span holds its crossings and about one ray more at each end.
+  EXPECT_LE(kept, crossings + 3 * keptLines) << "spans " << spans;
+  EXPECT_LT(2 * kept, spans) << "crossings " << crossings;
 }
 
 INSTANTIATE_TEST_SUITE_P(Sizes, RaySpanScale,

@@ -142,9 +142,9 @@ step_profile2() { # a second mesh in the same call
   PROFILE_MESH=${PROFILE2_MESH:-ogre.ply} PROFILE_TAG=profile2 step_profile
 }
 
-step_kerneltimes() { # every kernel of one build with its duration (ncu, one metric, base clocks)
+step_kerneltimes() { # every kernel of one build with its duration (ncu, one metric; base clocks unless NCU_CLOCKS=none)
   local t0=$SECONDS
-  timeout 300 ncu --metrics gpu__time_duration.sum -c "${PROFILE_COUNT:-400}" --csv "$BENCH" --meshes "$DEPS/meshes" \
+  timeout 300 ncu ${NCU_CLOCKS:+--clock-control $NCU_CLOCKS} --metrics gpu__time_duration.sum -c "${PROFILE_COUNT:-400}" --csv "$BENCH" --meshes "$DEPS/meshes" \
     --mesh "${PROFILE_MESH:-cycloidal-drive.ply}" --res "${PROFILE_RES:-8192}" --modes "${PROFILE_MODE:-solid}" --runs 1 \
     --out /tmp/kt-runs.jsonl > /tmp/kt.csv 2> "$OUT/kerneltimes.err"
   say "kerneltimes: rc=$? in $((SECONDS - t0)) s"

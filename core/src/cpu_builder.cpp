@@ -269,7 +269,7 @@ private:
       triangleBounds(tri, lo, hi);
       centreRange(lo[U], hi[U], v0[U], L_, u0, u1);
       centreRange(lo[W], hi[W], v0[W], L_, w0, w1);
-      LeafCrossings crossings;
+      LeafCrossings crossings{};
       bool made = false;
       for (int64_t w = w0; w <= w1; ++w) {
         int64_t uf = u0, ul = u1;
@@ -278,9 +278,11 @@ private:
           makeLeafCrossings(tri, axis, v0, L_, crossings);
           made = true;
         }
-        for (int64_t u = uf; u <= ul; ++u) {
+        const int dw = int(w - v0[W]);
+        int f = int(uf - v0[U]), l = int(ul - v0[U]);
+        if (f <= l) narrowToLeafCrossings(crossings, dw, f, l);
+        for (int du = f; du <= l; ++du) {
           int before;
-          const int du = int(u - v0[U]), dw = int(w - v0[W]);
           if (crossingInLeaf(crossings, du, dw, L_, before)) fn(du + L_ * dw, before);
         }
       }

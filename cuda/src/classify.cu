@@ -88,8 +88,10 @@ __device__ __forceinline__ void crossingsAlong(const LeafArgs& a, const LeafTask
         [&](uint32_t j, int k) {
           int64_t f = v0[U] + sh.u0[j], l = f + sh.nu[j] - 1;
           raySpanAtW(sh.tri[j], AXIS, v0[W] + sh.w0[j] + k, f, l);
-          sh.spanU0[j][k] = int8_t(f <= l ? f - v0[U] : 0);
-          sh.spanN[j][k] = uint8_t(f <= l ? l - f + 1 : 0);
+          int df = int(f - v0[U]), dl = int(l - v0[U]);
+          narrowToLeafCrossings(sh.crossings[j], sh.w0[j] + k, df, dl);
+          sh.spanU0[j][k] = int8_t(df <= dl ? df : 0);
+          sh.spanN[j][k] = uint8_t(df <= dl ? dl - df + 1 : 0);
         });
     __syncwarp();
     warpForEachPairItem(

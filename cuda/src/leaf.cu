@@ -269,6 +269,7 @@ __device__ __forceinline__ void crossingSteps(const LeafKernelArgs& k, uint32_t 
         [&](uint32_t j, int kk) {
           int32_t f, l;
           unpackSpan(k.lines[sh.line[j] + kk], sh.baseU[j], sh.u0[j], sh.u1[j], f, l);
+          narrowToLeafCrossings(sh.crossings[j], sh.w0[j] + int(kk), f, l);
           sh.spanU0[j][kk] = int8_t(f <= l ? f : 0);
           sh.spanN[j][kk] = uint8_t(f <= l ? l - f + 1 : 0);
         });
@@ -305,19 +306,26 @@ __device__ __forceinline__ void writeLeaf(const LeafKernelArgs& k, uint32_t leaf
                                           const uint32_t* masks, const uint32_t* parity) {
   const int lane = threadIdx.x & 31;
   uint32_t* out = k.words + size_t(leaf) * leafWordCount(L);
-  auto word = [&](int w) {
-    const uint32_t s = wordBits(surface, w);
-    if (!CROSS) return spreadBits16(s) << 1;
-    const uint32_t before = wordBits(masks, w);
-    return (spreadBits16(s) << 1) | spreadBits16(split ? before : before & ~s);
-  };
   if (!split) { // warp-uniform; 16-byte stores (a leaf is 128, 1024 or 8192 bytes)
+    // Four leaf words from two words of each bit array (8-byte loads).
+    const uint2* s2 = reinterpret_cast<const uint2*>(surface);
+    const uint2* m2 = reinterpret_cast<const uint2*>(masks);
     uint4* out4 = reinterpret_cast<uint4*>(out);
-    for (int q = lane; q < int(leafWordCount(L)) / 4; q += 32)
-      out4[q] = make_uint4(word(4 * q), word(4 * q + 1), word(4 * q + 2), word(4 * q + 3));
+    for (int q = lane; q < int(leafWordCount(L)) / 4; q += 32) {
+      const uint2 s = s2[q];
+      uint2 p0 = make_uint2(0, 0);
+      if (CROSS) {
+        p0 = m2[q];
+        p0.x &= ~s.x;
+        p0.y &= ~s.y;
+      }
+      out4[q] = make_uint4(interleavePlanes(p0.x, s.x, false), interleavePlanes(p0.x, s.x, true),
+                           interleavePlanes(p0.y, s.y, false), interleavePlanes(p0.y, s.y, true));
+    }
   } else {
     for (int w = lane; w < int(leafWordCount(L)); w += 32) {
-      const uint32_t v = word(w), s = v & 0xAAAAAAAAu, before = v & 0x55555555u;
+      const uint32_t s = spreadBits16(wordBits(surface, w)) << 1;
+      const uint32_t before = CROSS ? spreadBits16(wordBits(masks, w)) : 0u;
       if (s) atomicOr(&out[w], s);
       if (before) atomicXor(&out[w], before);
     }

@@ -510,6 +510,7 @@ struct LeafCrossings {
   uint64_t perVoxel;  // 256 den
   uint64_t extent;    // 256 L den
   double invPerVoxel; // 1 / perVoxel, for the estimate
+  double invStepU;    // 1 / stepU (0 when stepU is), for narrowToLeafCrossings
 };
 
 // What LeafCrossings takes from the triangle alone (per triangle and axis),
@@ -552,6 +553,7 @@ HDT_HD void makeLeafCrossings(const RayCrossingSetup& r, int axis, const int64_t
   c.perVoxel = r.den * uint64_t(kLatticePerVoxel);
   c.extent = c.perVoxel * uint64_t(L);
   c.invPerVoxel = r.invPerVoxel;
+  c.invStepU = c.stepU == 0 ? 0.0 : 1.0 / double(c.stepU);
   // |t| <= den * e for hit rays; den < 2^51 and e < 2^25, so the product is
   // taken in double, with a factor 2 of margin for its rounding.
   const int64_t a = latticeOfVoxel(v0[axis]);
@@ -591,6 +593,49 @@ HDT_HD bool crossingInLeaf(const LeafCrossings& c, int du, int dw, int L, int& b
   while (k < L && uint64_t(k) * c.perVoxel < m) ++k;
   before = k;
   return true;
+}
+
+// The hit rays [first, last] of ray line dw (leaf-relative u) narrowed to a
+// span that still holds every ray whose crossing lies in the leaf. Along a
+// line t is affine in u, so those rays form an interval; its ends are
+// estimated in double and widened past the estimate's error bound, and
+// crossingInLeaf still decides each ray exactly, so the result cannot
+// change. A triangle that spans several leaves along the ray axis is hit by
+// the same rays in each of them; without this each leaf would visit them all
+// (about half the rays T3 visited on the CAD parts crossed elsewhere). Only
+// narrow LeafCrossings are narrowed (t of every hit ray fits 64 bits).
+HDT_HD void narrowToLeafCrossings(const LeafCrossings& c, int dw, int& first, int& last) {
+  if (!c.narrow || first > last) return;
+  // t of ray `first`, a hit ray: exact in wrapping 64-bit arithmetic.
+  const int64_t tf = int64_t(uint64_t(c.t00) + uint64_t(c.stepU) * uint64_t(int64_t(first)) +
+                             uint64_t(c.stepW) * uint64_t(int64_t(dw)));
+  if (c.stepU == 0) { // the same t for the whole line
+    if (tf < 0 || uint64_t(tf) >= c.extent) last = first - 1;
+    return;
+  }
+  // t(first + d) = tf + stepU d is in [0, extent) for d between a and b.
+  const double inv = c.invStepU, t = double(tf), e = double(c.extent);
+  double a = -t * inv, b = (e - t) * inv;
+  if (a > b) {
+    const double x = a;
+    a = b;
+    b = x;
+  }
+  // Rounding: the conversions, the difference, the reciprocal and the
+  // product, each 2^-53 relative; below 2^-50 relative to (|t| + e) / |s|
+  // together. Plus one for the ends.
+  const double err = ((t < 0 ? -t : t) + e) * 0x1p-50 * (inv < 0 ? -inv : inv) * (1.0 + 0x1p-50) + 1.0;
+  a -= err;
+  b += err;
+  const int n = last - first;
+  if (b < 0.0 || a > double(n)) {
+    last = first - 1; // no ray of the span crosses in the leaf
+    return;
+  }
+  const int lo = a <= 0.0 ? 0 : int(a);           // floor(a)
+  const int hi = b >= double(n) ? n : int(b) + 1; // at least ceil(b)
+  last = first + hi;
+  first += lo;
 }
 
 // Voxel rows [first, last] along one axis whose centre lies in the closed
