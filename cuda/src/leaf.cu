@@ -47,20 +47,22 @@ template <int L>
 constexpr int leavesPerWarp() {
   return L == 32 ? 1 : 4;
 }
-// 4 warps a block (2 for L = 32); 8 blocks of 4 warps per SM cap registers
-// at 64.
+// 4 warps a block (2 for L = 32); 10 blocks of 4 warps per SM cap registers
+// at 48 (and fill the shared memory: 22 KB a block for L = 16).
 template <int L>
 constexpr int warpsPerBlock() {
   return L == 32 ? 2 : 4;
 }
 #ifndef HDT_CUDA_T3_MIN_BLOCKS
-#define HDT_CUDA_T3_MIN_BLOCKS 8
+#define HDT_CUDA_T3_MIN_BLOCKS 10
 #endif
 
-// Pairs a warp holds in shared memory at once: a batch usually holds all the
-// pairs of the warp's leaves (1.8 a leaf on CAD parts, 2-4 on scans).
+// Pairs a warp holds in shared memory at once (the warp's leaves have 7 on
+// average on cycloidal-drive at 8192^3). Bench, cycloidal-drive 8192^3 solid
+// T3: 16 pairs and 8 blocks an SM 9.58 ms, 8 pairs 9.67 ms, 8 pairs and 10
+// blocks an SM 9.32 ms (the dragon: 2.50, 2.53, 2.47 ms).
 #ifndef HDT_CUDA_T3_BATCH
-#define HDT_CUDA_T3_BATCH 16
+#define HDT_CUDA_T3_BATCH 8
 #endif
 template <int L>
 constexpr int batchPairs() {
