@@ -189,18 +189,26 @@ INSTANTIATE_TEST_SUITE_P(Sizes, RowClippingScale,
 // pointsBeforeCrossing must count exactly.
 class RaySpanScale : public ::testing::TestWithParam<int64_t> {};
 
+// Triangle i of a ray test at this size: vertices on voxel planes, on
+// half-voxels or anywhere in turn, some axis-aligned, some with an edge
+// along z.
+LatticeTriangle rayTestTriangle(std::mt19937_64& rng, int64_t spread, int i) {
+  const int snap = i % 3 == 0 ? 7 : (i % 3 == 1 ? 8 : 0);
+  const int64_t centre = int64_t(rng() % uint64_t(kMaxLattice - 2 * spread)) + spread;
+  LatticeTriangle t;
+  for (int v = 0; v < 3; ++v)
+    for (int k = 0; k < 3; ++k) t.v[v][k] = coord(rng, centre, spread, snap);
+  if (i % 5 == 2) t.v[1][i % 3] = t.v[2][i % 3] = t.v[0][i % 3]; // axis-aligned plane
+  if (i % 11 == 4) { t.v[2][0] = t.v[1][0]; t.v[2][1] = t.v[1][1]; } // an edge along z
+  return t;
+}
+
 TEST_P(RaySpanScale, SpanEqualsPerRayHitTest) {
   const int64_t spread = GetParam();
   std::mt19937_64 rng(uint64_t(spread) * 17 + 3);
   int hits = 0, inLeaf = 0;
   for (int i = 0; i < 200; ++i) {
-    const int snap = i % 3 == 0 ? 7 : (i % 3 == 1 ? 8 : 0);
-    const int64_t centre = int64_t(rng() % uint64_t(kMaxLattice - 2 * spread)) + spread;
-    LatticeTriangle t;
-    for (int v = 0; v < 3; ++v)
-      for (int k = 0; k < 3; ++k) t.v[v][k] = coord(rng, centre, spread, snap);
-    if (i % 5 == 2) t.v[1][i % 3] = t.v[2][i % 3] = t.v[0][i % 3]; // axis-aligned plane
-    if (i % 11 == 4) { t.v[2][0] = t.v[1][0]; t.v[2][1] = t.v[1][1]; } // an edge along z
+    const LatticeTriangle t = rayTestTriangle(rng, spread, i);
     for (int axis = 0; axis < 3; ++axis) {
       const int U = rayAxisU(axis), W = rayAxisW(axis);
       int64_t lo[3], hi[3];
@@ -276,12 +284,7 @@ TEST_P(RaySpanScale, NarrowedSpanKeepsEveryCrossingInTheLeaf) {
   std::mt19937_64 rng(uint64_t(spread) * 31 + 5);
   uint64_t spans = 0, kept = 0, crossings = 0, keptLines = 0, all = 0;
   for (int i = 0; i < 40; ++i) {
-    const int snap = i % 3 == 0 ? 7 : (i % 3 == 1 ? 8 : 0);
-    const int64_t centre = int64_t(rng() % uint64_t(kMaxLattice - 2 * spread)) + spread;
-    LatticeTriangle t;
-    for (int v = 0; v < 3; ++v)
-      for (int k = 0; k < 3; ++k) t.v[v][k] = coord(rng, centre, spread, snap);
-    if (i % 5 == 2) t.v[1][i % 3] = t.v[2][i % 3] = t.v[0][i % 3]; // axis-aligned plane
+    const LatticeTriangle t = rayTestTriangle(rng, spread, i);
     for (int axis = 0; axis < 3; ++axis) {
       const int U = rayAxisU(axis), W = rayAxisW(axis);
       int64_t lo[3], hi[3];

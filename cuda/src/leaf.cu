@@ -94,7 +94,8 @@ struct SurfacePairs { // leaf-relative, in each pair's row-axis frame
   uint32_t setup[B];                    // table index of the pair's triangle
   uint64_t slice[B], height[B];         // table entries of the leaf's first slice and row height
   int32_t baseX[B], baseY[B];           // the triangle box's first x and y
-  int8_t leaf[B], axis[B], x0[B], x1[B], y0[B], y1[B], z0[B], nz[B];
+  int8_t leaf[B]; // the pair's leaf among the warp's (0 .. leavesPerWarp - 1)
+  int8_t axis[B], x0[B], x1[B], y0[B], y1[B], z0[B], nz[B];
   int8_t sliceY0[B][L]; // rows of each slice that can meet the triangle
   uint8_t sliceRows[B][L];
   int8_t sliceX0[B][L], sliceX1[B][L];   // x span of each slice
