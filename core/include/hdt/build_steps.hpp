@@ -567,12 +567,19 @@ HDT_HD void makeLeafCrossings(const LatticeTriangle& t, int axis, const int64_t 
   makeLeafCrossings(r, axis, v0, L, c);
 }
 
+// t of the ray at leaf-relative (du, dw) of narrow LeafCrossings, in
+// wrapping 64-bit arithmetic: exact for every ray that hits the triangle
+// (|t| < 2^62, so the low 64 bits are t in two's complement).
+HDT_HD int64_t narrowCrossingT(const LeafCrossings& c, int du, int dw) {
+  return int64_t(uint64_t(c.t00) + uint64_t(c.stepU) * uint64_t(int64_t(du)) +
+                 uint64_t(c.stepW) * uint64_t(int64_t(dw)));
+}
+
 // crossingInLeaf for the ray at leaf-relative (du, dw) of a LeafCrossings.
 HDT_HD bool crossingInLeaf(const LeafCrossings& c, int du, int dw, int L, int& before) {
   uint64_t tt;
-  if (c.narrow) { // |t| < 2^62: the low 64 bits are t (two's complement)
-    const int64_t t = int64_t(uint64_t(c.t00) + uint64_t(c.stepU) * uint64_t(int64_t(du)) +
-                              uint64_t(c.stepW) * uint64_t(int64_t(dw)));
+  if (c.narrow) {
+    const int64_t t = narrowCrossingT(c, du, dw);
     if (t < 0 || uint64_t(t) >= c.extent) return false;
     tt = uint64_t(t);
   } else {
@@ -606,9 +613,7 @@ HDT_HD bool crossingInLeaf(const LeafCrossings& c, int du, int dw, int L, int& b
 // narrow LeafCrossings are narrowed (t of every hit ray fits 64 bits).
 HDT_HD void narrowToLeafCrossings(const LeafCrossings& c, int dw, int& first, int& last) {
   if (!c.narrow || first > last) return;
-  // t of ray `first`, a hit ray: exact in wrapping 64-bit arithmetic.
-  const int64_t tf = int64_t(uint64_t(c.t00) + uint64_t(c.stepU) * uint64_t(int64_t(first)) +
-                             uint64_t(c.stepW) * uint64_t(int64_t(dw)));
+  const int64_t tf = narrowCrossingT(c, first, dw); // ray `first` hits the triangle: exact
   if (c.stepU == 0) { // the same t for the whole line
     if (tf < 0 || uint64_t(tf) >= c.extent) last = first - 1;
     return;
@@ -735,6 +740,5 @@ HDT_HD uint32_t planeBits16(uint32_t word, int plane) {
 HDT_HD uint32_t withInsidePlane(uint32_t word, uint32_t inside) {
   return (word & 0xAAAAAAAAu) | (spreadBits16(inside) & ~(word >> 1) & 0x55555555u);
 }
-
 
 } // namespace hdt
