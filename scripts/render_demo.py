@@ -14,7 +14,8 @@ voxels and the coarse cells of the tree.
 The plugin is loaded from --plugin, else from PV_PLUGIN_PATH (ParaView loads
 it at start-up), else from build*/lib/paraview-*/plugins/HDTVoxelizer/ under
 the repository. Debian's ParaView renders through X: on a machine without a
-display run it under `xvfb-run -a`.
+display run it under `xvfb-run -a -s "-screen 0 1280x1024x24 -noreset"`
+(-noreset: see scripts/test.sh).
 """
 import argparse
 import glob

@@ -14,8 +14,12 @@ bash "$root/scripts/build.sh" "$@"
 cd "$build"
 ctest_args=(--output-on-failure -j2 --no-tests=error)
 # Rendering tests need an X display; on a headless machine give the whole run one.
+# -noreset: by default Xvfb resets whenever its last client disconnects and
+# refuses the clients that connect meanwhile ("bad X server connection"); with
+# pvpython processes coming and going that race failed pvbatch.render_demo in
+# CI, and two loops of xdpyinfo lose 52 of 600 connections without it, 0 with.
 if [[ -z ${DISPLAY:-} ]] && command -v xvfb-run >/dev/null; then
-  xvfb-run --auto-servernum --server-args="-screen 0 1280x1024x24" ctest "${ctest_args[@]}"
+  xvfb-run --auto-servernum --server-args="-screen 0 1280x1024x24 -noreset" ctest "${ctest_args[@]}"
 else
   ctest "${ctest_args[@]}"
 fi
