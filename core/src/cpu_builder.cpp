@@ -280,7 +280,7 @@ private:
         }
         const int dw = int(w - v0[W]);
         int f = int(uf - v0[U]), l = int(ul - v0[U]);
-        if (f <= l) narrowToLeafCrossings(crossings, dw, f, l);
+        narrowToLeafCrossings(crossings, dw, f, l); // nothing to do for an empty span
         for (int du = f; du <= l; ++du) {
           int before;
           if (crossingInLeaf(crossings, du, dw, L_, before)) fn(du + L_ * dw, before);
