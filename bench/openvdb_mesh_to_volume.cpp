@@ -20,6 +20,7 @@
 // 0 up to float rounding); it shows the two grids line up. Not for timing.
 #include "hdt/builder.hpp"
 #include "hdt/error.hpp"
+#include "hdt/memory_info.hpp"
 #include "hdt/mesh.hpp"
 #include "hdt/mesh_io.hpp"
 
@@ -27,8 +28,6 @@
 #include <openvdb/tools/MeshToVolume.h>
 #include <tbb/global_control.h>
 #include <tbb/info.h>
-
-#include <sys/resource.h>
 
 #include <chrono>
 #include <cmath>
@@ -42,12 +41,6 @@
 #include <vector>
 
 namespace {
-
-uint64_t peakResidentBytes() {
-  struct rusage usage {};
-  if (getrusage(RUSAGE_SELF, &usage) != 0) return 0;
-  return uint64_t(usage.ru_maxrss) * 1024; // Linux: kilobytes
-}
 
 std::string jsonString(const std::string& s) {
   std::string out = "\"";
@@ -195,7 +188,7 @@ int main(int argc, char** argv) {
     openvdb::FloatGrid::Ptr grid =
         openvdb::tools::meshToUnsignedDistanceField<openvdb::FloatGrid>(*local, points, triangles, quads, float(band));
     const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-    const uint64_t peak = peakResidentBytes(); // before the optional check allocates more
+    const uint64_t peak = hdt::peakResidentBytes(); // before the optional check allocates more
 
     std::ostringstream out;
     out.precision(17);

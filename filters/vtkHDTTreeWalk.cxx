@@ -66,8 +66,8 @@ Tally leafTally(const uint32_t* words, int L)
   t.voxels = uint64_t(L) * L * L;
   for (uint32_t i = 0; i < hdt::leafWordCount(L); ++i)
   {
-    t.surface += uint64_t(__builtin_popcount((words[i] >> 1) & 0x55555555u));
-    t.inside += uint64_t(__builtin_popcount(words[i] & 0x55555555u));
+    t.surface += hdt::planeCount(words[i], hdt::kSurfacePlane);
+    t.inside += hdt::planeCount(words[i], hdt::kInsidePlane);
   }
   return t;
 }
@@ -219,7 +219,7 @@ void prepareContext(const hdt::Volume& v, int depthCut, bool mask, Context& ctx)
               {
                 any |= words[i];
               }
-              ctx.elementSurface[e] = (any & 0xAAAAAAAAu) ? 1 : 0;
+              ctx.elementSurface[e] = (any & hdt::kSurfacePlaneBits) ? 1 : 0;
               break;
             }
             case hdt::ElementState::Branch:

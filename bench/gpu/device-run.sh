@@ -12,6 +12,8 @@
 #     tests     all CUDA tests (hdt_cuda_tests)
 #     sanitize  compute-sanitizer memcheck on every test, initcheck and synccheck on a reduced set
 #     racecheck racecheck on the generated shapes, dense clusters, driver tests and meshes at 1024
+#     vtktests  the VTK filter's tests (hdt_vtk_tests, CUDA path included) from the carried
+#               tarball .devdeps/vtk-tests.tar.xz (bin/ and lib/: see bench/gpu/README.md)
 #     bench     hdt_gpu_bench over all meshes, 1K..32K, surface and solid,
 #               and the >= 1M-triangle 32768^3 run
 #     profile   ncu on one 8192^3 build (profile2: a second mesh; sass: instruction mix)
@@ -111,6 +113,21 @@ step_racecheck() { # shared-memory hazards; every shared access tracked (~100x s
   timeout 540 compute-sanitizer --tool racecheck --racecheck-report hazard --error-exitcode 9 "$TESTS" \
     --gtest_filter='*CudaShapes*:*CudaDense*:CudaDriver.*:*CudaSharedMeshes*N1024*' > "$OUT/racecheck.log" 2>&1
   say "racecheck: rc=$? in $((SECONDS - t0)) s: $(grep -E 'SUMMARY|^\[  (PASSED|FAILED) ' "$OUT/racecheck.log" | tr '\n' ' ')"
+}
+
+step_vtktests() { # hdt_vtk_tests built on the development machine, with its shared libraries
+  local t0=$SECONDS tarball=${VTK_TESTS_TARBALL:-$DEPS/vtk-tests.tar.xz} dir=/tmp/hdt-vtk-tests
+  if [ ! -f "$tarball" ]; then say "vtktests: no $tarball (see bench/gpu/README.md)"; return 0; fi
+  rm -rf "$dir" && mkdir -p "$dir" && tar -xJf "$tarball" -C "$dir" || { say "vtktests: cannot unpack $tarball"; return 0; }
+  # The tarball's lib/ first: the binary's own closure, without libc, libm, libstdc++ and libgcc
+  # (the machine's own). libcuda comes from the driver, as for every other step.
+  if LD_LIBRARY_PATH=$dir/lib:$LD_LIBRARY_PATH ldd "$dir/bin/hdt_vtk_tests" | grep -q 'not found'; then
+    LD_LIBRARY_PATH=$dir/lib:$LD_LIBRARY_PATH ldd "$dir/bin/hdt_vtk_tests" | grep 'not found' | tee -a "$SUMMARY"
+  fi
+  LD_LIBRARY_PATH=$dir/lib:$LD_LIBRARY_PATH timeout "${VTK_TESTS_TIMEOUT:-300}" "$dir/bin/hdt_vtk_tests" \
+    --gtest_color=no > "$OUT/vtktests.log" 2>&1
+  say "vtktests: rc=$? in $((SECONDS - t0)) s: $(grep -E '^\[  (PASSED|FAILED|SKIPPED) ' "$OUT/vtktests.log" | tr '\n' ' ')"
+  grep -E '^\[  FAILED  \]|Failure' "$OUT/vtktests.log" | head -20 | tee -a "$SUMMARY"
 }
 
 step_bench() { # BENCH_MESHES (default all), BENCH_RES, BENCH_MODES, BENCH_RUNS, BENCH_TIMEOUT, BENCH_TAG; BIG=1 adds the 1.6M-triangle run

@@ -8,7 +8,8 @@
 
 #include "hdt/build_steps.hpp"
 #include "hdt/error.hpp"
-#include "memory_info.hpp"
+#include "hdt/memory_info.hpp"
+#include "hdt/root_ranges.hpp"
 
 #include <tbb/combinable.h>
 #include <tbb/parallel_for.h>
@@ -18,6 +19,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <memory>
 #include <thread>
 
 namespace hdt {
@@ -45,31 +47,16 @@ std::vector<Pair> gatherSorted(tbb::combinable<std::vector<Pair>>& local) {
   return all;
 }
 
-// An element that no triangle touches; classification makes it Full or Empty.
-struct UniformElement {
-  uint64_t index; // global element index
-  uint64_t coord; // packed cell coordinates at its level
-  int level;
-};
+} // namespace
 
-// A leaf on its "leaf line" along one ray axis: key = (w, u, along) leaf coords.
-struct LineEntry {
-  uint64_t key;
-  uint32_t leaf;
-  bool operator<(const LineEntry& o) const { return key < o.key; }
-};
-inline uint64_t lineKey(uint64_t u, uint64_t w, uint64_t along) {
-  return (((w << 21) | u) << 21) | along;
-}
+// One range of root cells [first, end) (the whole grid for buildCpu). Element
+// payloads are range-local (root_ranges.hpp); joinRanges renumbers them.
+struct CpuRangeBuild::Impl {
+  Impl(const PreparedMesh& mesh, const BuildOptions& options, RootRange cells)
+      : mesh_(mesh), options_(options), g_(mesh.grid), L_(mesh.grid.leafSize), rowWords_(rowWordsFor(L_)),
+        axes_(classifiedAxes(mesh.closed)), cells_(cells) {}
 
-class CpuBuild {
-public:
-  CpuBuild(const PreparedMesh& mesh, const BuildOptions& options)
-      : mesh_(mesh), options_(options), g_(mesh.grid), L_(mesh.grid.leafSize),
-        rowWords_((mesh.grid.leafSize * mesh.grid.leafSize + 31) / 32) {}
-
-  Volume run(bool surfaceOnly) {
-    const auto t0 = Clock::now();
+  const RangeBoundary& buildTree() {
     report(0.0, "mapping");
     auto t = Clock::now();
     std::vector<Pair> pairs = mapTrianglesToRootCells();
@@ -77,22 +64,41 @@ public:
 
     report(0.1, "branching");
     t = Clock::now();
-    const std::vector<Pair> leafPairs = branch(std::move(pairs));
+    leafPairs_ = branch(std::move(pairs));
     times_.branching = msSince(t);
 
     report(0.4, "leaf processing");
     t = Clock::now();
-    processLeaves(leafPairs);
+    processLeaves();
     times_.leaf = msSince(t);
 
     report(0.7, "classification");
     t = Clock::now();
-    if (!surfaceOnly) classify(leafPairs);
+    if (!mesh_.surfaceOnly) {
+      for (int a = 0; a < axes_; ++a) {
+        axisParity(a, &boundary_.axis[a]);
+        report(0.7 + 0.1 * (a + 1) / axes_, "classification");
+      }
+    }
     times_.classify = msSince(t);
-    times_.total = msSince(t0);
-    report(1.0, "done");
-    return finish(surfaceOnly);
+    return boundary_;
   }
+
+  RangeTree finish(const RangeBoundary* beyond) {
+    const auto t = Clock::now();
+    if (!mesh_.surfaceOnly) classify(beyond);
+    times_.classify += msSince(t);
+    times_.total = times_.mapping + times_.branching + times_.leaf + times_.classify;
+    report(1.0, "done");
+    RangeTree out;
+    out.cells = cells_;
+    out.levels = std::move(levels_);
+    out.leafCoord = std::move(leafCoords_);
+    out.leafWords = std::move(leafWords_);
+    return out;
+  }
+
+  PhaseTimes times_;
 
 private:
   void report(double fraction, const char* phase) {
@@ -103,34 +109,28 @@ private:
 
   // ---- T1: triangles -> root cells ------------------------------------------
   std::vector<Pair> mapTrianglesToRootCells() {
-    const int64_t R = g_.rootGrid;
     const int64_t cellSize = int64_t(g_.rootCellVoxels()) * kLatticePerVoxel;
     tbb::combinable<std::vector<Pair>> local;
     tbb::parallel_for(tbb::blocked_range<size_t>(0, mesh_.triangles.size(), 1024),
                       [&](const tbb::blocked_range<size_t>& r) {
                         std::vector<Pair>& out = local.local();
-                        for (size_t ti = r.begin(); ti != r.end(); ++ti) {
-                          const LatticeTriangle& tri = mesh_.triangles[ti];
-                          int64_t lo[3], hi[3], first[3], last[3];
-                          triangleBounds(tri, lo, hi);
-                          for (int a = 0; a < 3; ++a) cellRange(lo[a], hi[a], cellSize, R, first[a], last[a]);
-                          for (int64_t z = first[2]; z <= last[2]; ++z)
-                            for (int64_t y = first[1]; y <= last[1]; ++y)
-                              for (int64_t x = first[0]; x <= last[0]; ++x)
-                                if (triangleOverlapsElement(tri, packCoord(x, y, z), cellSize))
-                                  out.push_back(makePair(uint64_t(x + R * (y + R * z)), uint32_t(ti)));
-                        }
+                        for (size_t ti = r.begin(); ti != r.end(); ++ti)
+                          forEachRootCell(mesh_.triangles[ti], cellSize, g_.rootGrid, cells_.first, cells_.end,
+                                          [&](uint32_t cell) { out.push_back(makePair(cell, uint32_t(ti))); });
                       });
     return gatherSorted(local);
   }
 
   // ---- T2: level-order branching -------------------------------------------
-  // Takes the sorted (root index, triangle) pairs; appends every level to the
-  // element array and returns the sorted (leaf index, triangle) pairs.
+  // Takes the sorted (range-local root index, triangle) pairs; appends every
+  // level and returns the sorted (leaf index, triangle) pairs.
   std::vector<Pair> branch(std::vector<Pair> pairs) {
     const uint64_t R = uint64_t(g_.rootGrid);
-    std::vector<uint64_t> coords(R * R * R);
-    for (uint64_t i = 0; i < coords.size(); ++i) coords[i] = packCoord(i % R, (i / R) % R, i / (R * R));
+    std::vector<uint64_t> coords(cells_.size());
+    for (uint64_t i = 0; i < coords.size(); ++i) {
+      const uint64_t c = cells_.first + i;
+      coords[i] = packCoord(uint32_t(c % R), uint32_t((c / R) % R), uint32_t(c / (R * R)));
+    }
     for (int level = 0;; ++level) {
       // The touched elements of this level, in order; pairRank maps a pair to
       // the position of its element among them.
@@ -141,7 +141,7 @@ private:
         pairRank[i] = uint32_t(touched.size() - 1);
       }
       const bool leafLevel = level == g_.height;
-      appendLevel(level, coords, touched, leafLevel);
+      appendLevel(level, coords.size(), touched, leafLevel);
       if (leafLevel) {
         leafCoords_.resize(touched.size());
         for (size_t i = 0; i < touched.size(); ++i) leafCoords_[i] = coords[touched[i]];
@@ -172,35 +172,23 @@ private:
     }
   }
 
-  void appendLevel(int level, const std::vector<uint64_t>& coords, const std::vector<uint32_t>& touched,
-                   bool leafLevel) {
-    const uint64_t start = elements_.size();
-    const uint64_t next = start + coords.size();
-    if (next + 8 * uint64_t(touched.size()) > kMaxElementPayload) {
-      throw Error(ErrorKind::OutOfResources, "the tree would exceed 2^30 elements at level " +
-                                                 std::to_string(level + 1) + "; lower the resolution");
-    }
-    levelStart_.push_back(start);
-    elements_.resize(next, makeElement(ElementState::Empty, 0));
-    size_t r = 0;
-    for (uint64_t i = 0; i < coords.size(); ++i) {
-      if (r < touched.size() && touched[r] == i) {
-        elements_[start + i] = leafLevel ? makeElement(ElementState::Boundary, uint32_t(r))
-                                         : makeElement(ElementState::Branch, uint32_t(next + 8 * r));
-        ++r;
-      } else {
-        uniform_.push_back(UniformElement{start + i, coords[i], level});
-      }
-    }
+  // Branch payloads: the first child's index within the next level.
+  void appendLevel(int level, uint64_t count, const std::vector<uint32_t>& touched, bool leafLevel) {
+    elementsSoFar_ += count; // the range's share of the limit, before allocating (joinRanges checks the whole)
+    checkElementLimit(elementsSoFar_, touched.size(), level);
+    std::vector<ElementWord> words(count, makeElement(ElementState::Empty, 0));
+    for (size_t r = 0; r < touched.size(); ++r)
+      words[touched[r]] = leafLevel ? makeElement(ElementState::Boundary, uint32_t(r))
+                                    : makeElement(ElementState::Branch, uint32_t(8 * r));
+    levels_.push_back(std::move(words));
   }
 
   // ---- T3: leaf grids --------------------------------------------------------
-  void processLeaves(const std::vector<Pair>& leafPairs) {
+  void processLeaves() {
     const size_t leaves = leafCoords_.size();
-    const uint32_t wordsPerLeaf = leafWordCount(L_);
-    leafWords_.assign(leaves * wordsPerLeaf, 0u);
+    leafWords_.assign(leaves * leafWordCount(L_), 0u);
     leafPairStart_.assign(leaves + 1, 0);
-    for (Pair p : leafPairs) ++leafPairStart_[pairElement(p) + 1];
+    for (Pair p : leafPairs_) ++leafPairStart_[pairElement(p) + 1];
     for (size_t i = 0; i < leaves; ++i) leafPairStart_[i + 1] += leafPairStart_[i];
 
     tbb::parallel_for(size_t(0), leaves, [&](size_t leaf) {
@@ -210,7 +198,7 @@ private:
       for (uint64_t p = leafPairStart_[leaf]; p < leafPairStart_[leaf + 1]; ++p) {
         // Rows along the triangle's own row axis (rowAxisFor), in the frame
         // where that axis is "x"; the bits land in the leaf's x rows.
-        const LatticeTriangle& original = mesh_.triangles[pairTriangle(leafPairs[p])];
+        const LatticeTriangle& original = mesh_.triangles[pairTriangle(leafPairs_[p])];
         const int axis = rowAxisFor(original);
         const LatticeTriangle tri = permuteToRowAxis(original, axis);
         int64_t o[3], first[3], last[3];
@@ -234,8 +222,8 @@ private:
           }
         }
       }
-      uint32_t* words = leafWords_.data() + leaf * wordsPerLeaf;
-      for (int r = 0; r < L_ * L_; ++r) orRowIntoLeaf(words, L_, r, rows[r], 1);
+      uint32_t* words = leafWordsAt(leafWords_.data(), leaf, L_);
+      for (int r = 0; r < L_ * L_; ++r) orRowIntoLeaf(words, L_, r, rows[r], kSurfacePlane);
     });
   }
 
@@ -243,189 +231,95 @@ private:
     for (int a = 0; a < 3; ++a) v0[a] = int64_t(unpackCoord(leafCoords_[leaf], a)) * L_;
   }
 
-  // ---- classification ------------------------------------------------------
-  // Parity of crossings along +axis, from every voxel centre to the grid's end:
-  //   pass 1  per leaf and row, the parity of crossings inside the leaf;
-  //   lines   per line of leaves along the axis, a suffix XOR gives the parity
-  //           of everything beyond each leaf (the regions between leaves hold
-  //           no triangle, so they add nothing);
-  //   pass 2  per leaf voxel: crossings ahead of it in its leaf (kept by
-  //           pass 1 for x, enumerated again for y and z) + beyond.
-  // Closed meshes need one axis (all agree); open ones take the majority of 3.
-  struct AxisParity {
-    std::vector<uint32_t> exit;     // per leaf, rowWords_: parity beyond the leaf
-    std::vector<uint32_t> entry;    // per leaf, rowWords_: parity from the leaf's start
-    std::vector<LineEntry> line;    // leaves sorted by (w, u, along)
-  };
-
+  // ---- classification (docs/design.md, "Classification") --------------------
+  // pass 1 per leaf and axis (crossings inside the leaf), the lines' suffix
+  // parity (lineParity), pass 2 per leaf voxel, the uniform elements.
   template <class RowFn>
-  void forEachCrossing(size_t leaf, const std::vector<Pair>& leafPairs, int axis, RowFn&& fn) const {
-    const int U = rayAxisU(axis), W = rayAxisW(axis);
+  void forEachCrossing(size_t leaf, int axis, RowFn&& fn) const {
     int64_t v0[3];
     leafOrigin(leaf, v0);
-    for (uint64_t p = leafPairStart_[leaf]; p < leafPairStart_[leaf + 1]; ++p) {
-      const LatticeTriangle& tri = mesh_.triangles[pairTriangle(leafPairs[p])];
-      int64_t lo[3], hi[3], u0, u1, w0, w1;
-      triangleBounds(tri, lo, hi);
-      centreRange(lo[U], hi[U], v0[U], L_, u0, u1);
-      centreRange(lo[W], hi[W], v0[W], L_, w0, w1);
-      LeafCrossings crossings{};
-      bool made = false;
-      for (int64_t w = w0; w <= w1; ++w) {
-        int64_t uf = u0, ul = u1;
-        raySpanAtW(tri, axis, w, uf, ul);
-        if (uf <= ul && !made) {
-          makeLeafCrossings(tri, axis, v0, L_, crossings);
-          made = true;
-        }
-        const int dw = int(w - v0[W]);
-        int f = int(uf - v0[U]), l = int(ul - v0[U]);
-        narrowToLeafCrossings(crossings, dw, f, l); // nothing to do for an empty span
-        for (int du = f; du <= l; ++du) {
-          int before;
-          if (crossingInLeaf(crossings, du, dw, L_, before)) fn(du + L_ * dw, before);
-        }
-      }
-    }
+    for (uint64_t p = leafPairStart_[leaf]; p < leafPairStart_[leaf + 1]; ++p)
+      forEachPairCrossing(mesh_.triangles[pairTriangle(leafPairs_[p])], axis, v0, L_, fn);
   }
 
-  // Pass 1 for one axis. Along x (axis 0) it also keeps, per leaf row, the
-  // XOR of the "voxels before the crossing" masks in plane 0 of the leaf
-  // words (still zero after T3), so that pass 2 needs no geometry there.
-  AxisParity axisParity(int axis, const std::vector<Pair>& leafPairs) {
+  // Pass 1 for one axis, then its lines: exit parity per leaf row. Along x
+  // (axis 0) it also keeps, per leaf row, the XOR of the "voxels before the
+  // crossing" masks in plane 0 of the leaf words (still zero after T3), so
+  // that pass 2 needs no geometry there.
+  void axisParity(int axis, LineParities* boundary) {
     const size_t leaves = leafCoords_.size();
-    const uint32_t wordsPerLeaf = leafWordCount(L_);
-    AxisParity ap;
-    std::vector<uint32_t> inside(leaves * rowWords_, 0u);
+    std::vector<uint32_t>& parity = exit_[axis];
+    parity.assign(leaves * rowWords_, 0u);
     tbb::parallel_for(size_t(0), leaves, [&](size_t leaf) {
-      uint32_t* bits = inside.data() + leaf * rowWords_;
+      uint32_t* bits = parity.data() + leaf * rowWords_;
       if (axis != 0) {
-        forEachCrossing(leaf, leafPairs, axis, [&](int row, int) { bits[row >> 5] ^= 1u << (row & 31); });
+        forEachCrossing(leaf, axis, [&](int row, int) { bits[row >> 5] ^= 1u << (row & 31); });
         return;
       }
       uint32_t masks[32 * 32] = {};
-      forEachCrossing(leaf, leafPairs, axis, [&](int row, int before) {
+      forEachCrossing(leaf, axis, [&](int row, int before) {
         bits[row >> 5] ^= 1u << (row & 31);
         masks[row] ^= maskBeforeCrossing(before);
       });
-      uint32_t* words = leafWords_.data() + leaf * wordsPerLeaf;
+      uint32_t* words = leafWordsAt(leafWords_.data(), leaf, L_);
       for (int r = 0; r < L_ * L_; ++r)
-        if (masks[r]) orRowIntoLeaf(words, L_, r, masks[r], 0);
+        if (masks[r]) orRowIntoLeaf(words, L_, r, masks[r], kInsidePlane);
     });
-    const int U = rayAxisU(axis), W = rayAxisW(axis);
-    ap.line.resize(leaves);
-    for (size_t leaf = 0; leaf < leaves; ++leaf) {
-      const uint64_t c = leafCoords_[leaf];
-      ap.line[leaf] = LineEntry{lineKey(unpackCoord(c, U), unpackCoord(c, W), unpackCoord(c, axis)), uint32_t(leaf)};
-    }
-    tbb::parallel_sort(ap.line.begin(), ap.line.end());
-    ap.exit.assign(leaves * rowWords_, 0u);
-    ap.entry.assign(leaves * rowWords_, 0u);
-    std::vector<uint32_t> running(rowWords_, 0u);
-    for (size_t i = leaves; i-- > 0;) {
-      const uint32_t leaf = ap.line[i].leaf;
-      if (i + 1 == leaves || (ap.line[i].key >> 21) != (ap.line[i + 1].key >> 21))
-        std::fill(running.begin(), running.end(), 0u);
-      for (int k = 0; k < rowWords_; ++k) {
-        ap.exit[leaf * rowWords_ + k] = running[k];
-        running[k] ^= inside[leaf * rowWords_ + k];
-        ap.entry[leaf * rowWords_ + k] = running[k];
-      }
-    }
-    return ap;
-  }
-
-  // Parity along `axis` at the lowest-corner voxel centre of a uniform
-  // element: the entry parity (row 0) of the first leaf beyond it on its line.
-  bool uniformParity(const AxisParity& ap, int axis, const UniformElement& e) const {
-    const uint64_t leavesPerElement = uint64_t(g_.elementVoxels(e.level)) / uint64_t(L_);
-    const uint64_t u = unpackCoord(e.coord, rayAxisU(axis)) * leavesPerElement;
-    const uint64_t w = unpackCoord(e.coord, rayAxisW(axis)) * leavesPerElement;
-    const uint64_t along = (unpackCoord(e.coord, axis) + 1) * leavesPerElement;
-    const uint64_t key = lineKey(u, w, along);
-    auto it = std::lower_bound(ap.line.begin(), ap.line.end(), LineEntry{key, 0});
-    if (it == ap.line.end() || (it->key >> 21) != (key >> 21)) return false;
-    return ap.entry[size_t(it->leaf) * rowWords_] & 1u;
+    lines_[axis] = lineParity(g_, leafCoords_, axis, parity.data(), boundary);
   }
 
   // Per row (u, w) of a leaf along y or z (axis 1 or 2): bit i = the ray from
   // voxel i's centre crosses the surface an odd number of times. (Along x
   // the in-leaf part is kept by pass 1 in plane 0: insideWords.)
-  void insideRows(size_t leaf, const std::vector<Pair>& leafPairs, const AxisParity& ap, int axis,
-                  uint32_t* rows) const {
-    for (int r = 0; r < L_ * L_; ++r)
-      rows[r] = (ap.exit[leaf * rowWords_ + (r >> 5)] >> (r & 31)) & 1u ? fullRowMask(L_) : 0u;
-    forEachCrossing(leaf, leafPairs, axis, [&](int row, int before) { rows[row] ^= maskBeforeCrossing(before); });
+  void insideRows(size_t leaf, int axis, uint32_t* rows) const {
+    const uint32_t* exitBits = exit_[axis].data() + leaf * rowWords_;
+    for (int r = 0; r < L_ * L_; ++r) rows[r] = (exitBits[r >> 5] >> (r & 31)) & 1u ? fullRowMask(L_) : 0u;
+    forEachCrossing(leaf, axis, [&](int row, int before) { rows[row] ^= maskBeforeCrossing(before); });
   }
 
   // Pass 2 word by word (16 voxels a word), without unpacking rows: the x
   // axis's in-leaf masks are plane 0 already (pass 1), the exit parity is one
   // bit a row; inside := that, or for open meshes the majority with the y and
   // z answers given as x rows; then minus the surface voxels (plane 1).
-  void insideWords(size_t leaf, const AxisParity& ap, const uint32_t* yxRows, const uint32_t* zxRows,
-                   uint32_t* words) const {
-    const uint32_t* exitBits = ap.exit.data() + leaf * rowWords_;
+  void insideWords(size_t leaf, const uint32_t* yxRows, const uint32_t* zxRows, uint32_t* words) const {
+    const uint32_t* exitBits = exit_[0].data() + leaf * rowWords_;
     for (uint32_t i = 0; i < leafWordCount(L_); ++i) {
       const uint32_t old = words[i];
-      uint32_t inside = rowBitsToWordBits(exitBits, L_, int(i)) ^ planeBits16(old, 0);
-      if (yxRows) {
-        const uint32_t y = wordBitsFromRows(yxRows, L_, int(i)), z = wordBitsFromRows(zxRows, L_, int(i));
-        inside = (inside & y) | (inside & z) | (y & z);
-      }
+      uint32_t inside = rowBitsToWordBits(exitBits, L_, int(i)) ^ planeBits16(old, kInsidePlane);
+      if (yxRows)
+        inside = majorityOf3(inside, wordBitsFromRows(yxRows, L_, int(i)), wordBitsFromRows(zxRows, L_, int(i)));
       words[i] = withInsidePlane(old, inside);
     }
   }
 
-  void classify(const std::vector<Pair>& leafPairs) {
-    const int axes = mesh_.closed ? 1 : 3;
-    std::vector<AxisParity> parity;
-    for (int a = 0; a < axes; ++a) {
-      parity.push_back(axisParity(a, leafPairs));
-      report(0.7 + 0.1 * (a + 1) / axes, "classification");
-    }
-    const uint32_t wordsPerLeaf = leafWordCount(L_);
+  void classify(const RangeBoundary* beyond) {
+    if (beyond)
+      for (int a = 0; a < axes_; ++a) stitchLineParity(lines_[a], beyond->axis[a], exit_[a].data(), rowWords_);
     tbb::parallel_for(size_t(0), leafCoords_.size(), [&](size_t leaf) {
-      uint32_t* words = leafWords_.data() + leaf * wordsPerLeaf;
-      if (axes == 1) { // closed: the +x rows are the leaf's own rows
-        insideWords(leaf, parity[0], nullptr, nullptr, words);
+      uint32_t* words = leafWordsAt(leafWords_.data(), leaf, L_);
+      if (axes_ == 1) { // closed: the +x rows are the leaf's own rows
+        insideWords(leaf, nullptr, nullptr, words);
         return;
       }
       // Open: the y and z answers become x rows by bit-matrix transposes
       // (xRowsOfAxisMatrix), then the majority per word.
       uint32_t axisRows[32 * 32], xRows[2][32 * 32];
       for (int a = 1; a < 3; ++a) {
-        insideRows(leaf, leafPairs, parity[a], a, axisRows);
+        insideRows(leaf, a, axisRows);
         for (int i = 0; i < L_; ++i) {
           if (L_ == 8) xRowsOfAxisMatrix<8>(a, i, axisRows, xRows[a - 1]);
           else if (L_ == 16) xRowsOfAxisMatrix<16>(a, i, axisRows, xRows[a - 1]);
           else xRowsOfAxisMatrix<32>(a, i, axisRows, xRows[a - 1]);
         }
       }
-      insideWords(leaf, parity[0], xRows[0], xRows[1], words);
+      insideWords(leaf, xRows[0], xRows[1], words);
     });
-    tbb::parallel_for(size_t(0), uniform_.size(), [&](size_t i) {
-      int votes = 0;
-      for (int a = 0; a < axes; ++a) votes += uniformParity(parity[a], a, uniform_[i]);
-      if (2 * votes > axes) elements_[uniform_[i].index] = makeElement(ElementState::Full, 0);
-    });
-  }
-
-  Volume finish(bool surfaceOnly) {
-    Volume v;
-    v.grid = g_;
-    v.surfaceOnly = surfaceOnly;
-    v.closedMesh = mesh_.closed;
-    v.elements = std::move(elements_);
-    levelStart_.push_back(v.elements.size());
-    v.levelStart = std::move(levelStart_);
-    v.leafWords = std::move(leafWords_);
-    computeStructureStatistics(v);
-    v.stats.triangles = mesh_.triangles.size();
-    v.stats.degenerateTriangles = mesh_.degenerateTriangles;
-    v.stats.time = times_;
-    v.stats.backend = "cpu";
-    v.stats.peakHostBytes = peakResidentBytes();
-    return v;
+    RangeTree view;
+    view.cells = cells_;
+    view.levels = std::move(levels_);
+    const RangeLines* lines[3] = {&lines_[0], &lines_[1], &lines_[2]};
+    classifyUniformElements(g_, view, axes_, lines, beyond);
+    levels_ = std::move(view.levels);
   }
 
   const PreparedMesh& mesh_;
@@ -433,14 +327,73 @@ private:
   const GridSpec& g_;
   const int L_;
   const int rowWords_; // 32-bit words for one bit per leaf row
-  std::vector<ElementWord> elements_;
-  std::vector<uint64_t> levelStart_;
-  std::vector<UniformElement> uniform_;
+  const int axes_;
+  const RootRange cells_;
+  uint64_t elementsSoFar_ = 0;
+  std::vector<std::vector<ElementWord>> levels_;
   std::vector<uint64_t> leafCoords_;
   std::vector<uint64_t> leafPairStart_;
+  std::vector<Pair> leafPairs_;
   std::vector<uint32_t> leafWords_;
-  PhaseTimes times_;
+  std::vector<uint32_t> exit_[3]; // per axis, leaves * rowWords: pass 1's parity, then the exit parity
+  RangeLines lines_[3];
+  RangeBoundary boundary_;
 };
+
+CpuRangeBuild::CpuRangeBuild(const PreparedMesh& mesh, const BuildOptions& options, RootRange cells)
+    : impl_(new Impl(mesh, options, cells)) {}
+CpuRangeBuild::~CpuRangeBuild() = default;
+const RangeBoundary& CpuRangeBuild::buildTree() { return impl_->buildTree(); }
+RangeTree CpuRangeBuild::finish(const RangeBoundary* beyond) { return impl_->finish(beyond); }
+const PhaseTimes& CpuRangeBuild::times() const { return impl_->times_; }
+
+namespace {
+
+Volume finishVolume(const PreparedMesh& mesh, Volume v, const PhaseTimes& times) {
+  v.surfaceOnly = mesh.surfaceOnly;
+  v.closedMesh = mesh.closed;
+  computeStructureStatistics(v);
+  v.stats.triangles = mesh.triangles.size();
+  v.stats.degenerateTriangles = mesh.degenerateTriangles;
+  v.stats.time = times;
+  v.stats.backend = "cpu";
+  v.stats.peakHostBytes = peakResidentBytes();
+  return v;
+}
+
+// The whole grid as one range: no boundary parities to exchange.
+Volume buildWholeGrid(const PreparedMesh& mesh, const BuildOptions& options) {
+  const auto t0 = Clock::now();
+  const uint64_t R = uint64_t(mesh.grid.rootGrid);
+  CpuRangeBuild build(mesh, options, RootRange{0, R * R * R});
+  build.buildTree();
+  std::vector<RangeTree> pieces;
+  pieces.push_back(build.finish(nullptr));
+  Volume v = joinRanges(mesh.grid, std::move(pieces));
+  PhaseTimes times = build.times();
+  times.total = msSince(t0);
+  return finishVolume(mesh, std::move(v), times);
+}
+
+int threadCount(const BuildOptions& options) {
+  return options.threads > 0 ? options.threads : int(std::max(1u, std::thread::hardware_concurrency()));
+}
+
+// Runs a build in an arena of the options' threads; bad_alloc as an Error.
+template <class Fn>
+Volume inArena(const PreparedMesh& mesh, const BuildOptions& options, Fn&& fn) {
+  const int threads = threadCount(options);
+  tbb::task_arena arena(threads);
+  Volume v;
+  try {
+    arena.execute([&] { v = fn(); });
+  } catch (const std::bad_alloc&) {
+    throw Error(ErrorKind::OutOfResources, "out of host memory while building at resolution " +
+                                               std::to_string(mesh.grid.resolution));
+  }
+  v.stats.threads = threads;
+  return v;
+}
 
 } // namespace
 
@@ -449,12 +402,7 @@ uint64_t estimateHostBytes(const PreparedMesh& mesh) {
   // 3A / L^2 leaf grids of L^3 / 4 bytes (closed boxes: faces count twice),
   // and every triangle touches at least one.
   double area = 0;
-  for (const LatticeTriangle& t : mesh.triangles) {
-    int64_t n[3];
-    triangleNormal(t, n);
-    area += 0.5 * std::sqrt(double(n[0]) * n[0] + double(n[1]) * n[1] + double(n[2]) * n[2]);
-  }
-  area /= double(kLatticePerVoxel) * double(kLatticePerVoxel);
+  for (const LatticeTriangle& t : mesh.triangles) area += triangleArea(t);
   const double L = mesh.grid.leafSize;
   const double leaves = 3.0 * area / (L * L) + double(mesh.triangles.size());
   const double perLeaf = L * L * L / 4.0 /*states*/ + 8.0 * 8 /*pairs*/ + 4.0 * 8 * 2 /*elements*/ + 16;
@@ -472,17 +420,35 @@ Volume buildCpu(const PreparedMesh& mesh, const BuildOptions& options) {
                     std::to_string(need >> 20) + " MiB of memory but only " + std::to_string(have >> 20) +
                     " MiB are available; lower the resolution");
   }
-  const int threads = options.threads > 0 ? options.threads : int(std::max(1u, std::thread::hardware_concurrency()));
-  tbb::task_arena arena(threads);
-  Volume v;
-  try {
-    arena.execute([&] { v = CpuBuild(mesh, options).run(mesh.surfaceOnly); });
-  } catch (const std::bad_alloc&) {
-    throw Error(ErrorKind::OutOfResources, "out of host memory while building at resolution " +
-                                               std::to_string(mesh.grid.resolution));
-  }
-  v.stats.threads = threads;
-  return v;
+  return inArena(mesh, options, [&] { return buildWholeGrid(mesh, options); });
+}
+
+Volume buildCpuRanges(const PreparedMesh& mesh, const BuildOptions& options, const std::vector<RootRange>& ranges) {
+  return inArena(mesh, options, [&] {
+    const auto t0 = Clock::now();
+    std::vector<std::unique_ptr<CpuRangeBuild>> builds;
+    std::vector<RangeBoundary> boundaries;
+    for (const RootRange& r : ranges) {
+      builds.emplace_back(new CpuRangeBuild(mesh, options, r));
+      boundaries.push_back(builds.back()->buildTree());
+    }
+    const std::vector<RangeBoundary> beyond =
+        parityBeyondRanges(boundaries, classifiedAxes(mesh.closed), rowWordsFor(mesh.grid.leafSize));
+    std::vector<RangeTree> pieces;
+    PhaseTimes times;
+    for (size_t i = 0; i < builds.size(); ++i) {
+      pieces.push_back(builds[i]->finish(&beyond[i]));
+      const PhaseTimes& t = builds[i]->times();
+      times.mapping += t.mapping;
+      times.branching += t.branching;
+      times.leaf += t.leaf;
+      times.classify += t.classify;
+      builds[i].reset();
+    }
+    Volume v = joinRanges(mesh.grid, std::move(pieces));
+    times.total = msSince(t0);
+    return finishVolume(mesh, std::move(v), times);
+  });
 }
 
 } // namespace hdt

@@ -304,16 +304,6 @@ TreeCounts checkElements(const std::vector<ElementWord>& elements, const std::ve
   return counts;
 }
 
-// Number of set bits in the even positions (one per 2-bit voxel state). Plain
-// arithmetic: without -mpopcnt, __builtin_popcount is a library call per word,
-// several times slower on a gigabyte of leaves.
-inline uint32_t countEvenBits(uint32_t w) {
-  uint32_t m = w & 0x55555555u;
-  m = (m & 0x33333333u) + ((m >> 2) & 0x33333333u);
-  m = (m + (m >> 4)) & 0x0F0F0F0Fu;
-  return (m * 0x01010101u) >> 24;
-}
-
 struct LeafCounts {
   uint64_t surface = 0, inside = 0, invalidWords = 0;
 };
@@ -325,9 +315,9 @@ LeafCounts checkLeaves(const std::vector<uint32_t>& words, int leafSize, bool su
       [&](const tbb::blocked_range<size_t>& r, LeafCounts c) {
         for (size_t i = r.begin(); i != r.end(); ++i) {
           const uint32_t w = words[i];
-          c.surface += countEvenBits(w >> 1);
-          c.inside += countEvenBits(w);
-          c.invalidWords += (w & (w >> 1) & 0x55555555u) != 0;
+          c.surface += planeCount(w, kSurfacePlane);
+          c.inside += planeCount(w, kInsidePlane);
+          c.invalidWords += invalidFields(w) != 0;
         }
         return c;
       },
@@ -339,7 +329,7 @@ LeafCounts checkLeaves(const std::vector<uint32_t>& words, int leafSize, bool su
       });
   if (c.invalidWords != 0) {
     const auto bad = std::find_if(words.begin(), words.end(),
-                                  [](uint32_t w) { return (w & (w >> 1) & 0x55555555u) != 0; });
+                                  [](uint32_t w) { return invalidFields(w) != 0; });
     const uint64_t word = uint64_t(bad - words.begin()), perLeaf = leafWordCount(leafSize);
     invalid("leaf data: leaf " + str(word / perLeaf) + " has a voxel in the invalid state 3 (word " +
             str(word % perLeaf) + ")");
@@ -909,6 +899,18 @@ Volume readVolume(Source& in) {
   checkStructure(v.stats, v, tree, checkLeaves(v.leafWords, g.leafSize, v.surfaceOnly));
   return v;
 }
+
+} // namespace
+
+void validateVolume(const Volume& v) {
+  try {
+    checkVolume(v);
+  } catch (const Invalid& e) {
+    throw Error(ErrorKind::BadInput, std::string("inconsistent HDT volume: ") + e.what());
+  }
+}
+
+namespace {
 
 Volume readNamed(Source& in, const std::string& name) {
   try {

@@ -1,4 +1,4 @@
-#include "memory_info.hpp"
+#include "hdt/memory_info.hpp"
 
 #include <sys/resource.h>
 

@@ -5,16 +5,6 @@
 
 
 namespace hdt {
-namespace {
-// Bit count without a library call: baseline x86-64 has no POPCNT
-// instruction, and GCC's fallback is a function call per word.
-inline uint32_t popcount32(uint32_t x) {
-  x = x - ((x >> 1) & 0x55555555u);
-  x = (x & 0x33333333u) + ((x >> 2) & 0x33333333u);
-  x = (x + (x >> 4)) & 0x0F0F0F0Fu;
-  return (x * 0x01010101u) >> 24;
-}
-} // namespace
 
 void computeStructureStatistics(Volume& v) {
   Statistics& s = v.stats;
@@ -33,8 +23,8 @@ void computeStructureStatistics(Volume& v) {
       [&](const tbb::blocked_range<size_t>& r, Counts c) {
         for (size_t i = r.begin(); i != r.end(); ++i) {
           const uint32_t w = v.leafWords[i];
-          c.surface += uint64_t(popcount32((w >> 1) & 0x55555555u));
-          c.inside += uint64_t(popcount32(w & 0x55555555u));
+          c.surface += planeCount(w, kSurfacePlane);
+          c.inside += planeCount(w, kInsidePlane);
         }
         return c;
       },

@@ -20,6 +20,7 @@
 
 #include "hdt/build_steps.hpp"
 #include "hdt/error.hpp"
+#include "hdt/root_ranges.hpp" // checkElementLimit
 
 #include <cub/device/device_scan.cuh>
 #include <thrust/iterator/counting_iterator.h>
@@ -142,14 +143,6 @@ void planLeafTasks(DeviceMemory& mem, Leaves& lf, uint32_t leafPairs) {
   taskWriteKernel<<<blocksFor(lf.count, kBlock), kBlock, 0, s>>>(lf.count, lf.pairStart.data(), counts.data(),
                                                                 offsets.data(), lf.tasks.data(), lf.taskCount.data());
   HDT_CUDA_CHECK_LAUNCH("taskWriteKernel");
-}
-
-void checkElementLimit(uint64_t nextLevelStart, uint64_t touched, int level) {
-  // Same test and message as the CPU driver's appendLevel.
-  if (nextLevelStart + 8 * touched > kMaxElementPayload) {
-    throw Error(ErrorKind::OutOfResources, "the tree would exceed 2^30 elements at level " +
-                                               std::to_string(level + 1) + "; lower the resolution");
-  }
 }
 
 } // namespace

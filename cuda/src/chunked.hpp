@@ -1,18 +1,13 @@
 // Building the root grid in chunks when the whole build does not fit in the
-// device memory budget.
+// device memory budget: the chunks are root ranges (core's root_ranges.hpp:
+// plan, lines and boundary parities, uniform elements, join); this file only
+// schedules them on the device.
 //
-// Why chunks of root cells work: elements are stored level by level, and
-// inside a level in the order of their parents, so the level-k elements of
-// the whole tree are the concatenation, in root-cell order, of the level-k
-// elements of contiguous root-cell ranges. A chunk is built with chunk-local
-// payloads; joining renumbers Branch payloads by the level offsets of the
-// chunk and Boundary payloads by its first leaf.
-//
-// Classification is not chunk-local (rays cross chunks), so a solid build
-// runs in two phases: A) per chunk, the tree and the pass-1 parity of its
-// leaves; then on the host the line suffix XOR over all leaves (exit parity)
-// and the uniform elements; B) per chunk again, the tree (rebuilt: cheaper
-// than storing it), the leaf grids and pass 2 with the joined exit parity.
+// A solid build runs in two phases: A) per chunk on the device, the tree and
+// the pass-1 parity of its leaves; then on the host, per chunk, the lines'
+// exit parity stitched with the parity beyond the chunk, and the uniform
+// elements; B) per chunk again, the tree (rebuilt: cheaper than storing it),
+// the leaf grids and pass 2 with that exit parity.
 // Phase A reserves the room phase B will need, so a chunk that passed A fits
 // in B. A chunk that does not fit is split in two; a single root cell that
 // does not fit ends the build with Error(OutOfResources).

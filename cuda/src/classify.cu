@@ -1,26 +1,22 @@
-// Classification: inside/outside by ray parity, the CPU driver's method on
-// the GPU (see cpu_builder.cpp, "classification").
+// Classification: inside/outside by ray parity, the method of docs/design.md
+// ("Classification") with the bookkeeping of classify_steps.hpp; this file
+// only schedules it on the GPU.
 //
-//   pass 1   one warp per leaf and ray axis: per (leaf, triangle) pair and
-//            line of rays, the span of rays that hit (raySpanAtW: exact,
-//            three divisions a line instead of a test a ray), then one lane
-//            per hit ray for the exact crossing (crossingInLeaf on the
-//            pair's LeafCrossings: two products a ray), so all
-//            lanes stay busy however unevenly the hits fall. Each
-//            crossing flips the row's parity bit and XORs its "voxels before
-//            the crossing" mask into the row's mask; both are XORs, so
-//            scheduling cannot show. The parity bits go to parity[a]; the
-//            masks (pass 2's geometry, computed once) go to masks[a].
-//            Along x the T3 kernel (leaf.cu) runs this pass on the same
-//            pairs, with the hit spans from per-triangle tables, and puts
-//            the masks in plane 0 of the leaf words (the x rows: free room);
-//            the kernel here runs y and z of open meshes (with masks) and
-//            chunk phase A (parities only, before the leaf words exist);
-//   lines    per axis, the leaves sorted by line key (w, u, along) with a
-//            radix sort on 3 log2(N/L) bits; one warp per line runs a suffix
-//            XOR scan (shuffles, 32 leaves a step) that turns the pass-1
-//            parity into the exit parity in place, and records the entry
-//            parity of row 0 for the uniform elements;
+//   pass 1   one warp per leaf and ray axis, the three steps of
+//            build_steps.hpp (pairRayRange, lineRays, crossingInLeaf) as three
+//            warp-wide steps, so all lanes stay busy however unevenly the
+//            hits fall. Each crossing flips the row's parity bit and XORs
+//            its "voxels before the crossing" mask into the row's mask; both
+//            are XORs, so scheduling cannot show. The parity bits go to
+//            parity[a]; the masks (pass 2's geometry, computed once) go to
+//            masks[a]. Along x the T3 kernel (leaf.cu) runs this pass on the
+//            same pairs and puts the masks in plane 0 of the leaf words; the
+//            kernel here runs y and z of open meshes (with masks) and chunk
+//            phase A (parities only, before the leaf words exist);
+//   lines    per axis, the leaves sorted by line key (LineKeys) with a radix
+//            sort on 3b bits; one warp per line runs the suffix XOR
+//            (suffixParityStep) as a scan (shuffles, 32 leaves a step), in
+//            place, and records the entry parity of row 0;
 //   pass 2   no geometry left: a row is inside where (exit parity of the row)
 //            XOR (its mask); closed meshes use the x rows, open ones the
 //            majority of the 3 axes per voxel; plane 0 = inside and not
@@ -47,7 +43,7 @@ struct CrossingWarp {
   int8_t spanU0[32][L];                   // per (pair, ray line w): first hit ray, leaf-relative
   uint8_t spanN[32][L];                   // and the number of hit rays
   uint32_t masks[L * L];                  // XOR of before-masks per row
-  uint32_t parity[L * L / 32];            // one bit per row
+  uint32_t parity[rowWordsFor(L)];        // one bit per row
   WarpSlots slots;
 };
 
@@ -70,13 +66,10 @@ __device__ __forceinline__ void crossingsAlong(const LeafArgs& a, const LeafTask
     __syncwarp(); // the previous batch is resolved
     if (lane < nb) {
       const LatticeTriangle t = a.tris[a.pairTri[base + lane]];
-      int64_t lo[3], hi[3], u0, u1, w0, w1;
-      triangleBounds(t, lo, hi);
-      centreRange(lo[U], hi[U], v0[U], L, u0, u1);
-      centreRange(lo[W], hi[W], v0[W], L, w0, w1);
+      int64_t u0, u1, w0, w1;
+      const bool any = pairRayRange(t, AXIS, v0, L, u0, u1, w0, w1);
       sh.tri[lane] = t;
       makeLeafCrossings(t, AXIS, v0, L, sh.crossings[lane]);
-      const bool any = u1 >= u0 && w1 >= w0;
       sh.u0[lane] = any ? int32_t(u0 - v0[U]) : 0;
       sh.w0[lane] = any ? int32_t(w0 - v0[W]) : 0;
       sh.nu[lane] = any ? int32_t(u1 - u0 + 1) : 0;
@@ -86,10 +79,11 @@ __device__ __forceinline__ void crossingsAlong(const LeafArgs& a, const LeafTask
     warpForEachPairItem(
         0, nb, sh.slots, [&](uint32_t j) { return sh.nw[j]; },
         [&](uint32_t j, int k) {
+          const int64_t w = v0[W] + sh.w0[j] + k;
           int64_t f = v0[U] + sh.u0[j], l = f + sh.nu[j] - 1;
-          raySpanAtW(sh.tri[j], AXIS, v0[W] + sh.w0[j] + k, f, l);
-          int df = int(f - v0[U]), dl = int(l - v0[U]);
-          narrowToLeafCrossings(sh.crossings[j], sh.w0[j] + k, df, dl);
+          raySpanAtW(sh.tri[j], AXIS, w, f, l);
+          int df, dl;
+          leafLineRays(sh.crossings[j], v0, AXIS, w, f, l, df, dl);
           sh.spanU0[j][k] = int8_t(df <= dl ? df : 0);
           sh.spanN[j][k] = uint8_t(df <= dl ? dl - df + 1 : 0);
         });
@@ -115,7 +109,7 @@ __device__ __forceinline__ void crossingsAlong(const LeafArgs& a, const LeafTask
 template <int L, int AXIS, bool MASKS>
 __device__ __forceinline__ void leafCrossingsAxis(const LeafArgs& a, const LeafTask& task, const int64_t (&v0)[3],
                                                   CrossingWarp<L>& sh, uint32_t* parity, uint32_t* masks) {
-  constexpr int RW = L * L / 32;
+  constexpr int RW = rowWordsFor(L);
   const int lane = threadIdx.x & 31;
   const bool split = task.flags & kTaskSplit;
   const size_t leaf = task.leaf;
@@ -154,36 +148,35 @@ __global__ void __launch_bounds__(32 * kCrossWarps) leafCrossingsKernel(LeafArgs
 }
 
 // ---- lines ----------------------------------------------------------------------------
-__global__ void lineKeysKernel(uint32_t n, const uint64_t* coord, int axis, int b, uint64_t* keys, uint32_t* leafOf) {
+__global__ void lineKeysKernel(uint32_t n, const uint64_t* coord, int axis, LineKeys lk, uint64_t* keys,
+                               uint32_t* leafOf) {
   const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i >= n) return;
-  const uint64_t c = coord[i];
-  keys[i] = (uint64_t(unpackCoord(c, rayAxisW(axis))) << (2 * b)) |
-            (uint64_t(unpackCoord(c, rayAxisU(axis))) << b) | unpackCoord(c, axis);
+  keys[i] = lk.ofLeaf(coord[i], axis);
   leafOf[i] = i;
 }
 
 // One warp per group of 32 sorted positions; each line is handled by the warp
 // holding its last leaf, which walks it backwards 32 leaves at a time.
 template <int L>
-__global__ void lineSuffixKernel(uint32_t n, const uint64_t* keys, const uint32_t* leafOf, int b, uint32_t* parity,
-                                 uint8_t* entry) {
-  constexpr int RW = L * L / 32;
+__global__ void lineSuffixKernel(uint32_t n, const uint64_t* keys, const uint32_t* leafOf, LineKeys lk,
+                                 uint32_t* parity, uint8_t* entry) {
+  constexpr int RW = rowWordsFor(L);
   const int lane = threadIdx.x & 31;
   const uint64_t group = (uint64_t(blockIdx.x) * blockDim.x + threadIdx.x) >> 5;
   const uint64_t pos = group * 32 + lane;
-  const bool isEnd = pos < n && (pos + 1 == n || (keys[pos + 1] >> b) != (keys[pos] >> b));
+  const bool isEnd = pos < n && (pos + 1 == n || !lk.sameLine(keys[pos + 1], keys[pos]));
   unsigned ends = __ballot_sync(kFullMask, isEnd);
   while (ends) {
     const uint64_t last = group * 32 + (__ffs(ends) - 1);
     ends &= ends - 1;
-    const uint64_t line = keys[last] >> b;
+    const uint64_t lineKey = keys[last];
     uint32_t carry[RW];
 #pragma unroll
     for (int k = 0; k < RW; ++k) carry[k] = 0;
     for (int64_t top = int64_t(last);; top -= 32) {
       const int64_t idx = top - lane; // lane 0 is the farthest along the ray
-      const bool valid = idx >= 0 && (keys[idx] >> b) == line;
+      const bool valid = idx >= 0 && lk.sameLine(keys[idx], lineKey);
       const uint32_t leaf = valid ? leafOf[idx] : 0;
 #pragma unroll
       for (int k = 0; k < RW; ++k) {
@@ -211,11 +204,11 @@ __global__ void lineSuffixKernel(uint32_t n, const uint64_t* keys, const uint32_
 // plane 0 = the mask where not surface, which is already the answer for rows
 // with exit parity 0: only sectors holding a row with exit parity 1 are read
 // and, when they change, rewritten whole (about half the leaf words on the
-// shared meshes). A thread per 16-byte quad measured slower (cycloidal-drive
-// 8192^3 at boost clocks: 1.97 ms, against 1.82 ms a sector a thread).
+// shared meshes). A sector a thread beat a 16-byte quad a thread
+// (bench/results/gpu-notes.md).
 template <int L>
 __global__ void leafInsideClosedKernel(uint64_t sectorCount, const uint32_t* exitParity, uint4* words) {
-  constexpr int RW = L * L / 32;
+  constexpr int RW = rowWordsFor(L);
   constexpr uint32_t kSectors = leafWordCount(L) / 8; // a leaf is 4, 32 or 256 sectors
   const uint64_t g = uint64_t(blockIdx.x) * blockDim.x + threadIdx.x;
   if (g >= sectorCount) return;
@@ -229,7 +222,7 @@ __global__ void leafInsideClosedKernel(uint64_t sectorCount, const uint32_t* exi
   if (!any) return; // all eight words are final
   const uint4 a = words[2 * g], b = words[2 * g + 1];
   // plane 0 where inside and not surface (the surface bit is plane 1)
-  auto update = [&](uint32_t word, int k) { return withInsidePlane(word, flip[k] ^ planeBits16(word, 0)); };
+  auto update = [&](uint32_t word, int k) { return withInsidePlane(word, flip[k] ^ planeBits16(word, kInsidePlane)); };
   const uint4 na = make_uint4(update(a.x, 0), update(a.y, 1), update(a.z, 2), update(a.w, 3));
   const uint4 nb = make_uint4(update(b.x, 4), update(b.y, 5), update(b.z, 6), update(b.w, 7));
   if (na.x != a.x || na.y != a.y || na.z != a.z || na.w != a.w || nb.x != b.x || nb.y != b.y || nb.z != b.z ||
@@ -254,7 +247,7 @@ template <int L>
 struct OpenWarp {
   uint32_t m1[L * L], m2[L * L]; // y rows and z rows with their exit parity applied
   uint32_t t1[L * L], t2[L * L]; // the same as x rows (y + L z)
-  uint32_t e[3][L * L / 32];
+  uint32_t e[3][rowWordsFor(L)];
 };
 
 template <int L>
@@ -262,7 +255,7 @@ __global__ void __launch_bounds__(32 * kOpenWarps) leafInsideOpenKernel(uint32_t
                                                                         const uint32_t* e1, const uint32_t* e2,
                                                                         const uint32_t* m1, const uint32_t* m2,
                                                                         uint32_t* words) {
-  constexpr int RW = L * L / 32;
+  constexpr int RW = rowWordsFor(L);
   __shared__ OpenWarp<L> shared[kOpenWarps];
   const int warp = threadIdx.x >> 5, lane = threadIdx.x & 31;
   const uint32_t leaf = blockIdx.x * kOpenWarps + warp;
@@ -283,13 +276,12 @@ __global__ void __launch_bounds__(32 * kOpenWarps) leafInsideOpenKernel(uint32_t
   for (int task = lane; task < 2 * L; task += 32) // one lane a matrix (xRowsOfAxisMatrix)
     xRowsOfAxisMatrix<L>(task < L ? 1 : 2, task % L, task < L ? sh.m1 : sh.m2, task < L ? sh.t1 : sh.t2);
   __syncwarp();
-  uint32_t* out = words + size_t(leaf) * leafWordCount(L);
+  uint32_t* out = leafWordsAt(words, leaf, L);
   for (int w = lane; w < int(leafWordCount(L)); w += 32) {
     const uint32_t old = out[w];
-    const uint32_t v0 = rowBitsToWordBits(sh.e[0], L, w) ^ planeBits16(old, 0);
+    const uint32_t v0 = rowBitsToWordBits(sh.e[0], L, w) ^ planeBits16(old, kInsidePlane);
     const uint32_t v1 = wordBitsFromRows(sh.t1, L, w), v2 = wordBitsFromRows(sh.t2, L, w);
-    const uint32_t m = (v0 & v1) | (v0 & v2) | (v1 & v2); // majority of the three axes
-    out[w] = withInsidePlane(old, m);
+    out[w] = withInsidePlane(old, majorityOf3(v0, v1, v2));
   }
 }
 
@@ -301,7 +293,7 @@ struct LineView {
 };
 
 __global__ void uniformKernel(uint32_t count, ElementWord* words, const uint64_t* coords, uint64_t leavesPerElement,
-                              uint64_t leavesPerAxis, int b, int axes, LineView t0, LineView t1, LineView t2,
+                              uint64_t leavesPerAxis, LineKeys lk, int axes, LineView t0, LineView t1, LineView t2,
                               uint32_t leafCount) {
   const uint32_t j = blockIdx.x * blockDim.x + threadIdx.x;
   if (j >= count || elementState(words[j]) != ElementState::Empty) return;
@@ -309,20 +301,17 @@ __global__ void uniformKernel(uint32_t count, ElementWord* words, const uint64_t
   const LineView tables[3] = {t0, t1, t2};
   int votes = 0;
   for (int axis = 0; axis < axes; ++axis) {
-    const uint64_t u = unpackCoord(c, rayAxisU(axis)) * leavesPerElement;
-    const uint64_t w = unpackCoord(c, rayAxisW(axis)) * leavesPerElement;
-    const uint64_t along = (unpackCoord(c, axis) + 1) * leavesPerElement;
-    if (along >= leavesPerAxis) continue; // nothing beyond: parity 0
-    const uint64_t key = (w << (2 * b)) | (u << b) | along;
+    uint64_t key;
+    if (!uniformLineKey(lk, c, leavesPerElement, leavesPerAxis, axis, key)) continue; // nothing beyond: parity 0
     const LineView& t = tables[axis];
     uint32_t lo = 0, hi = leafCount; // lower_bound
     while (lo < hi) {
       const uint32_t mid = (lo + hi) >> 1;
       if (t.key[mid] < key) lo = mid + 1; else hi = mid;
     }
-    if (lo < leafCount && (t.key[lo] >> b) == (key >> b)) votes += t.entry[t.leaf[lo]];
+    if (lo < leafCount && lk.sameLine(t.key[lo], key)) votes += t.entry[t.leaf[lo]];
   }
-  if (2 * votes > axes) words[j] = makeElement(ElementState::Full, 0);
+  if (majorityInside(votes, axes)) words[j] = makeElement(ElementState::Full, 0);
 }
 
 template <int L, int AXIS>
@@ -359,10 +348,10 @@ void launchInside(uint32_t leafCount, int axes, const uint32_t* const e[3], cons
 }
 
 template <int L>
-void launchSuffix(uint32_t n, const uint64_t* keys, const uint32_t* leafOf, int b, uint32_t* parity, uint8_t* entry,
-                  cudaStream_t s) {
+void launchSuffix(uint32_t n, const uint64_t* keys, const uint32_t* leafOf, LineKeys lk, uint32_t* parity,
+                  uint8_t* entry, cudaStream_t s) {
   const unsigned block = 128;
-  lineSuffixKernel<L><<<blocksFor(uint64_t(blocksFor(n, 32)) * 32, block), block, 0, s>>>(n, keys, leafOf, b, parity,
+  lineSuffixKernel<L><<<blocksFor(uint64_t(blocksFor(n, 32)) * 32, block), block, 0, s>>>(n, keys, leafOf, lk, parity,
                                                                                           entry);
   HDT_CUDA_CHECK_LAUNCH("lineSuffixKernel");
 }
@@ -390,19 +379,19 @@ void leafCrossings(DeviceMemory& mem, const DeviceMesh& mesh, const GridSpec& gr
 LineTable lineParity(DeviceMemory& mem, const GridSpec& grid, const Leaves& leaves, int axis, uint32_t* parity) {
   const cudaStream_t s = mem.stream();
   const uint32_t n = leaves.count;
-  const int b = lineFieldBits(grid);
+  const LineKeys lk = lineKeysFor(grid);
   LineTable t;
   t.key = DeviceBuffer<uint64_t>(mem, n);
   t.leaf = DeviceBuffer<uint32_t>(mem, n);
   t.entry = DeviceBuffer<uint8_t>(mem, n);
   if (n == 0) return t;
-  lineKeysKernel<<<blocksFor(n, 256), 256, 0, s>>>(n, leaves.coord.data(), axis, b, t.key.data(), t.leaf.data());
+  lineKeysKernel<<<blocksFor(n, 256), 256, 0, s>>>(n, leaves.coord.data(), axis, lk, t.key.data(), t.leaf.data());
   HDT_CUDA_CHECK_LAUNCH("lineKeysKernel");
-  sortPairs(mem, t.key, t.leaf, n, 3 * b);
+  sortPairs(mem, t.key, t.leaf, n, 3 * lk.bits);
   switch (grid.leafSize) {
-  case 8: launchSuffix<8>(n, t.key.data(), t.leaf.data(), b, parity, t.entry.data(), s); break;
-  case 16: launchSuffix<16>(n, t.key.data(), t.leaf.data(), b, parity, t.entry.data(), s); break;
-  default: launchSuffix<32>(n, t.key.data(), t.leaf.data(), b, parity, t.entry.data(), s); break;
+  case 8: launchSuffix<8>(n, t.key.data(), t.leaf.data(), lk, parity, t.entry.data(), s); break;
+  case 16: launchSuffix<16>(n, t.key.data(), t.leaf.data(), lk, parity, t.entry.data(), s); break;
+  default: launchSuffix<32>(n, t.key.data(), t.leaf.data(), lk, parity, t.entry.data(), s); break;
   }
   return t;
 }
@@ -426,7 +415,7 @@ void classifyUniform(DeviceMemory& mem, const GridSpec& grid, int level, Level& 
   for (int a = 0; a < axes; ++a) v[a] = LineView{tables[a]->key.data(), tables[a]->leaf.data(), tables[a]->entry.data()};
   uniformKernel<<<blocksFor(lv.count, 256), 256, 0, mem.stream()>>>(lv.count, lv.words.data(), lv.coords.data(),
                                                                    leavesPerElement, leavesPerAxis,
-                                                                   lineFieldBits(grid), axes, v[0], v[1], v[2],
+                                                                   lineKeysFor(grid), axes, v[0], v[1], v[2],
                                                                    leafCount);
   HDT_CUDA_CHECK_LAUNCH("uniformKernel");
 }

@@ -8,8 +8,8 @@
 
 #include "hdt/cuda_build.hpp"
 #include "hdt/error.hpp"
-
-#include <sys/resource.h>
+#include "hdt/memory_info.hpp"
+#include "hdt/root_ranges.hpp" // checkElementLimit
 
 #include <chrono>
 #include <string>
@@ -23,12 +23,6 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-uint64_t peakResidentBytes() {
-  struct rusage usage {};
-  if (getrusage(RUSAGE_SELF, &usage) != 0) return 0;
-  return uint64_t(usage.ru_maxrss) * 1024; // Linux: kilobytes
-}
-
 uint64_t mib(uint64_t bytes) { return (bytes + (uint64_t(1) << 20) - 1) >> 20; }
 
 Volume build(const PreparedMesh& mesh, const BuildOptions& options, CudaBuildReport& report, bool keepResult) {
@@ -37,9 +31,7 @@ Volume build(const PreparedMesh& mesh, const BuildOptions& options, CudaBuildRep
   const GridSpec& g = mesh.grid;
   if (mesh.triangles.empty()) throw Error(ErrorKind::BadInput, "the mesh has no triangles");
   const uint64_t cells = uint64_t(g.rootGrid) * g.rootGrid * g.rootGrid;
-  if (cells > kMaxElementPayload) { // the CPU driver's limit, before allocating the root grid
-    throw Error(ErrorKind::OutOfResources, "the tree would exceed 2^30 elements at level 1; lower the resolution");
-  }
+  checkElementLimit(cells, 0, 0); // the root grid, before allocating it
 
   Session s(mesh, options);
   report.device = s.device;

@@ -20,10 +20,10 @@
 // cover the leaves, and a row costs only its plane step.
 //
 // With CROSS (solid builds), the warp then runs pass 1 along x on the same
-// pairs (classify.cu describes the method; the same calls): one lane per
-// pair for its LeafCrossings, one lane per (pair, ray line) for the hit
-// rays from the line table (raySpanAtW), one lane per hit ray for the
-// crossing; the row parities and "voxels before" masks are XORed in shared
+// pairs (docs/design.md, "Classification"; the steps of build_steps.hpp):
+// one lane per pair for its LeafCrossings, one lane per (pair, ray line) for
+// the hit rays from the line table (raySpanAtW's results), one lane per hit
+// ray for the crossing; the row parities and "voxels before" masks are XORed in shared
 // memory. Finally the warp writes every word of its leaves exactly once,
 // coalesced, with the surface in plane 1 and the masks in plane 0: no global
 // atomics, no read-modify-write, no zero fill beforehand (the parts of a
@@ -42,7 +42,8 @@ namespace {
 // a warp with one leaf ran its per-pair steps with a lane or two busy and
 // ended every item loop with a part-filled round. With four leaves the
 // pairs of all four share the steps (1 for L = 32, whose bit arrays are 8x
-// larger).
+// larger). The sizes below were chosen by measurement:
+// bench/results/gpu-notes.md ("T3 kernel shape").
 template <int L>
 constexpr int leavesPerWarp() {
   return L == 32 ? 1 : 4;
@@ -57,10 +58,8 @@ constexpr int warpsPerBlock() {
 #define HDT_CUDA_T3_MIN_BLOCKS 10
 #endif
 
-// Pairs a warp holds in shared memory at once (the warp's leaves have 7 on
-// average on cycloidal-drive at 8192^3). Bench, cycloidal-drive 8192^3 solid
-// T3: 16 pairs and 8 blocks an SM 9.58 ms, 8 pairs 9.67 ms, 8 pairs and 10
-// blocks an SM 9.32 ms (the dragon: 2.50, 2.53, 2.47 ms).
+// Pairs a warp holds in shared memory at once (a warp's leaves have a few
+// pairs each on the CAD parts).
 #ifndef HDT_CUDA_T3_BATCH
 #define HDT_CUDA_T3_BATCH 8
 #endif
@@ -122,7 +121,7 @@ struct LeafWarp {
   } p;
   alignas(16) uint32_t surface[G][voxelWords<L>()];
   alignas(16) uint32_t masks[CROSS ? G : 1][CROSS ? voxelWords<L>() : 4]; // XOR of before-masks
-  uint32_t parity[CROSS ? G : 1][L * L / 32];                            // one bit per x row
+  uint32_t parity[CROSS ? G : 1][rowWordsFor(L)];                        // one bit per x row
   int64_t origin[G][3]; // first voxel of each leaf
   uint32_t end[G];      // end of each leaf's pairs (the leaves' pairs are consecutive)
   WarpSlots slots;
@@ -234,9 +233,8 @@ __device__ __forceinline__ void surfaceSteps(const LeafKernelArgs& k, uint32_t f
 }
 
 // Hit rays a lane takes at once: half the rounds of item bookkeeping, and
-// two independent crossings in flight. T3 kernel on cycloidal-drive 8192^3
-// (ncu): 1 ray 13.3 ms, 2 rays 12.8 ms, 4 rays 12.7 ms (but the dragon 2.4,
-// 2.5, 2.5 ms: rays left over at the ends of short lines idle lanes).
+// two independent crossings in flight; more leave lanes idle at the ends of
+// short lines.
 #ifndef HDT_CUDA_RAYS_PER_ITEM
 #define HDT_CUDA_RAYS_PER_ITEM 2
 #endif
@@ -270,7 +268,7 @@ __device__ __forceinline__ void crossingSteps(const LeafKernelArgs& k, uint32_t 
     warpForEachPairItem(
         0, nb, w.slots, [&](uint32_t j) { return int(sh.nw[j]); },
         [&](uint32_t j, int kk) {
-          int32_t f, l;
+          int32_t f, l; // leaf-relative: lineRays' narrowing step only
           unpackSpan(k.lines[sh.line[j] + kk], sh.baseU[j], sh.u0[j], sh.u1[j], f, l);
           narrowToLeafCrossings(sh.crossings[j], sh.w0[j] + int(kk), f, l);
           sh.spanU0[j][kk] = int8_t(f <= l ? f : 0);
@@ -308,7 +306,7 @@ template <int L, bool CROSS>
 __device__ __forceinline__ void writeLeaf(const LeafKernelArgs& k, uint32_t leaf, bool split, const uint32_t* surface,
                                           const uint32_t* masks, const uint32_t* parity) {
   const int lane = threadIdx.x & 31;
-  uint32_t* out = k.words + size_t(leaf) * leafWordCount(L);
+  uint32_t* out = leafWordsAt(k.words, leaf, L);
   if (!split) { // warp-uniform; 16-byte stores (a leaf is 128, 1024 or 8192 bytes)
     // Four leaf words from two words of each bit array (8-byte loads).
     const uint2* s2 = reinterpret_cast<const uint2*>(surface);
@@ -334,7 +332,7 @@ __device__ __forceinline__ void writeLeaf(const LeafKernelArgs& k, uint32_t leaf
     }
   }
   if (CROSS && k.parity) {
-    constexpr int RW = L * L / 32;
+    constexpr int RW = rowWordsFor(L);
     uint32_t* p = k.parity + size_t(leaf) * RW;
     for (int i = lane; i < RW; i += 32) {
       if (!split) p[i] = parity[i];
@@ -352,8 +350,8 @@ __global__ void __launch_bounds__(32 * warpsPerBlock<L>(), HDT_CUDA_T3_MIN_BLOCK
   const uint32_t tasks = *k.a.taskCount;
   const uint32_t t0 = (blockIdx.x * warpsPerBlock<L>() + warp) * G;
   if (t0 >= tasks) return; // warp-uniform
-  // One group of tasks a warp: a grid-stride loop over tasks measured slower
-  // (dragon 8192^3: T3 3.8 -> 4.0 ms, pass 1 1.9 -> 2.0).
+  // One group of tasks a warp (a grid-stride loop measured slower:
+  // bench/results/gpu-notes.md).
   const int n = int(min(uint32_t(G), tasks - t0));
   LeafWarp<L, CROSS>& sh = shared[warp];
   LeafTask task{}; // lane g < n: the warp's task g
@@ -368,7 +366,7 @@ __global__ void __launch_bounds__(32 * warpsPerBlock<L>(), HDT_CUDA_T3_MIN_BLOCK
     if (CROSS) reinterpret_cast<uint4*>(sh.masks)[q] = make_uint4(0, 0, 0, 0);
   }
   if (CROSS)
-    for (int i = lane; i < n * L * L / 32; i += 32) (&sh.parity[0][0])[i] = 0;
+    for (int i = lane; i < n * rowWordsFor(L); i += 32) (&sh.parity[0][0])[i] = 0;
   surfaceSteps<L, CROSS>(k, first, end, n, sh);
   if constexpr (CROSS) crossingSteps<L>(k, first, end, n, sh);
   __syncwarp();
@@ -386,7 +384,7 @@ struct ZeroWord {
   __device__ uint32_t operator()(uint32_t) const { return 0; }
 };
 struct ClearMasksUnderSurface {
-  __device__ uint32_t operator()(uint32_t w) const { return w & ~((w >> 1) & 0x55555555u); }
+  __device__ uint32_t operator()(uint32_t w) const { return withoutInsideUnderSurface(w); }
 };
 template <class Op>
 __global__ void splitLeafKernel(const LeafTask* tasks, const uint32_t* taskCount, uint32_t* data, uint32_t perLeaf,

@@ -26,23 +26,11 @@ struct RootArgs {
   uint64_t firstCell, endCell;
 };
 
-// Calls emit(cell - firstCell) for every root cell of the chunk the triangle meets.
+// Calls emit(cell - firstCell) for every root cell of the chunk the triangle
+// meets (the drivers' shared T1 loop).
 template <class Emit>
 __device__ __forceinline__ void forEachRootCell(const RootArgs& a, const LatticeTriangle& t, Emit emit) {
-  int64_t lo[3], hi[3], first[3], last[3];
-  triangleBounds(t, lo, hi);
-  for (int k = 0; k < 3; ++k) cellRange(lo[k], hi[k], a.cellSize, a.R, first[k], last[k]);
-  for (int64_t z = first[2]; z <= last[2]; ++z)
-    for (int64_t y = first[1]; y <= last[1]; ++y) {
-      const uint64_t rowBase = uint64_t(a.R * (y + a.R * z));
-      if (rowBase + uint64_t(last[0]) < a.firstCell || rowBase + uint64_t(first[0]) >= a.endCell) continue;
-      for (int64_t x = first[0]; x <= last[0]; ++x) {
-        const uint64_t cell = rowBase + uint64_t(x);
-        if (cell < a.firstCell || cell >= a.endCell) continue;
-        if (triangleOverlapsElement(t, packCoord(uint32_t(x), uint32_t(y), uint32_t(z)), a.cellSize))
-          emit(uint32_t(cell - a.firstCell));
-      }
-    }
+  hdt::forEachRootCell(t, a.cellSize, a.R, a.firstCell, a.endCell, emit);
 }
 
 __global__ void rootCountKernel(RootArgs a, uint32_t* counts, float* area) {
@@ -52,12 +40,7 @@ __global__ void rootCountKernel(RootArgs a, uint32_t* counts, float* area) {
   uint32_t n = 0;
   forEachRootCell(a, t, [&](uint32_t) { ++n; });
   counts[i] = n;
-  if (area) { // only for the memory estimate: float is plenty
-    int64_t nrm[3];
-    triangleNormal(t, nrm);
-    const double s = double(kLatticePerVoxel) * double(kLatticePerVoxel);
-    area[i] = float(0.5 * sqrt(double(nrm[0]) * nrm[0] + double(nrm[1]) * nrm[1] + double(nrm[2]) * nrm[2]) / s);
-  }
+  if (area) area[i] = float(triangleArea(t)); // only for the memory estimate: float is plenty
 }
 
 __global__ void rootWriteKernel(RootArgs a, const uint32_t* offsets, uint32_t* cells, uint32_t* tris) {

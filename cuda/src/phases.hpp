@@ -11,6 +11,7 @@
 #include "device_memory.hpp"
 
 #include "hdt/build_steps.hpp" // PlaneClipper
+#include "hdt/classify_steps.hpp"
 #include "hdt/config.hpp"
 #include "hdt/lattice.hpp"
 #include "hdt/types.hpp"
@@ -151,9 +152,6 @@ void writeLeafSurfaces(DeviceMemory& mem, HostScalars& scalars, const DeviceMesh
                        const Leaves& leaves, uint32_t* words, bool crossings, uint32_t* parityX);
 
 // ---- classification (classify.cu) ---------------------------------------------
-// Words of one bit per leaf row: L * L / 32.
-inline int rowWordsFor(int leafSize) { return leafSize * leafSize / 32; }
-
 // Pass 1: per leaf, ray axis and row, the crossings inside the leaf:
 // parity[a] (leaves * rowWords, one bit per row; skipped when null) and,
 // where masks[a] is not null, the XOR of the crossings' "voxels before"
@@ -166,7 +164,7 @@ void leafCrossings(DeviceMemory& mem, const DeviceMesh& mesh, const GridSpec& gr
 // The leaves of a chunk sorted by line along one axis, with the entry parity
 // of every leaf. Turns parity[a] (pass 1) into the exit parity in place.
 struct LineTable {
-  DeviceBuffer<uint64_t> key;  // sorted compact line keys (w, u, along)
+  DeviceBuffer<uint64_t> key;  // sorted line keys (LineKeys)
   DeviceBuffer<uint32_t> leaf; // leaf of each key
   DeviceBuffer<uint8_t> entry; // per leaf: entry parity of row 0
 };
@@ -182,13 +180,8 @@ void writeLeafInside(DeviceMemory& mem, const GridSpec& grid, const Leaves& leav
 void classifyUniform(DeviceMemory& mem, const GridSpec& grid, int level, Level& lv, int axes,
                      const LineTable* const tables[3], uint32_t leafCount);
 
-// Line-key layout shared by the device tables and the host (chunked) path:
-// b = log2(leaves per axis) bits per field, key = (w << 2b) | (u << b) | along.
-inline int lineFieldBits(const GridSpec& g) {
-  int b = 0;
-  while ((uint64_t(1) << b) < uint64_t(g.resolution / g.leafSize)) ++b;
-  return b;
-}
+// The line-key layout of a grid (classify_steps.hpp), as the CPU driver's.
+inline LineKeys lineKeysFor(const GridSpec& g) { return LineKeys{lineFieldBits(uint64_t(g.resolution / g.leafSize))}; }
 
 } // namespace cuda
 } // namespace hdt

@@ -50,6 +50,29 @@ HDT_HD bool triangleOverlapsElement(const LatticeTriangle& t, uint64_t cell, int
                               unpackCoord(cell, 2) * cellSize, cellSize);
 }
 
+// T1: calls emit(cell - firstCell) for every root cell of [firstCell,
+// endCell) (x fastest, R cells an axis of edge `cellSize`) whose closed box
+// the triangle meets: the cells of its bounding box, each confirmed by the
+// exact test. Both drivers' T1 loop, for the whole grid or a range of it.
+template <class Emit>
+HDT_HD void forEachRootCell(const LatticeTriangle& t, int64_t cellSize, int64_t R, uint64_t firstCell,
+                            uint64_t endCell, Emit&& emit) {
+  int64_t lo[3], hi[3], first[3], last[3];
+  triangleBounds(t, lo, hi);
+  for (int k = 0; k < 3; ++k) cellRange(lo[k], hi[k], cellSize, R, first[k], last[k]);
+  for (int64_t z = first[2]; z <= last[2]; ++z)
+    for (int64_t y = first[1]; y <= last[1]; ++y) {
+      const uint64_t rowBase = uint64_t(R * (y + R * z));
+      if (rowBase + uint64_t(last[0]) < firstCell || rowBase + uint64_t(first[0]) >= endCell) continue;
+      for (int64_t x = first[0]; x <= last[0]; ++x) {
+        const uint64_t cell = rowBase + uint64_t(x);
+        if (cell < firstCell || cell >= endCell) continue;
+        if (triangleOverlapsElement(t, packCoord(uint32_t(x), uint32_t(y), uint32_t(z)), cellSize))
+          emit(uint32_t(cell - firstCell));
+      }
+    }
+}
+
 namespace detail {
 // ceil(a / b) and floor(a / b) for b > 0, from the estimate a * (1 / b) in
 // double, corrected exactly with integer products. The estimate is within one
@@ -655,9 +678,64 @@ HDT_HD void centreRange(int64_t lo, int64_t hi, int64_t v0, int L, int64_t& firs
   if (last > v0 + L - 1) last = v0 + L - 1;
 }
 
+// ---- classification pass 1 (docs/design.md, "Classification") ---------------
+// The crossings of one (leaf, triangle) pair with the leaf's rays along
+// `axis`, in the three steps both drivers follow (the CPU in one loop,
+// forEachPairCrossing; the CUDA kernels one warp-wide step each):
+//   1. pairRayRange: the rays whose centre line can meet the triangle;
+//   2. lineRays: per ray line w, the rays that hit and can cross in the leaf;
+//   3. crossingInLeaf: per such ray, the exact crossing (row, before).
+
+// Step 1: the triangle's ray ranges [u0, u1] x [w0, w1] (voxel coordinates)
+// within the leaf at v0; false when empty.
+HDT_HD bool pairRayRange(const LatticeTriangle& t, int axis, const int64_t (&v0)[3], int L, int64_t& u0, int64_t& u1,
+                         int64_t& w0, int64_t& w1) {
+  int64_t lo[3], hi[3];
+  triangleBounds(t, lo, hi);
+  centreRange(lo[rayAxisU(axis)], hi[rayAxisU(axis)], v0[rayAxisU(axis)], L, u0, u1);
+  centreRange(lo[rayAxisW(axis)], hi[rayAxisW(axis)], v0[rayAxisW(axis)], L, w0, w1);
+  return u0 <= u1 && w0 <= w1;
+}
+
+// Step 2 from a span of hit rays [uf, ul] of line w (voxel coordinates, from
+// raySpanAtW or a table of its results): the leaf-relative rays [f, l] whose
+// crossing can lie in the leaf (narrowToLeafCrossings).
+HDT_HD void leafLineRays(const LeafCrossings& c, const int64_t (&v0)[3], int axis, int64_t w, int64_t uf, int64_t ul,
+                         int& f, int& l) {
+  f = int(uf - v0[rayAxisU(axis)]);
+  l = int(ul - v0[rayAxisU(axis)]);
+  narrowToLeafCrossings(c, int(w - v0[rayAxisW(axis)]), f, l);
+}
+
+// All three steps for one pair, one ray at a time: fn(row, before) for every
+// ray of the leaf (row = du + L dw) that crosses the triangle inside it.
+template <class Fn>
+HDT_HD void forEachPairCrossing(const LatticeTriangle& t, int axis, const int64_t (&v0)[3], int L, Fn&& fn) {
+  int64_t u0, u1, w0, w1;
+  if (!pairRayRange(t, axis, v0, L, u0, u1, w0, w1)) return;
+  LeafCrossings crossings{};
+  bool made = false; // set up on the first hit: many pairs have none
+  for (int64_t w = w0; w <= w1; ++w) {
+    int64_t uf = u0, ul = u1;
+    raySpanAtW(t, axis, w, uf, ul);
+    if (uf > ul) continue;
+    if (!made) {
+      makeLeafCrossings(t, axis, v0, L, crossings);
+      made = true;
+    }
+    int f, l;
+    leafLineRays(crossings, v0, axis, w, uf, ul, f, l);
+    const int dw = int(w - v0[rayAxisW(axis)]);
+    for (int du = f; du <= l; ++du) {
+      int before;
+      if (crossingInLeaf(crossings, du, dw, L, before)) fn(du + L * dw, before);
+    }
+  }
+}
+
 // Writes a row of L voxel bits (bit i = voxel i) into leaf words as the given
-// 2-bit plane (0: the "inside" bit, 1: the "surface" bit).
-HDT_HD void orRowIntoLeaf(uint32_t* words, int L, int row, uint32_t mask, int plane) {
+// plane.
+HDT_HD void orRowIntoLeaf(uint32_t* words, int L, int row, uint32_t mask, LeafPlane plane) {
   const uint32_t v = uint32_t(row) * uint32_t(L); // first voxel of the row
   for (int k = 0; k < L; k += 16) {
     const uint32_t bits = (L == 8) ? (mask & 0xFFu) : ((mask >> k) & 0xFFFFu);
@@ -726,9 +804,9 @@ HDT_HD uint32_t rowBitsToWordBits(const uint32_t* rowBits, int L, int w) {
   return bit(w >> 1) ? 0xFFFFu : 0u; // L == 32
 }
 
-// The 16 voxel bits of one 2-bit plane of a leaf word (inverse of spreadBits16).
-HDT_HD uint32_t planeBits16(uint32_t word, int plane) {
-  uint32_t m = (word >> plane) & 0x55555555u;
+// The 16 voxel bits of one plane of a leaf word (inverse of spreadBits16).
+HDT_HD uint32_t planeBits16(uint32_t word, LeafPlane plane) {
+  uint32_t m = planeOf(word, plane);
   m = (m | (m >> 1)) & 0x33333333u;
   m = (m | (m >> 2)) & 0x0F0F0F0Fu;
   m = (m | (m >> 4)) & 0x00FF00FFu;
@@ -738,7 +816,14 @@ HDT_HD uint32_t planeBits16(uint32_t word, int plane) {
 // A leaf word with plane 0 set to `inside` (16 voxel bits) wherever the
 // voxel is not surface (plane 1): the last step of classification.
 HDT_HD uint32_t withInsidePlane(uint32_t word, uint32_t inside) {
-  return (word & 0xAAAAAAAAu) | (spreadBits16(inside) & ~(word >> 1) & 0x55555555u);
+  return (word & kSurfacePlaneBits) | (spreadBits16(inside) & ~planeOf(word, kSurfacePlane));
 }
+
+// Plane 0 cleared where plane 1 is set: a word whose inside plane was written
+// without regard to the surface (the parts of a split leaf, merged).
+HDT_HD uint32_t withoutInsideUnderSurface(uint32_t word) { return word & ~planeOf(word, kSurfacePlane); }
+
+// The majority of three bit sets (open meshes: the +x, +y and +z answers).
+HDT_HD constexpr uint32_t majorityOf3(uint32_t a, uint32_t b, uint32_t c) { return (a & b) | (a & c) | (b & c); }
 
 } // namespace hdt

@@ -17,6 +17,8 @@
 #include "hdt/lattice.hpp"
 #include "hdt/platform.hpp"
 
+#include <cmath>
+
 namespace hdt {
 
 namespace detail {
@@ -49,6 +51,15 @@ HDT_HD void triangleNormal(const LatticeTriangle& t, int64_t (&n)[3]) {
   n[0] = e0[1] * e1[2] - e0[2] * e1[1];
   n[1] = e0[2] * e1[0] - e0[0] * e1[2];
   n[2] = e0[0] * e1[1] - e0[1] * e1[0];
+}
+
+// Area in voxel^2, in double: for memory estimates and load balance only
+// (never for a decision the bytes depend on).
+HDT_HD double triangleArea(const LatticeTriangle& t) {
+  int64_t n[3];
+  triangleNormal(t, n);
+  const double perVoxel2 = double(kLatticePerVoxel) * double(kLatticePerVoxel);
+  return 0.5 * sqrt(double(n[0]) * n[0] + double(n[1]) * n[1] + double(n[2]) * n[2]) / perVoxel2;
 }
 
 HDT_HD bool isDegenerate(const LatticeTriangle& t) {

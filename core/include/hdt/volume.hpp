@@ -57,6 +57,15 @@ struct Volume {
 // bytes) from a volume's contents; timings and backend are left alone.
 void computeStructureStatistics(Volume& volume);
 
+// Checks everything a consumer relies on: the grid (N = R 2^h L, finite
+// placement), the level table, the canonical level-order layout of the
+// elements (docs/hdt-format.md rules 13-17), the leaf words (no state 3, no
+// Inside in a surface-only volume) and the statistics derived from the
+// contents. Throws Error(BadInput) naming the first problem. The .hdt reader
+// applies the same checks section by section as it reads; the writer refuses
+// a volume that fails them.
+void validateVolume(const Volume& volume);
+
 // Voxel state at global voxel (x, y, z), by walking the tree. Slow: for tests,
 // dense export and spot checks.
 VoxelState voxelAt(const Volume& volume, int x, int y, int z);

@@ -1,0 +1,135 @@
+// Root-range builds (root_ranges.hpp): the CPU driver over K ranges of root
+// cells, joined, must give the one-piece build's bytes, whatever the split:
+// uneven ranges, ranges without triangles, empty ranges, more ranges than
+// rows of root cells. Closed and open shapes (1- and 3-axis classification),
+// solid and surface-only.
+#include "hdt/builder.hpp"
+#include "hdt/mesh.hpp"
+#include "hdt/root_ranges.hpp"
+#include "hdt/volume.hpp"
+#include "support/shapes.hpp"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <string>
+
+namespace hdt {
+namespace test {
+namespace {
+
+struct RangeCase {
+  std::string shape;
+  int n, r, l;
+  bool surfaceOnly;
+};
+
+void PrintTo(const RangeCase& c, std::ostream* os) {
+  *os << c.shape << " N=" << c.n << " R=" << c.r << " L=" << c.l << (c.surfaceOnly ? " surface-only" : " solid");
+}
+
+void expectSameVolume(const Volume& a, const Volume& b, const std::string& what) {
+  EXPECT_EQ(a.levelStart, b.levelStart) << what;
+  ASSERT_EQ(a.elements.size(), b.elements.size()) << what;
+  const auto e = std::mismatch(a.elements.begin(), a.elements.end(), b.elements.begin());
+  EXPECT_TRUE(e.first == a.elements.end()) << what << ": element " << (e.first - a.elements.begin());
+  ASSERT_EQ(a.leafWords.size(), b.leafWords.size()) << what;
+  const auto w = std::mismatch(a.leafWords.begin(), a.leafWords.end(), b.leafWords.begin());
+  EXPECT_TRUE(w.first == a.leafWords.end()) << what << ": leaf word " << (w.first - a.leafWords.begin());
+  EXPECT_EQ(a.stats.activeVoxels, b.stats.activeVoxels) << what;
+  EXPECT_EQ(a.stats.insideVoxels, b.stats.insideVoxels) << what;
+}
+
+std::string describe(const std::vector<RootRange>& ranges) {
+  std::string s;
+  for (const RootRange& r : ranges) s += "[" + std::to_string(r.first) + "," + std::to_string(r.end) + ")";
+  return s;
+}
+
+// Splits [0, cells) at the given cuts.
+std::vector<RootRange> cutAt(std::vector<uint64_t> cuts, uint64_t cells) {
+  std::vector<RootRange> out;
+  uint64_t start = 0;
+  for (uint64_t c : cuts) {
+    out.push_back(RootRange{start, c});
+    start = c;
+  }
+  out.push_back(RootRange{start, cells});
+  return out;
+}
+
+class RangeBuild : public ::testing::TestWithParam<RangeCase> {};
+
+TEST_P(RangeBuild, JoinedRangesEqualTheOnePieceBuild) {
+  const RangeCase& c = GetParam();
+  const Shape shape = makeShape(c.shape, c.n);
+  const PreparedMesh mesh = prepareMesh(shape.mesh, shape.config(c.n, c.r, c.l, c.surfaceOnly));
+  BuildOptions options;
+  options.backend = Backend::Cpu;
+  const Volume whole = buildCpu(mesh, options);
+  ASSERT_GT(whole.stats.activeVoxels, 0u);
+  if (!c.surfaceOnly) {
+    ASSERT_GT(whole.stats.insideVoxels, 0u) << "the shape must have an inside for the parities to matter";
+  }
+
+  const uint64_t R = uint64_t(c.r), cells = R * R * R;
+  const std::vector<CellLoad> loads = cellLoads(mesh);
+  std::vector<std::vector<RootRange>> splits;
+  for (int k = 1; k <= 5; ++k) {
+    splits.push_back(planRootRanges(loads, cells, k));    // balanced, any cell
+    splits.push_back(planRootRanges(loads, cells, k, R)); // whole rows along x
+  }
+  splits.push_back(planRootRanges(loads, cells, int(R * R) + 3, R)); // more ranges than rows: some empty
+  splits.push_back(cutAt({1, 2, cells - 1}, cells));                 // uneven, edge ranges without triangles
+  splits.push_back(cutAt({0, cells / 3, cells / 3, cells}, cells));  // empty ranges at both ends and inside
+  splits.push_back(cutAt({cells / 2 + 1}, cells));                   // a cut inside a row of cells
+
+  for (const std::vector<RootRange>& ranges : splits) {
+    ASSERT_EQ(ranges.front().first, 0u);
+    ASSERT_EQ(ranges.back().end, cells);
+    for (size_t i = 1; i < ranges.size(); ++i) ASSERT_EQ(ranges[i].first, ranges[i - 1].end);
+    const Volume joined = buildCpuRanges(mesh, options, ranges);
+    expectSameVolume(whole, joined, c.shape + " as " + describe(ranges));
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Cpu, RangeBuild,
+                         ::testing::Values(RangeCase{"sphere", 128, 4, 8, false},
+                                           RangeCase{"hollow_sphere", 128, 2, 16, false},
+                                           RangeCase{"open_hemisphere", 128, 4, 8, false}, // 3-axis vote
+                                           RangeCase{"two_bodies", 128, 4, 8, false},
+                                           RangeCase{"torus", 128, 4, 8, true}),
+                         [](const ::testing::TestParamInfo<RangeCase>& info) {
+                           const RangeCase& c = info.param;
+                           return c.shape + "_N" + std::to_string(c.n) + "_R" + std::to_string(c.r) + "_L" +
+                                  std::to_string(c.l) + (c.surfaceOnly ? "_surface" : "_solid");
+                         });
+
+// The plan: contiguous, covering, aligned, balanced within one cell's load.
+TEST(RootRangePlan, BalancedAlignedAndCovering) {
+  std::vector<CellLoad> loads;
+  for (uint64_t c = 0; c < 64; c += 3) loads.push_back(CellLoad{c, 10 + c, 0.0});
+  uint64_t total = 0;
+  for (const CellLoad& l : loads) total += l.pairs;
+  for (uint64_t align : {1u, 4u}) {
+    const std::vector<RootRange> ranges = planRootRanges(loads, 64, 4, align);
+    ASSERT_EQ(ranges.size(), 4u);
+    EXPECT_EQ(ranges.front().first, 0u);
+    EXPECT_EQ(ranges.back().end, 64u);
+    for (size_t i = 0; i < ranges.size(); ++i) {
+      if (i) EXPECT_EQ(ranges[i].first, ranges[i - 1].end);
+      EXPECT_EQ(ranges[i].first % align, 0u);
+      uint64_t pairs = 0;
+      for (const CellLoad& l : loads)
+        if (l.cell >= ranges[i].first && l.cell < ranges[i].end) pairs += l.pairs;
+      EXPECT_LE(pairs, total / 4 + 4 * 73) << "range " << i; // a quarter, plus at most one unit of cells
+    }
+  }
+  const auto halves = splitRootRange(RootRange{3, 10});
+  EXPECT_EQ(halves.first, (RootRange{3, 6}));
+  EXPECT_EQ(halves.second, (RootRange{6, 10}));
+}
+
+} // namespace
+} // namespace test
+} // namespace hdt
