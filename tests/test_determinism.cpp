@@ -9,61 +9,16 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
-#include <sstream>
 #include <thread>
 
 namespace hdt {
 namespace test {
 namespace {
 
-struct DeterminismCase {
-  std::string shape;
-  int n, r, l;
-  bool surfaceOnly;
-};
-
-void PrintTo(const DeterminismCase& c, std::ostream* os) {
-  *os << c.shape << " N=" << c.n << " R=" << c.r << " L=" << c.l << (c.surfaceOnly ? " surface-only" : " solid");
-}
-
-// Where two volumes first differ, or "" when they are the same bytes.
-std::string firstDifference(const Volume& a, const Volume& b) {
-  std::ostringstream s;
-  if (a.levelStart != b.levelStart) {
-    s << "levelStart differs (" << a.levelStart.size() << " vs " << b.levelStart.size() << " entries)";
-    return s.str();
-  }
-  if (a.elements.size() != b.elements.size()) {
-    s << "element count " << a.elements.size() << " vs " << b.elements.size();
-    return s.str();
-  }
-  auto e = std::mismatch(a.elements.begin(), a.elements.end(), b.elements.begin());
-  if (e.first != a.elements.end()) {
-    s << "element #" << (e.first - a.elements.begin()) << ": 0x" << std::hex << *e.first << " vs 0x" << *e.second;
-    return s.str();
-  }
-  if (a.leafWords.size() != b.leafWords.size()) {
-    s << "leaf word count " << a.leafWords.size() << " vs " << b.leafWords.size();
-    return s.str();
-  }
-  auto w = std::mismatch(a.leafWords.begin(), a.leafWords.end(), b.leafWords.begin());
-  if (w.first != a.leafWords.end()) {
-    const size_t i = size_t(w.first - a.leafWords.begin());
-    s << "leaf word #" << i << " (leaf " << i / leafWordCount(a.grid.leafSize) << "): 0x" << std::hex << *w.first
-      << " vs 0x" << *w.second;
-    return s.str();
-  }
-  const Statistics &sa = a.stats, &sb = b.stats;
-  if (sa.activeVoxels != sb.activeVoxels || sa.insideVoxels != sb.insideVoxels || sa.leafGrids != sb.leafGrids ||
-      sa.treeElements != sb.treeElements)
-    return "structural statistics differ";
-  return "";
-}
-
-class Determinism : public ::testing::TestWithParam<DeterminismCase> {};
+class Determinism : public ::testing::TestWithParam<ShapeCase> {};
 
 TEST_P(Determinism, SameBytesForAnyThreadCountAndRun) {
-  const DeterminismCase& c = GetParam();
+  const ShapeCase& c = GetParam();
   const Shape shape = makeShape(c.shape, c.n);
   const PreparedMesh mesh = prepareMesh(shape.mesh, shape.config(c.n, c.r, c.l, c.surfaceOnly));
 
@@ -96,17 +51,13 @@ TEST_P(Determinism, SameBytesForAnyThreadCountAndRun) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Cpu, Determinism,
-                         ::testing::Values(DeterminismCase{"sphere", 128, 4, 8, false},
-                                           DeterminismCase{"hollow_sphere", 128, 2, 16, false},
-                                           DeterminismCase{"open_hemisphere", 128, 1, 16, false}, // 3-axis vote
-                                           DeterminismCase{"two_bodies", 256, 16, 8, false},
-                                           DeterminismCase{"degenerate_mix", 128, 4, 32, false},
-                                           DeterminismCase{"torus", 256, 8, 16, true}),
-                         [](const ::testing::TestParamInfo<DeterminismCase>& info) {
-                           const DeterminismCase& c = info.param;
-                           return c.shape + "_N" + std::to_string(c.n) + "_R" + std::to_string(c.r) + "_L" +
-                                  std::to_string(c.l) + (c.surfaceOnly ? "_surface" : "_solid");
-                         });
+                         ::testing::Values(ShapeCase{"sphere", 128, 4, 8, false},
+                                           ShapeCase{"hollow_sphere", 128, 2, 16, false},
+                                           ShapeCase{"open_hemisphere", 128, 1, 16, false}, // 3-axis vote
+                                           ShapeCase{"two_bodies", 256, 16, 8, false},
+                                           ShapeCase{"degenerate_mix", 128, 4, 32, false},
+                                           ShapeCase{"torus", 256, 8, 16, true}),
+                         [](const ::testing::TestParamInfo<ShapeCase>& info) { return shapeCaseName(info.param); });
 
 // Preparing twice gives the same lattice mesh (the input to both drivers).
 TEST(PrepareDeterminism, SameLatticeMeshTwice) {

@@ -1,7 +1,9 @@
 #include "support/shapes.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <map>
+#include <sstream>
 #include <stdexcept>
 #include <utility>
 
@@ -457,6 +459,49 @@ Shape makeShape(const std::string& name, int resolution) {
   for (const ShapeFactory& f : standardShapes())
     if (f.name == name) return f.make(resolution);
   throw std::out_of_range("no test shape named " + name);
+}
+
+void PrintTo(const ShapeCase& c, std::ostream* os) {
+  *os << c.shape << " N=" << c.n << " R=" << c.r << " L=" << c.l << (c.surfaceOnly ? " surface-only" : " solid");
+}
+
+std::string shapeCaseName(const ShapeCase& c) {
+  return c.shape + "_N" + std::to_string(c.n) + "_R" + std::to_string(c.r) + "_L" + std::to_string(c.l) +
+         (c.surfaceOnly ? "_surface" : "_solid");
+}
+
+// Where two volumes first differ, or "" when they are the same bytes.
+std::string firstDifference(const Volume& a, const Volume& b) {
+  std::ostringstream s;
+  if (a.levelStart != b.levelStart) {
+    s << "levelStart differs (" << a.levelStart.size() << " vs " << b.levelStart.size() << " entries)";
+    return s.str();
+  }
+  if (a.elements.size() != b.elements.size()) {
+    s << "element count " << a.elements.size() << " vs " << b.elements.size();
+    return s.str();
+  }
+  auto e = std::mismatch(a.elements.begin(), a.elements.end(), b.elements.begin());
+  if (e.first != a.elements.end()) {
+    s << "element #" << (e.first - a.elements.begin()) << ": 0x" << std::hex << *e.first << " vs 0x" << *e.second;
+    return s.str();
+  }
+  if (a.leafWords.size() != b.leafWords.size()) {
+    s << "leaf word count " << a.leafWords.size() << " vs " << b.leafWords.size();
+    return s.str();
+  }
+  auto w = std::mismatch(a.leafWords.begin(), a.leafWords.end(), b.leafWords.begin());
+  if (w.first != a.leafWords.end()) {
+    const size_t i = size_t(w.first - a.leafWords.begin());
+    s << "leaf word #" << i << " (leaf " << i / leafWordCount(a.grid.leafSize) << "): 0x" << std::hex << *w.first
+      << " vs 0x" << *w.second;
+    return s.str();
+  }
+  const Statistics &sa = a.stats, &sb = b.stats;
+  if (sa.activeVoxels != sb.activeVoxels || sa.insideVoxels != sb.insideVoxels || sa.leafGrids != sb.leafGrids ||
+      sa.treeElements != sb.treeElements)
+    return "structural statistics differ";
+  return "";
 }
 
 } // namespace test

@@ -15,9 +15,11 @@
 
 #include "hdt/config.hpp"
 #include "hdt/mesh.hpp"
+#include "hdt/volume.hpp"
 
 #include <array>
 #include <functional>
+#include <ostream>
 #include <string>
 #include <vector>
 
@@ -103,6 +105,21 @@ Shape hollowSphereShape();                   // outer shell + inward inner shell
 Shape openHemisphereShape();                 // open mesh
 Shape singleTriangleShape();                 // open mesh
 Shape degenerateMixShape(int resolution);    // a closed sphere plus 5 degenerate triangles
+
+// ---- parameterised tests over shapes ------------------------------------------------
+
+// One build of a named shape: N, R, L and the mode.
+struct ShapeCase {
+  std::string shape;
+  int n, r, l;
+  bool surfaceOnly;
+};
+void PrintTo(const ShapeCase& c, std::ostream* os);        // GoogleTest's parameter text
+std::string shapeCaseName(const ShapeCase& c);             // a test name: sphere_N128_R4_L8_solid
+
+// Where two volumes first differ (levels, elements, leaf words, structural
+// statistics), or "" when they are the same bytes.
+std::string firstDifference(const Volume& a, const Volume& b);
 
 } // namespace test
 } // namespace hdt
