@@ -250,6 +250,43 @@ TEST(HdtFile, RoundTripsRealBuilds) {
 
 // ---- the layout of docs/hdt-format.md, checked independently ------------------------
 
+// validateVolume: what the reader checks while reading, on a volume in memory.
+TEST(ValidateVolume, AcceptsBuildsAndRefusesBrokenVolumes) {
+  const Shape shape = sphereShape();
+  BuildOptions options;
+  options.backend = Backend::Cpu;
+  const Volume good = buildCpu(prepareMesh(shape.mesh, shape.config(64, 2, 8, false)), options);
+  ASSERT_GT(good.leafCount(), 0u);
+  EXPECT_NO_THROW(validateVolume(good));
+  auto expectRefused = [](const Volume& v, const char* what) {
+    try {
+      validateVolume(v);
+      ADD_FAILURE() << what << ": accepted";
+    } catch (const Error& e) {
+      EXPECT_EQ(e.kind(), ErrorKind::BadInput) << what;
+    }
+  };
+  Volume v = good;
+  for (ElementWord& w : v.elements)
+    if (elementState(w) == ElementState::Branch) {
+      w = makeElement(ElementState::Branch, elementPayload(w) + 8);
+      break;
+    }
+  expectRefused(v, "a Branch pointing past its children");
+  v = good;
+  v.leafWords[0] |= 3u; // state 3
+  expectRefused(v, "an invalid voxel state");
+  v = good;
+  v.leafWords.pop_back();
+  expectRefused(v, "a truncated leaf");
+  v = good;
+  v.stats.activeVoxels += 1;
+  expectRefused(v, "statistics that disagree with the contents");
+  v = good;
+  v.grid.resolution += 1;
+  expectRefused(v, "a resolution that is not R 2^h L");
+}
+
 TEST(HdtFile, LayoutFollowsTheSpec) {
   EXPECT_EQ(referenceCrc32(reinterpret_cast<const uint8_t*>("123456789"), 9), 0xCBF43926u);
   const Volume v = smallVolume();
