@@ -2,8 +2,10 @@
 //
 // Every step whose output order could depend on scheduling ends in a sort on a
 // total key (element, triangle) or works on disjoint outputs, so the result is
-// the same bytes for any thread count. All geometry is in build_steps.hpp,
-// shared with the CUDA driver.
+// the same bytes for any thread count. All geometry is in build_steps.hpp and
+// the classification bookkeeping in classify_steps.hpp, shared with the CUDA
+// driver; ranges, their boundary parities and the join are root_ranges.hpp's.
+// The whole grid is built as one range.
 #include "hdt/builder.hpp"
 
 #include "hdt/build_steps.hpp"
