@@ -275,22 +275,21 @@ private:
   // the in-leaf part is kept by pass 1 in plane 0: insideWords.)
   void insideRows(size_t leaf, int axis, uint32_t* rows) const {
     const uint32_t* exitBits = exit_[axis].data() + leaf * rowWords_;
-    for (int r = 0; r < L_ * L_; ++r) rows[r] = (exitBits[r >> 5] >> (r & 31)) & 1u ? fullRowMask(L_) : 0u;
+    for (int r = 0; r < L_ * L_; ++r) rows[r] = exitRowMask(exitBits, r, L_);
     forEachCrossing(leaf, axis, [&](int row, int before) { rows[row] ^= maskBeforeCrossing(before); });
   }
 
-  // Pass 2 word by word (16 voxels a word), without unpacking rows: the x
-  // axis's in-leaf masks are plane 0 already (pass 1), the exit parity is one
-  // bit a row; inside := that, or for open meshes the majority with the y and
-  // z answers given as x rows; then minus the surface voxels (plane 1).
+  // Pass 2 word by word (16 voxels a word), without unpacking rows
+  // (classifiedWord): the x axis's in-leaf masks are plane 0 already (pass
+  // 1), the exit parity is one bit a row; open meshes bring the y and z
+  // answers as x rows.
   void insideWords(size_t leaf, const uint32_t* yxRows, const uint32_t* zxRows, uint32_t* words) const {
     const uint32_t* exitBits = exit_[0].data() + leaf * rowWords_;
     for (uint32_t i = 0; i < leafWordCount(L_); ++i) {
-      const uint32_t old = words[i];
-      uint32_t inside = rowBitsToWordBits(exitBits, L_, int(i)) ^ planeBits16(old, kInsidePlane);
-      if (yxRows)
-        inside = majorityOf3(inside, wordBitsFromRows(yxRows, L_, int(i)), wordBitsFromRows(zxRows, L_, int(i)));
-      words[i] = withInsidePlane(old, inside);
+      const uint32_t x = rowBitsToWordBits(exitBits, L_, int(i));
+      words[i] = yxRows ? classifiedWord(words[i], x, wordBitsFromRows(yxRows, L_, int(i)),
+                                         wordBitsFromRows(zxRows, L_, int(i)))
+                        : classifiedWord(words[i], x);
     }
   }
 

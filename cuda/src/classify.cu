@@ -221,8 +221,7 @@ __global__ void leafInsideClosedKernel(uint64_t sectorCount, const uint32_t* exi
   for (int k = 0; k < 8; ++k) any |= flip[k] = rowBitsToWordBits(parity, L, w + k);
   if (!any) return; // all eight words are final
   const uint4 a = words[2 * g], b = words[2 * g + 1];
-  // plane 0 where inside and not surface (the surface bit is plane 1)
-  auto update = [&](uint32_t word, int k) { return withInsidePlane(word, flip[k] ^ planeBits16(word, kInsidePlane)); };
+  auto update = [&](uint32_t word, int k) { return classifiedWord(word, flip[k]); };
   const uint4 na = make_uint4(update(a.x, 0), update(a.y, 1), update(a.z, 2), update(a.w, 3));
   const uint4 nb = make_uint4(update(b.x, 4), update(b.y, 5), update(b.z, 6), update(b.w, 7));
   if (na.x != a.x || na.y != a.y || na.z != a.z || na.w != a.w || nb.x != b.x || nb.y != b.y || nb.z != b.z ||
@@ -267,10 +266,9 @@ __global__ void __launch_bounds__(32 * kOpenWarps) leafInsideOpenKernel(uint32_t
     sh.e[2][i] = e2[size_t(leaf) * RW + i];
   }
   __syncwarp();
-  auto exitRow = [&sh](int a, int r) { return (sh.e[a][r >> 5] >> (r & 31)) & 1u ? fullRowMask(L) : 0u; };
   for (int r = lane; r < L * L; r += 32) {
-    sh.m1[r] = m1[size_t(leaf) * L * L + r] ^ exitRow(1, r);
-    sh.m2[r] = m2[size_t(leaf) * L * L + r] ^ exitRow(2, r);
+    sh.m1[r] = m1[size_t(leaf) * L * L + r] ^ exitRowMask(sh.e[1], r, L);
+    sh.m2[r] = m2[size_t(leaf) * L * L + r] ^ exitRowMask(sh.e[2], r, L);
   }
   __syncwarp();
   for (int task = lane; task < 2 * L; task += 32) // one lane a matrix (xRowsOfAxisMatrix)
@@ -278,10 +276,8 @@ __global__ void __launch_bounds__(32 * kOpenWarps) leafInsideOpenKernel(uint32_t
   __syncwarp();
   uint32_t* out = leafWordsAt(words, leaf, L);
   for (int w = lane; w < int(leafWordCount(L)); w += 32) {
-    const uint32_t old = out[w];
-    const uint32_t v0 = rowBitsToWordBits(sh.e[0], L, w) ^ planeBits16(old, kInsidePlane);
-    const uint32_t v1 = wordBitsFromRows(sh.t1, L, w), v2 = wordBitsFromRows(sh.t2, L, w);
-    out[w] = withInsidePlane(old, majorityOf3(v0, v1, v2));
+    out[w] = classifiedWord(out[w], rowBitsToWordBits(sh.e[0], L, w), wordBitsFromRows(sh.t1, L, w),
+                            wordBitsFromRows(sh.t2, L, w));
   }
 }
 

@@ -56,6 +56,24 @@ HDT_HD void suffixParityStep(uint32_t* parity, uint32_t* running, int rowWords) 
   }
 }
 
+// ---- pass 2 -------------------------------------------------------------------------
+// The exit parity of row r (one bit a row) as a mask over the row's L voxels.
+HDT_HD uint32_t exitRowMask(const uint32_t* exitBits, int row, int L) {
+  return (exitBits[row >> 5] >> (row & 31)) & 1u ? fullRowMask(L) : 0u;
+}
+
+// Pass 2 of one leaf word (16 voxels) from its +x answer: the rows' exit
+// parity widened to the word (rowBitsToWordBits) XOR the in-leaf masks pass 1
+// left in plane 0; plane 0 := that where the voxel is not surface.
+HDT_HD uint32_t classifiedWord(uint32_t word, uint32_t exitBits) {
+  return withInsidePlane(word, exitBits ^ planeBits16(word, kInsidePlane));
+}
+// Open meshes: the majority of the +x answer and the +y and +z answers (16
+// voxel bits each, as x rows: xRowsOfAxisMatrix, wordBitsFromRows).
+HDT_HD uint32_t classifiedWord(uint32_t word, uint32_t exitBits, uint32_t yInside, uint32_t zInside) {
+  return withInsidePlane(word, majorityOf3(exitBits ^ planeBits16(word, kInsidePlane), yInside, zInside));
+}
+
 // ---- uniform elements -------------------------------------------------------------
 // A uniform element takes the state of its lowest-corner voxel centre: along
 // `axis` that ray's parity is the entry parity (row 0) of the first leaf
