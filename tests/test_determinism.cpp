@@ -19,8 +19,7 @@ class Determinism : public ::testing::TestWithParam<ShapeCase> {};
 
 TEST_P(Determinism, SameBytesForAnyThreadCountAndRun) {
   const ShapeCase& c = GetParam();
-  const Shape shape = makeShape(c.shape, c.n);
-  const PreparedMesh mesh = prepareMesh(shape.mesh, shape.config(c.n, c.r, c.l, c.surfaceOnly));
+  const PreparedMesh mesh = prepareShapeCase(c);
 
   BuildOptions options;
   options.backend = Backend::Cpu;

@@ -39,8 +39,7 @@ class RangeBuild : public ::testing::TestWithParam<ShapeCase> {};
 
 TEST_P(RangeBuild, JoinedRangesEqualTheOnePieceBuild) {
   const ShapeCase& c = GetParam();
-  const Shape shape = makeShape(c.shape, c.n);
-  const PreparedMesh mesh = prepareMesh(shape.mesh, shape.config(c.n, c.r, c.l, c.surfaceOnly));
+  const PreparedMesh mesh = prepareShapeCase(c);
   BuildOptions options;
   options.backend = Backend::Cpu;
   const Volume whole = buildCpu(mesh, options);

@@ -465,6 +465,11 @@ void PrintTo(const ShapeCase& c, std::ostream* os) {
   *os << c.shape << " N=" << c.n << " R=" << c.r << " L=" << c.l << (c.surfaceOnly ? " surface-only" : " solid");
 }
 
+PreparedMesh prepareShapeCase(const ShapeCase& c) {
+  const Shape shape = makeShape(c.shape, c.n);
+  return prepareMesh(shape.mesh, shape.config(c.n, c.r, c.l, c.surfaceOnly));
+}
+
 std::string shapeCaseName(const ShapeCase& c) {
   return c.shape + "_N" + std::to_string(c.n) + "_R" + std::to_string(c.r) + "_L" + std::to_string(c.l) +
          (c.surfaceOnly ? "_surface" : "_solid");

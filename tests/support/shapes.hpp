@@ -116,6 +116,7 @@ struct ShapeCase {
 };
 void PrintTo(const ShapeCase& c, std::ostream* os);        // GoogleTest's parameter text
 std::string shapeCaseName(const ShapeCase& c);             // a test name: sphere_N128_R4_L8_solid
+PreparedMesh prepareShapeCase(const ShapeCase& c);         // the shape, prepared for its N, R, L, mode
 
 // Where two volumes first differ (levels, elements, leaf words, structural
 // statistics), or "" when they are the same bytes.
