@@ -3,7 +3,7 @@
 // only schedules it on the GPU.
 //
 //   pass 1   one warp per leaf and ray axis, the three steps of
-//            build_steps.hpp (pairRayRange, lineRays, crossingInLeaf) as three
+//            build_steps.hpp (pairRayRange, leafLineRays, crossingInLeaf) as three
 //            warp-wide steps, so all lanes stay busy however unevenly the
 //            hits fall. Each crossing flips the row's parity bit and XORs
 //            its "voxels before the crossing" mask into the row's mask; both

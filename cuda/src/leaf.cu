@@ -268,7 +268,7 @@ __device__ __forceinline__ void crossingSteps(const LeafKernelArgs& k, uint32_t 
     warpForEachPairItem(
         0, nb, w.slots, [&](uint32_t j) { return int(sh.nw[j]); },
         [&](uint32_t j, int kk) {
-          int32_t f, l; // leaf-relative: lineRays' narrowing step only
+          int32_t f, l; // leaf-relative: leafLineRays' narrowing step only
           unpackSpan(k.lines[sh.line[j] + kk], sh.baseU[j], sh.u0[j], sh.u1[j], f, l);
           narrowToLeafCrossings(sh.crossings[j], sh.w0[j] + int(kk), f, l);
           sh.spanU0[j][kk] = int8_t(f <= l ? f : 0);

@@ -683,7 +683,7 @@ HDT_HD void centreRange(int64_t lo, int64_t hi, int64_t v0, int L, int64_t& firs
 // `axis`, in the three steps both drivers follow (the CPU in one loop,
 // forEachPairCrossing; the CUDA kernels one warp-wide step each):
 //   1. pairRayRange: the rays whose centre line can meet the triangle;
-//   2. lineRays: per ray line w, the rays that hit and can cross in the leaf;
+//   2. leafLineRays: per ray line w, the rays that hit and can cross in the leaf;
 //   3. crossingInLeaf: per such ray, the exact crossing (row, before).
 
 // Step 1: the triangle's ray ranges [u0, u1] x [w0, w1] (voxel coordinates)
