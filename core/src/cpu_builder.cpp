@@ -438,7 +438,7 @@ private:
   std::vector<UniformElement> uniform_;
   std::vector<uint64_t> leafCoords_;
   std::vector<uint64_t> leafPairStart_;
-  std::vector<uint32_t> leafWords_;
+  LeafWordVector leafWords_;
   PhaseTimes times_;
 };
 

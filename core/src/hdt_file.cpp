@@ -123,7 +123,7 @@ template <class Fn> void forEachLittleEndianChunk(const uint32_t* words, size_t 
 }
 
 // CRC-32 of the little-endian encoding of `words`.
-uint32_t crcOfWords(const std::vector<uint32_t>& words) {
+template <class Words> uint32_t crcOfWords(const Words& words) {
   if (kLittleEndianHost) return crc32Of(words.data(), words.size() * 4);
   uint32_t crc = 0;
   forEachLittleEndianChunk(words.data(), words.size(),
@@ -319,7 +319,7 @@ struct LeafCounts {
 };
 
 // Rule 19, and the voxel counts the statistics must match.
-LeafCounts checkLeaves(const std::vector<uint32_t>& words, int leafSize, bool surfaceOnly) {
+LeafCounts checkLeaves(const LeafWordVector& words, int leafSize, bool surfaceOnly) {
   const LeafCounts c = tbb::parallel_reduce(
       tbb::blocked_range<size_t>(0, words.size(), 1 << 16), LeafCounts{},
       [&](const tbb::blocked_range<size_t>& r, LeafCounts c) {
@@ -412,7 +412,7 @@ struct Compressed {
   size_t size = 0;
 };
 
-Compressed compressLeaves(const std::vector<uint32_t>& words, int level) {
+Compressed compressLeaves(const LeafWordVector& words, int level) {
   const size_t rawBytes = words.size() * 4;
   std::unique_ptr<ZSTD_CCtx, CCtxFree> cctx(ZSTD_createCCtx());
   if (!cctx) throw std::bad_alloc();
@@ -772,7 +772,7 @@ std::vector<uint8_t> readSmallSection(Source& in, const SectionHeader& h) {
 }
 
 // Words of a raw section, straight into `words` (already sized to h.stored / 4).
-void readWordSection(Source& in, const SectionHeader& h, std::vector<uint32_t>& words) {
+template <class Words> void readWordSection(Source& in, const SectionHeader& h, Words& words) {
   in.read(words.data(), size_t(h.stored));
   checkCrc(h, crc32Of(words.data(), size_t(h.stored)));
   littleEndianToHost(words.data(), words.size());

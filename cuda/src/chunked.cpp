@@ -1,5 +1,6 @@
 #include "chunked.hpp"
 
+#include "host_copy.hpp"
 #include "pipeline.hpp"
 
 #include "hdt/build_steps.hpp"
@@ -282,8 +283,14 @@ Volume buildChunked(Session& s, CudaBuildReport& report) {
   }
   v.leafWords.resize(leafStart.back() * wordsPerLeaf);
   if (!solid) {
-    for (size_t c = 0; c < done.size(); ++c)
-      std::copy(trees[c].leafWords.begin(), trees[c].leafWords.end(), v.leafWords.begin() + leafStart[c] * wordsPerLeaf);
+    // One host copy: v.leafWords' pages are touched only as each chunk moves
+    // in, and the chunk is freed right after, so the peak is the volume plus
+    // one chunk (a plain copy held every chunk and the whole volume at once).
+    for (size_t c = 0; c < done.size(); ++c) {
+      copyHostParallel(v.leafWords.data() + leafStart[c] * wordsPerLeaf, trees[c].leafWords.data(),
+                       trees[c].leafWords.size() * sizeof(uint32_t));
+      LeafWordVector().swap(trees[c].leafWords);
+    }
     return v;
   }
 

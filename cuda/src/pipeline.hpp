@@ -26,7 +26,7 @@ struct ChunkTree {
   std::vector<std::vector<ElementWord>> levelWords; // per level
   std::vector<uint64_t> leafCoord;
   std::vector<uint32_t> parity[3];                  // leaves * rowWords per axis
-  std::vector<uint32_t> leafWords;                  // surface-only
+  LeafWordVector leafWords;                         // surface-only
 };
 ChunkTree buildChunkTree(Session& s, uint64_t firstCell, uint64_t endCell);
 
