@@ -88,7 +88,8 @@ step_minibench() { # MINIBENCH_BIN (default the bench), MINIBENCH_MESHES, MINIBE
   cat "$OUT/$tag.log" | tee -a "$SUMMARY"
 }
 
-step_e2e() { # E2E_RUNS: "MESH:SUBDIVIDE:N:MODE ..." (meshes in .devdeps/meshes), in order until E2E_END
+step_e2e() { # E2E_RUNS: "MESH:SUBDIVIDE:N:MODE[:FLAG] ..." (meshes in .devdeps/meshes; FLAG: an
+  # hdt_e2e_bench option without its dashes, e.g. write-breakdown), in order until E2E_END
   # (seconds since the script started) or E2E_TIMEOUT seconds from now
   local t0=$SECONDS out=$OUT/e2e-runs.jsonl deadline=${E2E_END:-$((SECONDS + ${E2E_TIMEOUT:-300}))}
   local runs=${E2E_RUNS:-}
@@ -98,11 +99,11 @@ step_e2e() { # E2E_RUNS: "MESH:SUBDIVIDE:N:MODE ..." (meshes in .devdeps/meshes)
     done
   fi
   for spec in $runs; do
-    IFS=: read -r m k n mode <<< "$spec"
+    IFS=: read -r m k n mode flag <<< "$spec"
     local left=$((deadline - SECONDS))
     [ $left -gt 5 ] || { say "e2e: out of time before $spec"; break; }
     timeout $left "$E2E" "$DEPS/meshes/$m" --subdivide "$k" --res "$n" --mode "$mode" --backend cuda \
-      --hdt /tmp/e2e.hdt --out "$out" >> "$OUT/e2e.log" 2>&1 || say "e2e: rc=$? for $spec"
+      --hdt /tmp/e2e.hdt --out "$out" ${flag:+--$flag} >> "$OUT/e2e.log" 2>&1 || say "e2e: rc=$? for $spec"
     rm -f /tmp/e2e.hdt
   done
   # cold start: the first build of a process without and with hdt::prepareCuda, against a warm one
@@ -120,7 +121,7 @@ for f in sys.argv[1:]:
         print(f"{r['mesh'][:22]:22} {r['resolution']:6} {'surface' if r['surface_only'] else 'solid':7} read {r['read_ms']:8.1f} prep {r['prepare_ms']:7.1f} "
               f"wait {r['warm_up_wait_ms']:6.1f} phases {r['build_phases_ms']:7.2f} build {r['build_wall_ms']:8.1f} copy {r['copy_back_ms']:8.1f} "
               f"({r['copy_back_gb_per_s']:5.1f} GB/s) write {r['write_ms']:8.1f} wall {r['wall_ms']:8.1f} host {r['peak_host_bytes']/2**30:6.2f} GiB "
-              f"dev {r['peak_device_bytes']/2**30:6.2f} GiB chunks {r['chunks']}" + (f" warm {r['warm_build_phases_ms']:.2f} cold={r['cold']}" if 'warm_build_phases_ms' in r else ''))
+              f"dev {r['peak_device_bytes']/2**30:6.2f} GiB chunks {r['chunks']}" + (f" serialize {r['serialize_ms']:.1f} raw {r['write_raw_ms']:.1f}" if 'serialize_ms' in r else '') + (f" warm {r['warm_build_phases_ms']:.2f} cold={r['cold']}" if 'warm_build_phases_ms' in r else ''))
 PY
 }
 

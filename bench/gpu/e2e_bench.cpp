@@ -9,6 +9,8 @@
 //                 build is then a cold one)
 //   --warm-check  after the run, a second build (nothing copied back) whose
 //                 device phase time is the warm reference for the first
+//   --write-breakdown  after the run, the writer's parts: the same encoding
+//                 into memory (checks + zstd), and a file without compression
 #include "hdt/builder.hpp"
 #include "hdt/cuda_build.hpp"
 #include "hdt/hdt_file.hpp"
@@ -37,7 +39,7 @@ using Clock = std::chrono::steady_clock;
 struct Args {
   std::string mesh, hdt = "/tmp/hdt_e2e.hdt", out = "e2e-runs.jsonl";
   int res = 1024, subdivide = 0;
-  bool surfaceOnly = false, cuda = true, cold = false, warmCheck = false;
+  bool surfaceOnly = false, cuda = true, cold = false, warmCheck = false, writeBreakdown = false;
 };
 
 Args parse(int argc, char** argv) {
@@ -56,6 +58,7 @@ Args parse(int argc, char** argv) {
     else if (k == "--out") a.out = value();
     else if (k == "--cold") a.cold = true;
     else if (k == "--warm-check") a.warmCheck = true;
+    else if (k == "--write-breakdown") a.writeBreakdown = true;
     else if (!k.empty() && k[0] != '-' && a.mesh.empty()) a.mesh = k;
     else throw std::runtime_error("unknown argument " + k);
   }
@@ -142,6 +145,16 @@ int main(int argc, char** argv) {
       << ", \"chunks\": " << report.chunks << ", \"write_ms\": " << num(writeMs) << ", \"file_bytes\": " << st.st_size
       << ", \"wall_ms\": " << num(wallMs) << ", \"peak_host_bytes\": " << peakResidentBytes()
       << ", \"peak_device_bytes\": " << s.peakDeviceBytes;
+    if (a.writeBreakdown) {
+      Clock::time_point w = Clock::now();
+      const size_t bytes = serializeHdt(v).size();
+      j << ", \"serialize_ms\": " << num(msSince(w)) << ", \"serialize_bytes\": " << bytes;
+      HdtWriteOptions raw;
+      raw.compressLeaves = false;
+      writeHdt(v, a.hdt, raw);
+      j << ", \"write_raw_ms\": " << num(msSince(w));
+      std::remove(a.hdt.c_str());
+    }
     if (a.warmCheck && a.cuda) {
       const Volume warm = buildCudaWithReport(prepared, options, &report, false);
       j << ", \"warm_build_phases_ms\": " << num(warm.stats.time.total);

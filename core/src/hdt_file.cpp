@@ -30,6 +30,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <exception>
 #include <memory>
 #include <new>
 #include <stdexcept>
@@ -634,18 +635,38 @@ EncodedVolume prepare(const Volume& v, const HdtWriteOptions& options, const std
                                                 ", " + std::to_string(ZSTD_maxCLevel()) + "]");
   }
 #endif
+  // The checks and the encoding both only read the volume: they run at the
+  // same time (zstd's workers leave cores idle for the checks). The checks'
+  // verdict comes first, as if they had run alone.
+  std::exception_ptr checkError;
+  std::thread checker([&] {
+    try {
+      checkVolume(v);
+    } catch (...) {
+      checkError = std::current_exception();
+    }
+  });
+  EncodedVolume e;
+  std::exception_ptr encodeError;
   try {
-    checkVolume(v);
-  } catch (const Invalid& e) {
-    throw Error(ErrorKind::InvalidArgument, name + ": refusing to write an inconsistent volume: " + e.what());
+    e = encode(v, options);
+  } catch (...) {
+    encodeError = std::current_exception();
+  }
+  checker.join();
+  try {
+    if (checkError) std::rethrow_exception(checkError);
+  } catch (const Invalid& x) {
+    throw Error(ErrorKind::InvalidArgument, name + ": refusing to write an inconsistent volume: " + x.what());
   }
   try {
-    return encode(v, options);
-  } catch (const Error& e) { // zstd failures
-    throw Error(e.kind(), name + ": " + e.what());
+    if (encodeError) std::rethrow_exception(encodeError);
+  } catch (const Error& x) { // zstd failures
+    throw Error(x.kind(), name + ": " + x.what());
   } catch (const std::bad_alloc&) {
     throw Error(ErrorKind::OutOfResources, name + ": out of memory while encoding the volume");
   }
+  return e;
 }
 
 // ---- reading ------------------------------------------------------------------------
