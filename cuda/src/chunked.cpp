@@ -1,6 +1,5 @@
 #include "chunked.hpp"
 
-#include "host_copy.hpp"
 #include "pipeline.hpp"
 
 #include "hdt/build_steps.hpp"
@@ -227,7 +226,7 @@ Volume buildChunked(Session& s, CudaBuildReport& report) {
     try {
       trees.push_back(buildChunkTree(s, c.first, c.end));
       done.push_back(c);
-      s.progress(0.1 + 0.5 * double(c.end) / double(cells), solid ? "branching" : "leaf processing");
+      s.progress(0.1 + 0.5 * double(c.end) / double(cells), "branching");
     } catch (const DeviceMemoryExhausted& e) {
       s.sync();
       s.clock.collect(s.ms);
@@ -249,9 +248,7 @@ Volume buildChunked(Session& s, CudaBuildReport& report) {
   std::vector<uint64_t> leafStart(done.size() + 1, 0);
   for (size_t c = 0; c < done.size(); ++c) {
     for (size_t k = 0; k < levels; ++k) levelCount[k] += trees[c].levelWords[k].size();
-    const uint64_t leaves =
-        solid ? trees[c].leafCoord.size() : trees[c].leafWords.size() / wordsPerLeaf;
-    leafStart[c + 1] = leafStart[c] + leaves;
+    leafStart[c + 1] = leafStart[c] + trees[c].leafCoord.size();
   }
   v.levelStart.assign(levels + 1, 0);
   for (size_t k = 0; k < levels; ++k) v.levelStart[k + 1] = v.levelStart[k] + levelCount[k];
@@ -281,32 +278,26 @@ Volume buildChunked(Session& s, CudaBuildReport& report) {
     }
     trees[c].levelWords.clear();
   }
+  // One host copy: phase B copies each chunk's leaf grids straight to their
+  // place; LeafWordVector's resize touches no page before that.
   v.leafWords.resize(leafStart.back() * wordsPerLeaf);
-  if (!solid) {
-    // One host copy: v.leafWords' pages are touched only as each chunk moves
-    // in, and the chunk is freed right after, so the peak is the volume plus
-    // one chunk (a plain copy held every chunk and the whole volume at once).
-    for (size_t c = 0; c < done.size(); ++c) {
-      copyHostParallel(v.leafWords.data() + leafStart[c] * wordsPerLeaf, trees[c].leafWords.data(),
-                       trees[c].leafWords.size() * sizeof(uint32_t));
-      LeafWordVector().swap(trees[c].leafWords);
-    }
-    return v;
-  }
 
-  // Lines over all leaves (host), then the uniform elements.
+  // Solid builds: lines over all leaves (host), then the uniform elements.
+  const int parityAxes = solid ? axes : 0;
   std::vector<uint64_t> leafCoord;
   std::vector<uint32_t> parity[3];
   leafCoord.reserve(leafStart.back());
-  for (int a = 0; a < axes; ++a) parity[a].reserve(leafStart.back() * rowWords);
+  for (int a = 0; a < parityAxes; ++a) parity[a].reserve(leafStart.back() * rowWords);
   for (ChunkTree& t : trees) {
     leafCoord.insert(leafCoord.end(), t.leafCoord.begin(), t.leafCoord.end());
-    for (int a = 0; a < axes; ++a) parity[a].insert(parity[a].end(), t.parity[a].begin(), t.parity[a].end());
+    for (int a = 0; a < parityAxes; ++a) parity[a].insert(parity[a].end(), t.parity[a].begin(), t.parity[a].end());
     t = ChunkTree();
   }
-  HostLines lines[3];
-  for (int a = 0; a < axes; ++a) lines[a] = hostLineParity(g, leafCoord, a, parity[a]);
-  hostClassifyUniform(v, axes, lines);
+  if (solid) {
+    HostLines lines[3];
+    for (int a = 0; a < axes; ++a) lines[a] = hostLineParity(g, leafCoord, a, parity[a]);
+    hostClassifyUniform(v, axes, lines);
+  }
   s.progress(0.7, "leaf processing");
 
   // Phase B: leaf grids per chunk; a chunk that does not fit after all is split.
@@ -327,10 +318,10 @@ Volume buildChunked(Session& s, CudaBuildReport& report) {
     pieces.pop_front();
     try {
       const uint32_t* exitParity[3] = {nullptr, nullptr, nullptr};
-      for (int a = 0; a < axes; ++a) exitParity[a] = parity[a].data() + p.firstLeaf * rowWords;
+      for (int a = 0; a < parityAxes; ++a) exitParity[a] = parity[a].data() + p.firstLeaf * rowWords;
       buildChunkLeaves(s, p.c.first, p.c.end, uint32_t(p.endLeaf - p.firstLeaf), exitParity,
                        v.leafWords.data() + p.firstLeaf * wordsPerLeaf);
-      s.progress(0.7 + 0.3 * double(p.c.end) / double(cells), "classification");
+      s.progress(0.7 + 0.3 * double(p.c.end) / double(cells), solid ? "classification" : "leaf processing");
     } catch (const DeviceMemoryExhausted& e) {
       s.sync();
       s.clock.collect(s.ms);

@@ -8,11 +8,13 @@
 // payloads; joining renumbers Branch payloads by the level offsets of the
 // chunk and Boundary payloads by its first leaf.
 //
-// Classification is not chunk-local (rays cross chunks), so a solid build
-// runs in two phases: A) per chunk, the tree and the pass-1 parity of its
-// leaves; then on the host the line suffix XOR over all leaves (exit parity)
-// and the uniform elements; B) per chunk again, the tree (rebuilt: cheaper
-// than storing it), the leaf grids and pass 2 with the joined exit parity.
+// A build runs in two phases: A) per chunk, the tree and, for solid builds,
+// the pass-1 parity of its leaves (classification is not chunk-local: rays
+// cross chunks); then on the host the line suffix XOR over all leaves (exit
+// parity) and the uniform elements; B) per chunk again, the tree (rebuilt:
+// cheaper than storing it), the leaf grids (solid: pass 2 with the joined
+// exit parity), copied straight to their place in the volume, which is so
+// the only host copy of the leaf grids.
 // Phase A reserves the room phase B will need, so a chunk that passed A fits
 // in B. A chunk that does not fit is split in two; a single root cell that
 // does not fit ends the build with Error(OutOfResources).
