@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <cstdint>
 #include <cstring>
+#include <map>
 #include <mutex>
 
 namespace hdt {
@@ -30,23 +31,41 @@ struct Ring {
   std::mutex mutex;
   uint8_t* slot[kSlots] = {};
   cudaEvent_t arrived[kSlots] = {};
-  bool ready = false;
 
   // Under `mutex`. The ring lives as long as the process (freed by the driver
-  // at exit): builds in a long-lived process (ParaView) reuse it.
-  void allocate() {
-    if (ready) return;
+  // at exit): builds in a long-lived process (ParaView) reuse it. False when
+  // the memory cannot be pinned (a locked-memory limit, say): the caller then
+  // takes the driver's pageable path rather than failing the build.
+  bool allocate() {
     for (int i = 0; i < kSlots; ++i) {
-      HDT_CUDA_CHECK(cudaMallocHost(reinterpret_cast<void**>(&slot[i]), kPieceBytes));
-      HDT_CUDA_CHECK(cudaEventCreateWithFlags(&arrived[i], cudaEventDisableTiming));
+      if (!slot[i] && cudaMallocHost(reinterpret_cast<void**>(&slot[i]), kPieceBytes) != cudaSuccess) {
+        slot[i] = nullptr;
+        cudaGetLastError(); // not sticky
+        return false;
+      }
+      if (!arrived[i]) HDT_CUDA_CHECK(cudaEventCreateWithFlags(&arrived[i], cudaEventDisableTiming));
     }
-    ready = true;
+    return true;
   }
 };
 
-Ring& ring() {
-  static Ring r;
-  return r;
+// One ring a device: its events belong to the device they were made on.
+Ring& ringOf(int device) {
+  static std::mutex mutex;
+  static std::map<int, Ring> rings;
+  std::lock_guard<std::mutex> lock(mutex);
+  return rings[device];
+}
+
+Ring& currentRing() {
+  int device = 0;
+  HDT_CUDA_CHECK(cudaGetDevice(&device));
+  return ringOf(device);
+}
+
+void directCopy(cudaStream_t stream, void* host, const void* device, size_t bytes) {
+  HDT_CUDA_CHECK(cudaMemcpyAsync(host, device, bytes, cudaMemcpyDeviceToHost, stream));
+  HDT_CUDA_CHECK(cudaStreamSynchronize(stream));
 }
 
 // Transparent huge pages for a destination not yet touched (the volume's
@@ -75,21 +94,17 @@ void copyHostParallel(void* dstVoid, const void* srcVoid, size_t bytes) {
 }
 
 void reserveCopyStaging() {
-  Ring& r = ring();
+  Ring& r = currentRing();
   std::lock_guard<std::mutex> lock(r.mutex);
   r.allocate();
 }
 
 void copyToHost(cudaStream_t stream, void* host, const void* device, size_t bytes) {
   if (bytes == 0) return;
-  if (bytes < kDirectBytes) {
-    HDT_CUDA_CHECK(cudaMemcpyAsync(host, device, bytes, cudaMemcpyDeviceToHost, stream));
-    HDT_CUDA_CHECK(cudaStreamSynchronize(stream));
-    return;
-  }
-  Ring& r = ring();
+  if (bytes < kDirectBytes) return directCopy(stream, host, device, bytes);
+  Ring& r = currentRing();
   std::lock_guard<std::mutex> lock(r.mutex);
-  r.allocate();
+  if (!r.allocate()) return directCopy(stream, host, device, bytes);
   const size_t pieces = (bytes + kPieceBytes - 1) / kPieceBytes;
   const auto* src = static_cast<const uint8_t*>(device);
   auto* dst = static_cast<uint8_t*>(host);

@@ -13,17 +13,18 @@
 namespace hdt {
 namespace cuda {
 
-// Copies `bytes` from `device` to `host` in stream order (after the work
-// queued on `stream`) and returns when `host` holds them. Small copies take
-// the driver's pageable path. Thread-safe: concurrent callers take turns on
-// the one process-wide ring.
+// Copies `bytes` from `device` (memory of the current device) to `host` in
+// stream order (after the work queued on `stream`) and returns when `host`
+// holds them. Small copies, and all copies where no memory can be pinned,
+// take the driver's pageable path. Thread-safe: concurrent callers take turns
+// on the current device's ring (one a device, for the life of the process).
 void copyToHost(cudaStream_t stream, void* host, const void* device, size_t bytes);
 
 // Host to host, in parallel (oneTBB): what one core's memcpy cannot fill,
 // fresh pages' first touch included.
 void copyHostParallel(void* dst, const void* src, size_t bytes);
 
-// Allocates the staging ring now (pinning costs tens of ms: at process start,
+// Allocates the current device's staging ring now (pinning costs tens of ms: at process start,
 // not inside the first build's copy-back). Idempotent.
 void reserveCopyStaging();
 
