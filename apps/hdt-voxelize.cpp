@@ -23,6 +23,7 @@
 #include <cstdio>
 #include <iostream>
 #include <new>
+#include <thread>
 
 namespace hdt::cli {
 namespace {
@@ -103,6 +104,23 @@ double msSince(Clock::time_point& t) {
   return ms;
 }
 
+// hdt::prepareCuda on a thread, for the CUDA and Auto backends.
+class WarmUp {
+public:
+  explicit WarmUp(const Options& o) {
+    if (o.build.backend != Backend::Cpu) thread_ = std::thread([&o] { prepareCuda(o.config, o.build); });
+  }
+  ~WarmUp() { join(); }
+  WarmUp(const WarmUp&) = delete;
+  WarmUp& operator=(const WarmUp&) = delete;
+  void join() {
+    if (thread_.joinable()) thread_.join();
+  }
+
+private:
+  std::thread thread_;
+};
+
 int run(int argc, const char* const* argv) {
   const Options options = parseOptions(argc, argv);
   if (options.help) {
@@ -119,12 +137,16 @@ int run(int argc, const char* const* argv) {
 
   Report report;
   report.mesh = options.mesh;
+  // The device's context, kernels and memory pool get ready while the mesh
+  // is read, so that the build is not a cold one.
+  WarmUp warmUp(options);
   Clock::time_point t = Clock::now();
   TriangleMesh mesh = about(options.mesh, [&] { return loadMesh(options.mesh); });
   report.io.read = msSince(t);
   const PreparedMesh prepared = about(options.mesh, [&] { return prepareMesh(mesh, options.config); });
   mesh = TriangleMesh(); // the lattice copy is all the build needs
   report.io.prepare = msSince(t);
+  warmUp.join();
 
   ProgressLine progress(!options.quiet);
   BuildOptions build = options.build;

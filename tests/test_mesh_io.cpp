@@ -419,6 +419,63 @@ TEST(SharedMeshes, TriangleCountsMatchTheManifest) {
   if (read == 0) GTEST_SKIP() << "none of the manifest's meshes is readable in " << dir.string();
 }
 
+// Brute force: every undirected lattice edge of the prepared triangles used
+// an even number of times.
+bool closedByEdgeCounts(const std::vector<LatticeTriangle>& tris) {
+  std::map<std::array<int32_t, 6>, int> count;
+  for (const LatticeTriangle& t : tris) {
+    for (int j = 0; j < 3; ++j) {
+      std::array<int32_t, 3> p{t.v[j][0], t.v[j][1], t.v[j][2]}, q{t.v[(j + 1) % 3][0], t.v[(j + 1) % 3][1], t.v[(j + 1) % 3][2]};
+      if (q < p) std::swap(p, q);
+      ++count[{p[0], p[1], p[2], q[0], q[1], q[2]}];
+    }
+  }
+  return std::all_of(count.begin(), count.end(), [](const auto& e) { return e.second % 2 == 0; });
+}
+
+// prepareMesh's closedness test (hash buckets, several blocks) against the
+// brute force: a closed sphere, the sphere with triangles taken away or
+// repeated, and soups on a tiny lattice where most edges are shared by many.
+TEST(PrepareMesh, ClosedAgreesWithEdgeCounts) {
+  BuildConfig config;
+  config.resolution = 256;
+  const TriangleMesh sphere = builtinMesh("sphere");
+  uint64_t seed = 12345;
+  auto next = [&seed] { return (seed = seed * 6364136223846793005ull + 1442695040888963407ull) >> 33; };
+  std::vector<TriangleMesh> cases = {sphere};
+  for (int variant = 0; variant < 4; ++variant) {
+    TriangleMesh m = sphere;
+    const size_t t = next() % m.triangleCount();
+    if (variant == 0) m.triangles.erase(m.triangles.begin() + 3 * t, m.triangles.begin() + 3 * t + 3);
+    std::vector<uint32_t> tri(m.triangles.begin() + 3 * t, m.triangles.begin() + 3 * t + 3);
+    for (int copies = 0; copies < variant; ++copies) m.triangles.insert(m.triangles.end(), tri.begin(), tri.end());
+    cases.push_back(m);
+  }
+  for (size_t triangles : {7u, 1000u, 60000u}) {
+    for (int paired = 0; paired < 2; ++paired) {
+      TriangleMesh m;
+      for (int i = 0; i < 4 * 4 * 4; ++i) m.points.insert(m.points.end(), {double(i % 4), double(i / 4 % 4), double(i / 16)});
+      for (size_t i = 0; i < triangles; ++i) {
+        uint32_t a = next() % 64, b = next() % 64, c = next() % 64;
+        while (b == a) b = next() % 64;
+        while (c == a || c == b) c = next() % 64;
+        for (int k = 0; k < (paired ? 2 : 1); ++k) m.triangles.insert(m.triangles.end(), {a, b, c});
+      }
+      cases.push_back(m);
+    }
+  }
+  int closed = 0, open = 0;
+  for (size_t i = 0; i < cases.size(); ++i) {
+    SCOPED_TRACE("case " + std::to_string(i));
+    const PreparedMesh p = prepareMesh(cases[i], config);
+    const bool expected = closedByEdgeCounts(p.triangles);
+    EXPECT_EQ(p.closed, expected);
+    (expected ? closed : open) += 1;
+  }
+  EXPECT_GE(closed, 4); // both answers are exercised
+  EXPECT_GE(open, 4);
+}
+
 } // namespace
 } // namespace test
 } // namespace hdt

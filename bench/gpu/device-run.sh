@@ -11,12 +11,15 @@
 #     quick     a few GPU-vs-CPU tests
 #     tests     all CUDA tests (hdt_cuda_tests)
 #     sanitize  compute-sanitizer memcheck on every test, initcheck and synccheck on a reduced set
+#     memcheck  memcheck on a subset (MEMCHECK_FILTER, MEMCHECK_TIMEOUT)
 #     racecheck racecheck on the generated shapes, dense clusters, driver tests and meshes at 1024
 #     vtktests  the VTK filter's tests (hdt_vtk_tests, CUDA path included) from the carried
 #               tarball .devdeps/vtk-tests.tar.xz (bin/ and lib/: see bench/gpu/README.md)
 #     bench     hdt_gpu_bench over all meshes, 1K..32K, surface and solid,
 #               and the >= 1M-triangle 32768^3 run
 #     profile   ncu on one 8192^3 build (profile2: a second mesh; sass: instruction mix)
+#     e2e       mesh file to .hdt file, every step timed, one process a run
+#               (hdt_e2e_bench; E2E_MESHES, E2E_RES, E2E_MODES, E2E_TIMEOUT)
 #     minibench, variant: quicker subsets used while tuning
 # Steps read a few environment variables (BENCH_*, PROFILE_*, MINIBENCH_*, TESTS_TIMEOUT).
 #
@@ -35,6 +38,7 @@ export PATH=/usr/local/cuda/bin:$PATH
 if [ -x "$DEPS/bin/hdt_cuda_tests" ]; then BIN=$DEPS/bin; else BIN=$ROOT/build-device/bin; fi
 TESTS=$BIN/hdt_cuda_tests
 BENCH=$BIN/hdt_gpu_bench
+E2E=$BIN/hdt_e2e_bench
 SUMMARY=$OUT/summary.txt
 
 say() { echo "== $*" | tee -a "$SUMMARY"; }
@@ -56,15 +60,17 @@ step_buildsrc() {
       -DHDT_BUILD_PARAVIEW=OFF -DCMAKE_CUDA_ARCHITECTURES=90-real \
       -DCMAKE_PREFIX_PATH="$DEPS" -DTBB_DIR="$DEPS/lib/x86_64-linux-gnu/cmake/TBB" \
       -DZLIB_ROOT="$DEPS" -DHDT_GTEST_SOURCE_DIR="$DEPS/googletest" &&
-      ninja -C "$ROOT/build-device" hdt_cuda_tests hdt_gpu_bench &&
+      ninja -C "$ROOT/build-device" hdt_cuda_tests hdt_gpu_bench hdt_e2e_bench &&
       mkdir -p "$ROOT/build-device/bin" &&
-      cp "$ROOT/build-device/tests/hdt_cuda_tests" "$ROOT/build-device/bench/gpu/hdt_gpu_bench" "$ROOT/build-device/bin/"
+      cp "$ROOT/build-device/tests/hdt_cuda_tests" "$ROOT/build-device/bench/gpu/hdt_gpu_bench" \
+        "$ROOT/build-device/bench/gpu/hdt_e2e_bench" "$ROOT/build-device/bin/"
   } > "$OUT/build.log" 2>&1
   local rc=$?
   say "build: rc=$rc in $((SECONDS - t0)) s"
   [ $rc -eq 0 ] || { tail -40 "$OUT/build.log"; exit 1; }
   # The later steps use what was just built, not binaries left in .devdeps/bin.
   BIN=$ROOT/build-device/bin TESTS=$ROOT/build-device/bin/hdt_cuda_tests BENCH=$ROOT/build-device/bin/hdt_gpu_bench
+  E2E=$ROOT/build-device/bin/hdt_e2e_bench
 }
 
 run_tests() { # name filter timeout
@@ -82,6 +88,43 @@ step_minibench() { # MINIBENCH_BIN (default the bench), MINIBENCH_MESHES, MINIBE
     --runs 3 --out "$OUT/$tag.jsonl" > "$OUT/$tag.log" 2>&1
   say "$tag: rc=$? in $((SECONDS - t0)) s"
   cat "$OUT/$tag.log" | tee -a "$SUMMARY"
+}
+
+step_e2e() { # E2E_RUNS: "MESH:SUBDIVIDE:N:MODE[:FLAG] ..." (meshes in .devdeps/meshes; FLAG: an
+  # hdt_e2e_bench option without its dashes, e.g. write-breakdown), in order until E2E_END
+  # (seconds since the script started) or E2E_TIMEOUT seconds from now
+  local t0=$SECONDS out=$OUT/e2e-runs.jsonl deadline=${E2E_END:-$((SECONDS + ${E2E_TIMEOUT:-300}))}
+  local runs=${E2E_RUNS:-}
+  if [ -z "$runs" ]; then
+    for m in stanford-dragon-100k.ply nefertiti.ply cycloidal-drive.ply; do
+      for n in 1024 4096 8192 16384 32768 65536; do runs+=" $m:0:$n:surface $m:0:$n:solid"; done
+    done
+  fi
+  for spec in $runs; do
+    IFS=: read -r m k n mode flag <<< "$spec"
+    local left=$((deadline - SECONDS))
+    [ $left -gt 5 ] || { say "e2e: out of time before $spec"; break; }
+    timeout $left "$E2E" "$DEPS/meshes/$m" --subdivide "$k" --res "$n" --mode "$mode" --backend cuda \
+      --hdt /tmp/e2e.hdt --out "$out" ${flag:+--$flag} >> "$OUT/e2e.log" 2>&1 || say "e2e: rc=$? for $spec"
+    rm -f /tmp/e2e.hdt
+  done
+  # cold start: the first build of a process without and with hdt::prepareCuda, against a warm one
+  for flag in --cold "" --cold ""; do
+    "$E2E" "$DEPS/meshes/stanford-dragon-100k.ply" --res 2048 --mode surface --backend cuda $flag --warm-check \
+      --hdt /tmp/e2e.hdt --out "$OUT/e2e-cold.jsonl" >> "$OUT/e2e.log" 2>&1
+  done
+  say "e2e: $(wc -l < "$out") runs in $((SECONDS - t0)) s"
+  python3 - "$out" "$OUT/e2e-cold.jsonl" <<'PY' | tee -a "$SUMMARY"
+import json, sys
+for f in sys.argv[1:]:
+    for l in open(f):
+        r = json.loads(l)
+        if 'error' in r: print(r['mesh'], r['resolution'], 'surface' if r['surface_only'] else 'solid', 'error:', r['error'][:100]); continue
+        print(f"{r['mesh'][:22]:22} {r['resolution']:6} {'surface' if r['surface_only'] else 'solid':7} read {r['read_ms']:8.1f} prep {r['prepare_ms']:7.1f} "
+              f"wait {r['warm_up_wait_ms']:6.1f} phases {r['build_phases_ms']:7.2f} build {r['build_wall_ms']:8.1f} copy {r['copy_back_ms']:8.1f} "
+              f"({r['copy_back_gb_per_s']:5.1f} GB/s) write {r['write_ms']:8.1f} wall {r['wall_ms']:8.1f} host {r['peak_host_bytes']/2**30:6.2f} GiB "
+              f"dev {r['peak_device_bytes']/2**30:6.2f} GiB chunks {r['chunks']}" + (f" serialize {r['serialize_ms']:.1f} raw {r['write_raw_ms']:.1f}" if 'serialize_ms' in r else '') + (f" warm {r['warm_build_phases_ms']:.2f} cold={r['cold']}" if 'warm_build_phases_ms' in r else ''))
+PY
 }
 
 step_variant() { # the same minibench with .devdeps/bin/hdt_gpu_bench_$VARIANT
@@ -104,6 +147,13 @@ step_sanitize() { # memcheck on every CUDA test; initcheck and synccheck on a re
     timeout 150 compute-sanitizer --tool $tool --error-exitcode 9 "$TESTS" --gtest_filter="$filter" > "$OUT/$tool.log" 2>&1
     say "$tool: rc=$? in $((SECONDS - t0)) s: $(grep -E 'SUMMARY|^\[  (PASSED|FAILED) ' "$OUT/$tool.log" | tr '\n' ' ')"
   done
+}
+
+step_memcheck() { # memcheck on a subset (MEMCHECK_FILTER), MEMCHECK_TIMEOUT
+  local t0=$SECONDS
+  timeout "${MEMCHECK_TIMEOUT:-240}" compute-sanitizer --tool memcheck --error-exitcode 9 "$TESTS" \
+    --gtest_filter="${MEMCHECK_FILTER:-CudaDriver.*:*CudaChunked*}" > "$OUT/memcheck.log" 2>&1
+  say "memcheck ${MEMCHECK_FILTER:-}: rc=$? in $((SECONDS - t0)) s: $(grep -E 'ERROR SUMMARY|^\[  (PASSED|FAILED) ' "$OUT/memcheck.log" | tr '\n' ' ')"
 }
 
 step_racecheck() { # shared-memory hazards; every shared access tracked (~100x slower): all generated

@@ -17,6 +17,8 @@
 #include "hdt/mesh.hpp"
 #include "hdt/mesh_io.hpp"
 
+#include "subdivide.hpp"
+
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -27,7 +29,6 @@
 #include <map>
 #include <sstream>
 #include <string>
-#include <unordered_map>
 #include <vector>
 
 namespace {
@@ -75,29 +76,6 @@ Args parse(int argc, char** argv) {
   }
   if (a.meshes.empty()) throw std::runtime_error("--meshes DIR is required");
   return a;
-}
-
-// Midpoint subdivision (each triangle into 4), midpoints shared per edge so
-// that a closed mesh stays closed: the same surface with 4x the triangles.
-TriangleMesh subdivide(const TriangleMesh& m) {
-  TriangleMesh out;
-  out.points = m.points;
-  std::unordered_map<uint64_t, uint32_t> mid;
-  auto midpoint = [&](uint32_t a, uint32_t b) {
-    const uint64_t key = (uint64_t(std::min(a, b)) << 32) | std::max(a, b);
-    auto it = mid.find(key);
-    if (it != mid.end()) return it->second;
-    const uint32_t idx = uint32_t(out.points.size() / 3);
-    for (int k = 0; k < 3; ++k) out.points.push_back(0.5 * (m.points[3 * size_t(a) + k] + m.points[3 * size_t(b) + k]));
-    mid.emplace(key, idx);
-    return idx;
-  };
-  for (size_t t = 0; t < m.triangleCount(); ++t) {
-    const uint32_t a = m.triangles[3 * t], b = m.triangles[3 * t + 1], c = m.triangles[3 * t + 2];
-    const uint32_t ab = midpoint(a, b), bc = midpoint(b, c), ca = midpoint(c, a);
-    for (uint32_t v : {a, ab, ca, ab, b, bc, ca, bc, c, ab, bc, ca}) out.triangles.push_back(v);
-  }
-  return out;
 }
 
 double median(std::vector<double> v) {

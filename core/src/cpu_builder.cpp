@@ -335,7 +335,7 @@ private:
   std::vector<uint64_t> leafCoords_;
   std::vector<uint64_t> leafPairStart_;
   std::vector<Pair> leafPairs_;
-  std::vector<uint32_t> leafWords_;
+  LeafWordVector leafWords_;
   std::vector<uint32_t> exit_[3]; // per axis, leaves * rowWords: pass 1's parity, then the exit parity
   RangeLines lines_[3];
   RangeBoundary boundary_;

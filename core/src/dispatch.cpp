@@ -14,6 +14,7 @@ Volume buildCuda(const PreparedMesh&, const BuildOptions&) {
   throw Error(ErrorKind::InvalidArgument,
               "backend cuda requested but this build has no CUDA driver (HDT_ENABLE_CUDA=OFF)");
 }
+void prepareCuda(const BuildConfig&, const BuildOptions&) {}
 #endif
 
 Volume build(const PreparedMesh& mesh, const BuildOptions& options) {

@@ -30,6 +30,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <exception>
 #include <memory>
 #include <new>
 #include <stdexcept>
@@ -123,7 +124,7 @@ template <class Fn> void forEachLittleEndianChunk(const uint32_t* words, size_t 
 }
 
 // CRC-32 of the little-endian encoding of `words`.
-uint32_t crcOfWords(const std::vector<uint32_t>& words) {
+template <class Words> uint32_t crcOfWords(const Words& words) {
   if (kLittleEndianHost) return crc32Of(words.data(), words.size() * 4);
   uint32_t crc = 0;
   forEachLittleEndianChunk(words.data(), words.size(),
@@ -309,7 +310,7 @@ struct LeafCounts {
 };
 
 // Rule 19, and the voxel counts the statistics must match.
-LeafCounts checkLeaves(const std::vector<uint32_t>& words, int leafSize, bool surfaceOnly) {
+LeafCounts checkLeaves(const LeafWordVector& words, int leafSize, bool surfaceOnly) {
   const LeafCounts c = tbb::parallel_reduce(
       tbb::blocked_range<size_t>(0, words.size(), 1 << 16), LeafCounts{},
       [&](const tbb::blocked_range<size_t>& r, LeafCounts c) {
@@ -402,7 +403,7 @@ struct Compressed {
   size_t size = 0;
 };
 
-Compressed compressLeaves(const std::vector<uint32_t>& words, int level) {
+Compressed compressLeaves(const LeafWordVector& words, int level) {
   const size_t rawBytes = words.size() * 4;
   std::unique_ptr<ZSTD_CCtx, CCtxFree> cctx(ZSTD_createCCtx());
   if (!cctx) throw std::bad_alloc();
@@ -624,18 +625,38 @@ EncodedVolume prepare(const Volume& v, const HdtWriteOptions& options, const std
                                                 ", " + std::to_string(ZSTD_maxCLevel()) + "]");
   }
 #endif
+  // The checks and the encoding both only read the volume: they run at the
+  // same time (zstd's workers leave cores idle for the checks). The checks'
+  // verdict comes first, as if they had run alone.
+  std::exception_ptr checkError;
+  std::thread checker([&] {
+    try {
+      checkVolume(v);
+    } catch (...) {
+      checkError = std::current_exception();
+    }
+  });
+  EncodedVolume e;
+  std::exception_ptr encodeError;
   try {
-    checkVolume(v);
-  } catch (const Invalid& e) {
-    throw Error(ErrorKind::InvalidArgument, name + ": refusing to write an inconsistent volume: " + e.what());
+    e = encode(v, options);
+  } catch (...) {
+    encodeError = std::current_exception();
+  }
+  checker.join();
+  try {
+    if (checkError) std::rethrow_exception(checkError);
+  } catch (const Invalid& x) {
+    throw Error(ErrorKind::InvalidArgument, name + ": refusing to write an inconsistent volume: " + x.what());
   }
   try {
-    return encode(v, options);
-  } catch (const Error& e) { // zstd failures
-    throw Error(e.kind(), name + ": " + e.what());
+    if (encodeError) std::rethrow_exception(encodeError);
+  } catch (const Error& x) { // zstd failures
+    throw Error(x.kind(), name + ": " + x.what());
   } catch (const std::bad_alloc&) {
     throw Error(ErrorKind::OutOfResources, name + ": out of memory while encoding the volume");
   }
+  return e;
 }
 
 // ---- reading ------------------------------------------------------------------------
@@ -762,7 +783,7 @@ std::vector<uint8_t> readSmallSection(Source& in, const SectionHeader& h) {
 }
 
 // Words of a raw section, straight into `words` (already sized to h.stored / 4).
-void readWordSection(Source& in, const SectionHeader& h, std::vector<uint32_t>& words) {
+template <class Words> void readWordSection(Source& in, const SectionHeader& h, Words& words) {
   in.read(words.data(), size_t(h.stored));
   checkCrc(h, crc32Of(words.data(), size_t(h.stored)));
   littleEndianToHost(words.data(), words.size());

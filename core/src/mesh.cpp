@@ -2,9 +2,14 @@
 
 #include "hdt/error.hpp"
 #include "hdt/geometry.hpp"
+#include "hdt/default_init_allocator.hpp"
 
+#include <sys/mman.h>
+#include <unistd.h>
+
+#include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
-#include <tbb/parallel_sort.h>
+#include <tbb/parallel_reduce.h>
 
 #include <algorithm>
 #include <cmath>
@@ -12,14 +17,12 @@
 
 namespace hdt {
 
-void meshBounds(const TriangleMesh& mesh, std::array<double, 3>& lo, std::array<double, 3>& hi) {
-  if (mesh.points.size() % 3 != 0 || mesh.triangles.size() % 3 != 0) {
-    throw Error(ErrorKind::BadInput, "point or index array length is not a multiple of 3");
-  }
-  if (mesh.triangleCount() == 0) throw Error(ErrorKind::BadInput, "the mesh has no triangles");
+namespace {
+
+// The first bad index or coordinate, in triangle order: the message names the
+// same triangle whatever the thread count.
+[[noreturn]] void throwFirstBadReference(const TriangleMesh& mesh) {
   const size_t np = mesh.pointCount();
-  lo = {HUGE_VAL, HUGE_VAL, HUGE_VAL};
-  hi = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
   for (size_t i = 0; i < mesh.triangles.size(); ++i) {
     const uint32_t p = mesh.triangles[i];
     if (p >= np) {
@@ -28,51 +31,200 @@ void meshBounds(const TriangleMesh& mesh, std::array<double, 3>& lo, std::array<
       throw Error(ErrorKind::BadInput, msg.str());
     }
     for (int a = 0; a < 3; ++a) {
-      const double x = mesh.points[3 * size_t(p) + a];
-      if (!std::isfinite(x)) {
+      if (!std::isfinite(mesh.points[3 * size_t(p) + a])) {
         std::ostringstream msg;
         msg << "point " << p << " (used by triangle " << i / 3 << ") has a non-finite coordinate";
         throw Error(ErrorKind::BadInput, msg.str());
       }
-      lo[a] = std::min(lo[a], x);
-      hi[a] = std::max(hi[a], x);
     }
   }
+  throw Error(ErrorKind::BadInput, "bad point reference"); // not reached: called after one was found
+}
+
+} // namespace
+
+void meshBounds(const TriangleMesh& mesh, std::array<double, 3>& lo, std::array<double, 3>& hi) {
+  if (mesh.points.size() % 3 != 0 || mesh.triangles.size() % 3 != 0) {
+    throw Error(ErrorKind::BadInput, "point or index array length is not a multiple of 3");
+  }
+  if (mesh.triangleCount() == 0) throw Error(ErrorKind::BadInput, "the mesh has no triangles");
+  struct Box {
+    std::array<double, 3> lo{HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi{-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
+    bool bad = false;
+  };
+  const size_t np = mesh.pointCount();
+  // min and max are exact, so the bounds do not depend on how the work is split.
+  const Box box = tbb::parallel_reduce(
+      tbb::blocked_range<size_t>(0, mesh.triangles.size(), 1 << 14), Box{},
+      [&](const tbb::blocked_range<size_t>& r, Box b) {
+        for (size_t i = r.begin(); i != r.end(); ++i) {
+          const uint32_t p = mesh.triangles[i];
+          if (p >= np) {
+            b.bad = true;
+            break;
+          }
+          for (int a = 0; a < 3; ++a) {
+            const double x = mesh.points[3 * size_t(p) + a];
+            b.bad |= !std::isfinite(x);
+            b.lo[a] = std::min(b.lo[a], x);
+            b.hi[a] = std::max(b.hi[a], x);
+          }
+        }
+        return b;
+      },
+      [](Box a, const Box& b) {
+        for (int k = 0; k < 3; ++k) {
+          a.lo[k] = std::min(a.lo[k], b.lo[k]);
+          a.hi[k] = std::max(a.hi[k], b.hi[k]);
+        }
+        a.bad |= b.bad;
+        return a;
+      });
+  if (box.bad) throwFirstBadReference(mesh);
+  lo = box.lo;
+  hi = box.hi;
 }
 
 namespace {
 
+// Fresh memory's pages are faulted in by several threads (one thread's page
+// faults were most of prepareMesh's time); vectors that are written in
+// parallel loops are not zeroed first (DefaultInitAllocator).
+template <class T> using Scratch = std::vector<T, DefaultInitAllocator<T>>;
+
+// An undirected edge: its two lattice points as 96-bit keys, a < b.
+struct Edge {
+  unsigned __int128 a, b;
+  bool operator<(const Edge& o) const { return a < o.a || (a == o.a && b < o.b); }
+  bool operator==(const Edge& o) const { return a == o.a && b == o.b; }
+};
+
+unsigned __int128 pointKey(const int32_t* p) {
+  return (static_cast<unsigned __int128>(uint32_t(p[0])) << 64) | (uint64_t(uint32_t(p[1])) << 32) | uint32_t(p[2]);
+}
+
+Edge edgeOf(const LatticeTriangle& t, int j) {
+  const unsigned __int128 p = pointKey(t.v[j]), q = pointKey(t.v[(j + 1) % 3]);
+  return p < q ? Edge{p, q} : Edge{q, p};
+}
+
+// Equal edges land in the same bucket: a hash of the coordinates.
+uint32_t bucketOf(const Edge& e, int bits) { // bits in [1, 12]
+  uint64_t h = 0x9E3779B97F4A7C15ull;
+  for (unsigned __int128 k : {e.a, e.b}) {
+    h = (h ^ uint64_t(k)) * 0xFF51AFD7ED558CCDull;
+    h = (h ^ uint64_t(k >> 64)) * 0xC4CEB9FE1A85EC53ull;
+  }
+  return uint32_t((h ^ (h >> 29)) >> (64 - bits));
+}
+
 // Every undirected edge, as a pair of lattice points, used an even number of
 // times: the surface is a mod-2 cycle, so ray parity is the same along any
-// direction and one ray axis is enough.
+// direction and one ray axis is enough. Linear and parallel: the edges are
+// scattered into hash buckets (counted per fixed block of triangles, so the
+// layout does not depend on the thread count), then each small bucket is
+// sorted and its runs counted on its own.
 bool isClosed(const std::vector<LatticeTriangle>& tris) {
-  struct Edge {
-    int32_t a[3], b[3];
-    bool operator<(const Edge& o) const {
-      return std::lexicographical_compare(a, a + 3, o.a, o.a + 3) ||
-             (std::equal(a, a + 3, o.a) && std::lexicographical_compare(b, b + 3, o.b, o.b + 3));
-    }
-    bool operator==(const Edge& o) const { return std::equal(a, a + 3, o.a) && std::equal(b, b + 3, o.b); }
-  };
-  std::vector<Edge> edges(tris.size() * 3);
-  tbb::parallel_for(size_t(0), tris.size(), [&](size_t t) {
-    for (int j = 0; j < 3; ++j) {
-      const int32_t* p = tris[t].v[j];
-      const int32_t* q = tris[t].v[(j + 1) % 3];
-      Edge& e = edges[3 * t + j];
-      const bool swap = std::lexicographical_compare(q, q + 3, p, p + 3);
-      std::copy(swap ? q : p, (swap ? q : p) + 3, e.a);
-      std::copy(swap ? p : q, (swap ? p : q) + 3, e.b);
-    }
+  const size_t n = tris.size();
+  // About 256 edges a bucket (at most 4096 buckets) and at most 64 blocks:
+  // the count table stays small (2 MiB) for any mesh.
+  const int bits = std::clamp(int(std::log2(double(3 * n) / 256.0 + 1.0)), 1, 12);
+  const size_t buckets = size_t(1) << bits;
+  const size_t blocks = std::clamp<size_t>((n + (1 << 14) - 1) >> 14, 1, 64), block = (n + blocks - 1) / blocks;
+  Scratch<uint16_t> bucket(3 * n);
+  std::vector<size_t> offset(blocks * buckets, 0); // per block and bucket: count, then first slot
+  tbb::parallel_for(size_t(0), blocks, [&](size_t k) {
+    size_t* count = offset.data() + k * buckets;
+    for (size_t t = k * block; t < std::min(n, (k + 1) * block); ++t)
+      for (int j = 0; j < 3; ++j) ++count[bucket[3 * t + j] = uint16_t(bucketOf(edgeOf(tris[t], j), bits))];
   });
-  tbb::parallel_sort(edges.begin(), edges.end());
-  for (size_t i = 0; i < edges.size();) {
-    size_t j = i + 1;
-    while (j < edges.size() && edges[j] == edges[i]) ++j;
-    if ((j - i) % 2 != 0) return false;
-    i = j;
+  std::vector<size_t> bucketStart(buckets + 1, 0);
+  {
+    size_t slot = 0;
+    for (size_t b = 0; b < buckets; ++b) {
+      bucketStart[b] = slot;
+      for (size_t k = 0; k < blocks; ++k) {
+        const size_t c = offset[k * buckets + b];
+        offset[k * buckets + b] = slot;
+        slot += c;
+      }
+    }
+    bucketStart[buckets] = slot;
   }
-  return true;
+  Scratch<Edge> edges(3 * n);
+  tbb::parallel_for(size_t(0), blocks, [&](size_t k) {
+    size_t* next = offset.data() + k * buckets;
+    for (size_t t = k * block; t < std::min(n, (k + 1) * block); ++t)
+      for (int j = 0; j < 3; ++j) edges[next[bucket[3 * t + j]]++] = edgeOf(tris[t], j);
+  });
+  return tbb::parallel_reduce(
+      tbb::blocked_range<size_t>(0, buckets), true,
+      [&](const tbb::blocked_range<size_t>& r, bool closed) {
+        for (size_t b = r.begin(); closed && b != r.end(); ++b) {
+          Edge* first = edges.data() + bucketStart[b];
+          Edge* last = edges.data() + bucketStart[b + 1];
+          std::sort(first, last);
+          for (Edge* i = first; closed && i != last;) {
+            Edge* j = i + 1;
+            while (j != last && *j == *i) ++j;
+            closed = (j - i) % 2 == 0;
+            i = j;
+          }
+        }
+        return closed;
+      },
+      [](bool x, bool y) { return x && y; });
+}
+
+void prefaultParallel(void* p, size_t bytes) {
+  const uintptr_t page = uintptr_t(sysconf(_SC_PAGESIZE)), piece = uintptr_t(1) << 20;
+  const uintptr_t begin = (reinterpret_cast<uintptr_t>(p) + page - 1) & ~(page - 1);
+  const uintptr_t end = (reinterpret_cast<uintptr_t>(p) + bytes) & ~(page - 1);
+  if (end <= begin + piece) return;
+#if defined(MADV_POPULATE_WRITE)
+  tbb::parallel_for(begin, end, piece, [&](uintptr_t q) {
+    madvise(reinterpret_cast<void*>(q), std::min(piece, end - q), MADV_POPULATE_WRITE); // a hint: may fail
+  });
+#endif
+}
+
+// `count` value-initialised elements; the pages are faulted in in parallel
+// first, so the zeroing runs at memory speed.
+template <class T> std::vector<T> sizedVector(size_t count) {
+  std::vector<T> v;
+  v.reserve(count);
+  prefaultParallel(v.data(), count * sizeof(T));
+  v.resize(count);
+  return v;
+}
+
+LatticeTriangle snappedTriangle(const TriangleMesh& mesh, const Scratch<int32_t>& snapped, size_t t) {
+  LatticeTriangle tri;
+  for (int j = 0; j < 3; ++j)
+    for (int a = 0; a < 3; ++a) tri.v[j][a] = snapped[3 * size_t(mesh.triangles[3 * t + j]) + a];
+  return tri;
+}
+
+// The non-degenerate triangles, in input order: per fixed block a count, then
+// each block writes its own range.
+std::vector<LatticeTriangle> keptTriangles(const TriangleMesh& mesh, const Scratch<int32_t>& snapped) {
+  const size_t n = mesh.triangleCount(), block = 1 << 14, blocks = (n + block - 1) / block;
+  Scratch<uint8_t> keep(n);
+  std::vector<size_t> start(blocks + 1, 0);
+  tbb::parallel_for(size_t(0), blocks, [&](size_t k) {
+    size_t c = 0;
+    for (size_t t = k * block; t < std::min(n, (k + 1) * block); ++t)
+      c += keep[t] = !isDegenerate(snappedTriangle(mesh, snapped, t));
+    start[k + 1] = c;
+  });
+  for (size_t k = 0; k < blocks; ++k) start[k + 1] += start[k];
+  std::vector<LatticeTriangle> out = sizedVector<LatticeTriangle>(start[blocks]);
+  tbb::parallel_for(size_t(0), blocks, [&](size_t k) {
+    size_t o = start[k];
+    for (size_t t = k * block; t < std::min(n, (k + 1) * block); ++t)
+      if (keep[t]) out[o++] = snappedTriangle(mesh, snapped, t);
+  });
+  return out;
 }
 
 } // namespace
@@ -100,7 +252,7 @@ PreparedMesh prepareMesh(const TriangleMesh& mesh, const BuildConfig& config) {
   // drivers see. Points lie in [s, (N - 1) s] of the grid, so below 2^24.
   const GridSpec& g = out.grid;
   const double scale = double(kLatticePerVoxel) / g.voxelSize;
-  std::vector<int32_t> snapped(mesh.points.size());
+  Scratch<int32_t> snapped(mesh.points.size());
   tbb::parallel_for(size_t(0), mesh.pointCount(), [&](size_t p) {
     for (int a = 0; a < 3; ++a) {
       const double q = (mesh.points[3 * p + a] - g.origin[a]) * scale;
@@ -110,19 +262,10 @@ PreparedMesh prepareMesh(const TriangleMesh& mesh, const BuildConfig& config) {
     }
   });
 
-  std::vector<LatticeTriangle> all(mesh.triangleCount());
-  std::vector<uint8_t> keep(all.size());
-  tbb::parallel_for(size_t(0), all.size(), [&](size_t t) {
-    for (int j = 0; j < 3; ++j)
-      for (int a = 0; a < 3; ++a) all[t].v[j][a] = snapped[3 * size_t(mesh.triangles[3 * t + j]) + a];
-    keep[t] = !isDegenerate(all[t]);
-  });
-  out.triangles.reserve(all.size());
-  for (size_t t = 0; t < all.size(); ++t)
-    if (keep[t]) out.triangles.push_back(all[t]);
-  out.degenerateTriangles = all.size() - out.triangles.size();
+  out.triangles = keptTriangles(mesh, snapped);
+  out.degenerateTriangles = mesh.triangleCount() - out.triangles.size();
   if (out.triangles.empty()) {
-    throw Error(ErrorKind::BadInput, "all " + std::to_string(all.size()) +
+    throw Error(ErrorKind::BadInput, "all " + std::to_string(mesh.triangleCount()) +
                                          " triangles are degenerate (zero area at this resolution)");
   }
   if (out.triangles.size() > (size_t(1) << 32) - 1) {

@@ -131,7 +131,7 @@ void checkJoinedElementLimit(const GridSpec& g, const std::vector<RangeTree>& ra
   }
 }
 
-Volume joinRanges(const GridSpec& g, std::vector<RangeTree>&& ranges, std::vector<uint32_t>&& leafWords) {
+Volume joinRanges(const GridSpec& g, std::vector<RangeTree>&& ranges, LeafWordVector&& leafWords) {
   checkJoinedElementLimit(g, ranges);
   const std::vector<uint64_t> levelCount = levelCounts(g, ranges);
   const size_t levels = levelCount.size();

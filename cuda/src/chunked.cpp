@@ -58,7 +58,6 @@ RangeTree rangeTreeOf(const RootRange& cells, ChunkTree& t) {
   r.cells = cells;
   r.levels = std::move(t.levelWords);
   r.leafCoord = std::move(t.leafCoord);
-  r.leafWords = std::move(t.leafWords);
   return r;
 }
 
@@ -136,7 +135,7 @@ Volume buildChunked(Session& s, CudaBuildReport& report) {
     try {
       trees.push_back(buildChunkTree(s, c.first, c.end));
       done.push_back(c);
-      s.progress(0.1 + 0.5 * double(c.end) / double(cells), solid ? "branching" : "leaf processing");
+      s.progress(0.1 + 0.5 * double(c.end) / double(cells), "branching");
     } catch (const DeviceMemoryExhausted& e) {
       s.sync();
       s.clock.collect(s.ms);
@@ -150,21 +149,17 @@ Volume buildChunked(Session& s, CudaBuildReport& report) {
   std::vector<RangeTree> ranges;
   for (size_t c = 0; c < done.size(); ++c) ranges.push_back(rangeTreeOf(done[c], trees[c]));
   checkJoinedElementLimit(g, ranges);
-  if (!solid) {
-    Volume v = joinRanges(g, std::move(ranges));
-    v.surfaceOnly = s.mesh.surfaceOnly;
-    v.closedMesh = s.mesh.closed;
-    return v;
-  }
-
-  classifyOnHost(g, axes, trees, ranges);
+  if (solid) classifyOnHost(g, axes, trees, ranges);
   s.progress(0.7, "leaf processing");
 
-  // Phase B: leaf grids per chunk, written in place in the joined order; a
-  // chunk that does not fit after all is split.
+  // Phase B: leaf grids per chunk, copied straight to their place in the
+  // joined order (the only host copy of the leaf grids; LeafWordVector's
+  // resize touches no page before that); a chunk that does not fit after all
+  // is split.
   std::vector<uint64_t> leafStart(done.size() + 1, 0);
   for (size_t c = 0; c < done.size(); ++c) leafStart[c + 1] = leafStart[c] + ranges[c].leafCoord.size();
-  std::vector<uint32_t> leafWords(leafStart.back() * wordsPerLeaf);
+  LeafWordVector leafWords;
+  leafWords.resize(leafStart.back() * wordsPerLeaf);
   const uint64_t leavesPerRoot = uint64_t(g.rootCellVoxels() / g.leafSize);
   struct Piece {
     size_t chunk;
@@ -183,10 +178,10 @@ Volume buildChunked(Session& s, CudaBuildReport& report) {
     pieces.pop_front();
     try {
       const uint32_t* exitParity[3] = {nullptr, nullptr, nullptr};
-      for (int a = 0; a < axes; ++a) exitParity[a] = trees[p.chunk].parity[a].data() + p.firstLeaf * rowWords;
+      for (int a = 0; solid && a < axes; ++a) exitParity[a] = trees[p.chunk].parity[a].data() + p.firstLeaf * rowWords;
       buildChunkLeaves(s, p.cells.first, p.cells.end, uint32_t(p.endLeaf - p.firstLeaf), exitParity,
                        leafWords.data() + (leafStart[p.chunk] + p.firstLeaf) * wordsPerLeaf);
-      s.progress(0.7 + 0.3 * double(p.cells.end) / double(cells), "classification");
+      s.progress(0.7 + 0.3 * double(p.cells.end) / double(cells), solid ? "classification" : "leaf processing");
     } catch (const DeviceMemoryExhausted& e) {
       s.sync();
       s.clock.collect(s.ms);

@@ -3,11 +3,12 @@
 // plan, lines and boundary parities, uniform elements, join); this file only
 // schedules them on the device.
 //
-// A solid build runs in two phases: A) per chunk on the device, the tree and
-// the pass-1 parity of its leaves; then on the host, per chunk, the lines'
+// A build runs in two phases: A) per chunk on the device, the tree and, for
+// solid builds, the pass-1 parity of its leaves; then on the host, per chunk, the lines'
 // exit parity stitched with the parity beyond the chunk, and the uniform
 // elements; B) per chunk again, the tree (rebuilt: cheaper than storing it),
-// the leaf grids and pass 2 with that exit parity.
+// the leaf grids (solid: pass 2 with that exit parity), copied straight to
+// their place in the volume, which is so the only host copy of the leaf grids.
 // Phase A reserves the room phase B will need, so a chunk that passed A fits
 // in B. A chunk that does not fit is split in two; a single root cell that
 // does not fit ends the build with Error(OutOfResources).

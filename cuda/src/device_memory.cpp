@@ -122,4 +122,21 @@ void DeviceMemory::reserve(size_t bytes) {
 
 void setCudaPoolRetention(uint64_t bytes) { cuda::g_retainedBytes.store(bytes); }
 
+namespace cuda {
+void DeviceMemory::prefill(int device, cudaStream_t stream, uint64_t bytes) {
+  cudaMemPool_t pool = poolFor(device);
+  if (!pool || bytes == 0) return;
+  uint64_t reserved = 0;
+  HDT_CUDA_CHECK(cudaMemPoolGetAttribute(pool, cudaMemPoolAttrReservedMemCurrent, &reserved));
+  if (reserved >= bytes) return;
+  void* p = nullptr;
+  if (cudaMallocFromPoolAsync(&p, bytes - reserved, pool, stream) != cudaSuccess) {
+    cudaGetLastError(); // no room: the build grows the pool itself
+    return;
+  }
+  HDT_CUDA_CHECK(cudaFreeAsync(p, stream)); // back to the pool, which keeps it (release threshold: never)
+  HDT_CUDA_CHECK(cudaStreamSynchronize(stream));
+}
+} // namespace cuda
+
 } // namespace hdt

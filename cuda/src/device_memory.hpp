@@ -52,6 +52,9 @@ public:
   // Bytes an allocation of the pool could get right now: free device memory
   // plus what the pool holds unused.
   static uint64_t obtainable(int device);
+  // Grows the device's pool to `bytes` now (mapping memory is what makes a
+  // process's first build slow); the pool keeps it for the builds.
+  static void prefill(int device, cudaStream_t stream, uint64_t bytes);
 
 private:
   int device_;

@@ -3,6 +3,7 @@
 // path: everything stays on the device until the final copy) or must be
 // built in chunks of root cells (chunked.cpp).
 #include "chunked.hpp"
+#include "host_copy.hpp"
 #include "pipeline.hpp"
 #include "session.hpp"
 
@@ -10,7 +11,9 @@
 #include "hdt/error.hpp"
 #include "hdt/memory_info.hpp"
 #include "hdt/root_ranges.hpp" // checkElementLimit
+#include "hdt/mesh.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <string>
 
@@ -98,7 +101,8 @@ Volume build(const PreparedMesh& mesh, const BuildOptions& options, CudaBuildRep
   st.peakDeviceBytes = s.memory.peak();
   st.peakHostBytes = peakResidentBytes();
   report.uploadMs = s.ms[kUpload];
-  report.downloadMs = s.ms[kDownload];
+  report.downloadMs = s.copyBackMs;
+  report.downloadBytes = s.copyBackBytes;
   s.progress(1.0, "done");
   report.hostMs = std::chrono::duration<double, std::milli>(Clock::now() - host0).count();
   report.wallMs = std::chrono::duration<double, std::milli>(Clock::now() - wall0).count();
@@ -135,6 +139,43 @@ Volume buildCudaWithReport(const PreparedMesh& mesh, const BuildOptions& options
 
 Volume buildCuda(const PreparedMesh& mesh, const BuildOptions& options) {
   return buildCudaWithReport(mesh, options, nullptr, true);
+}
+
+namespace {
+
+// A tetrahedron, closed or with one face missing (open meshes take the
+// three-axis classification path).
+TriangleMesh warmUpMesh(bool closed) {
+  TriangleMesh m;
+  m.points = {0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1};
+  m.triangles = {0, 2, 1, 0, 1, 3, 1, 2, 3};
+  if (closed) m.triangles.insert(m.triangles.end(), {0, 3, 2});
+  return m;
+}
+
+} // namespace
+
+void prepareCuda(const BuildConfig& config, const BuildOptions& options) {
+  try {
+    if (!cudaAvailable(nullptr)) return;
+    cuda::DeviceGuard guard(options.device);
+    cuda::reserveCopyStaging();
+    {
+      cuda::Stream stream;
+      const uint64_t free = cuda::DeviceMemory::obtainable(options.device);
+      cuda::DeviceMemory::prefill(options.device, stream.get(), std::min<uint64_t>(uint64_t(1) << 30, free / 4));
+    }
+    // Builds of the same kind load the kernels they launch (lazy module
+    // loading) and set up what a session does once.
+    BuildConfig small = config;
+    small.resolution = config.rootGrid * config.leafSize * 2;
+    small.hasBounds = false;
+    BuildOptions quiet;
+    quiet.device = options.device;
+    for (bool closed : {true, false}) buildCudaWithReport(prepareMesh(warmUpMesh(closed), small), quiet, nullptr, true);
+  } catch (...) {
+    cudaGetLastError(); // the real build reports what is wrong
+  }
 }
 
 } // namespace hdt

@@ -1,7 +1,10 @@
 #include "pipeline.hpp"
 
+#include "host_copy.hpp"
+
 #include "hdt/error.hpp"
 
+#include <chrono>
 #include <string>
 
 namespace hdt {
@@ -10,12 +13,17 @@ namespace {
 
 int axesFor(const PreparedMesh& mesh) { return mesh.closed ? 1 : 3; }
 
-// Into pageable memory (the Volume's vectors). Pinned staging buffers were
-// tried and measured no faster on the GPU machine (1.5-1.8 GB/s either way,
-// bound by the first touch of the VM's host pages), so the plain copy stays.
+// Into pageable memory (the Volume's vectors) through the pinned ring of
+// host_copy.cpp, after the work queued before it: the wait for that work is
+// not copy-back time, the copy itself is (Session::copyBackMs).
 template <class T>
 void download(Session& s, T* host, const DeviceBuffer<T>& d, size_t count) {
-  if (count) HDT_CUDA_CHECK(cudaMemcpyAsync(host, d.data(), count * sizeof(T), cudaMemcpyDeviceToHost, s.stream.get()));
+  if (count == 0) return;
+  s.sync();
+  const auto t0 = std::chrono::steady_clock::now();
+  copyToHost(s.stream.get(), host, d.data(), count * sizeof(T));
+  s.copyBackMs += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  s.copyBackBytes += count * sizeof(T);
 }
 
 template <class T>
@@ -144,11 +152,10 @@ ChunkTree buildChunkTree(Session& s, uint64_t firstCell, uint64_t endCell) {
   const uint32_t leaves = tree.leaves.count;
   const size_t wordCount = size_t(leaves) * leafWordCount(g.leafSize);
   if (s.mesh.surfaceOnly) {
-    DeviceBuffer<uint32_t> words(s.memory, wordCount);
-    writeLeafSurfaces(s.memory, s.scalars, s.deviceMesh, g, tree.leaves, words.data(), false, nullptr);
-    s.clock.mark(kLeaf);
-    out.leafWords.resize(wordCount);
-    download(s, out.leafWords.data(), words, wordCount);
+    // Phase B writes the leaf grids straight into the volume (one host
+    // copy, no chunk-sized staging on the host); their room is reserved here
+    // as for solid builds.
+    Reservation room(s.memory, wordCount * sizeof(uint32_t));
   } else {
     // Phase B allocates the leaf grids and the open-mesh masks for real.
     const int axes = axesFor(s.mesh);
@@ -162,9 +169,9 @@ ChunkTree buildChunkTree(Session& s, uint64_t firstCell, uint64_t endCell) {
       out.parity[a].resize(leaves * rowWords);
       download(s, out.parity[a].data(), parity.buffer[a], leaves * rowWords);
     }
-    out.leafCoord.resize(leaves);
-    download(s, out.leafCoord.data(), tree.leaves.coord, leaves);
   }
+  out.leafCoord.resize(leaves);
+  download(s, out.leafCoord.data(), tree.leaves.coord, leaves);
   out.levelWords.resize(tree.levels.size());
   for (size_t k = 0; k < tree.levels.size(); ++k) {
     out.levelWords[k].resize(tree.levels[k].count);
@@ -176,20 +183,12 @@ ChunkTree buildChunkTree(Session& s, uint64_t firstCell, uint64_t endCell) {
   return out;
 }
 
-void buildChunkLeaves(Session& s, uint64_t firstCell, uint64_t endCell, uint32_t leafCount,
-                      const uint32_t* const exitParity[3], uint32_t* leafWords) {
-  const GridSpec& g = s.grid;
-  Tree tree = buildChunkStructure(s, firstCell, endCell);
-  if (tree.leaves.count != leafCount) {
-    throw Error(ErrorKind::OutOfResources, "CUDA driver: chunk rebuilt with " + std::to_string(tree.leaves.count) +
-                                               " leaves instead of " + std::to_string(leafCount));
-  }
-  const size_t wordCount = size_t(leafCount) * leafWordCount(g.leafSize);
-  DeviceBuffer<uint32_t> words(s.memory, wordCount);
-  // Pass 1 along x with T3 (the parities came from phase A).
-  writeLeafSurfaces(s.memory, s.scalars, s.deviceMesh, g, tree.leaves, words.data(), true, nullptr);
-  s.clock.mark(kLeaf);
+namespace {
 
+// Pass 2 of a chunk's leaves with the exit parity joined over all chunks.
+void classifyChunkLeaves(Session& s, Tree& tree, const uint32_t* const exitParity[3], uint32_t* words) {
+  const GridSpec& g = s.grid;
+  const uint32_t leafCount = tree.leaves.count;
   const int axes = axesFor(s.mesh);
   const size_t rowWords = size_t(rowWordsFor(g.leafSize));
   AxisBuffers exitBuf = parityBuffers(s, leafCount, axes);
@@ -200,8 +199,27 @@ void buildChunkLeaves(Session& s, uint64_t firstCell, uint64_t endCell, uint32_t
   leafCrossings(s.memory, s.deviceMesh, g, tree.leaves, 1, axes, noParity, masks.ptr);
   const uint32_t* e[3] = {exitBuf.ptr[0], exitBuf.ptr[1], exitBuf.ptr[2]};
   const uint32_t* m[3] = {masks.ptr[0], masks.ptr[1], masks.ptr[2]};
-  writeLeafInside(s.memory, g, tree.leaves, axes, e, m, words.data());
+  writeLeafInside(s.memory, g, tree.leaves, axes, e, m, words);
   s.clock.mark(kClassify);
+}
+
+} // namespace
+
+void buildChunkLeaves(Session& s, uint64_t firstCell, uint64_t endCell, uint32_t leafCount,
+                      const uint32_t* const exitParity[3], uint32_t* leafWords) {
+  const GridSpec& g = s.grid;
+  Tree tree = buildChunkStructure(s, firstCell, endCell);
+  if (tree.leaves.count != leafCount) {
+    throw Error(ErrorKind::OutOfResources, "CUDA driver: chunk rebuilt with " + std::to_string(tree.leaves.count) +
+                                               " leaves instead of " + std::to_string(leafCount));
+  }
+  const size_t wordCount = size_t(leafCount) * leafWordCount(g.leafSize);
+  DeviceBuffer<uint32_t> words(s.memory, wordCount);
+  // Solid builds: pass 1 along x with T3 (the parities came from phase A).
+  const bool solid = !s.mesh.surfaceOnly;
+  writeLeafSurfaces(s.memory, s.scalars, s.deviceMesh, g, tree.leaves, words.data(), solid, nullptr);
+  s.clock.mark(kLeaf);
+  if (solid) classifyChunkLeaves(s, tree, exitParity, words.data());
   download(s, leafWords, words, wordCount);
   s.clock.mark(kDownload);
   s.sync();

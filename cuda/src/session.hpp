@@ -82,6 +82,8 @@ struct Session {
   DeviceBuffer<LatticeTriangle> triangles;
   DeviceMesh deviceMesh;
   double ms[kPhaseCount] = {};
+  double copyBackMs = 0;      // host wall time of the copies back (pipeline.cpp's download)
+  uint64_t copyBackBytes = 0;
 };
 
 // The budget: BuildOptions::deviceMemoryBudget (0: no limit) capped by what

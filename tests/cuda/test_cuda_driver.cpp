@@ -38,6 +38,22 @@ TEST(CudaDriver, RepeatedRunsGiveTheSameBytes) {
   }
 }
 
+// prepareCuda (what hdt-voxelize runs while it reads the mesh) leaves the
+// driver giving the CPU driver's bytes; the copy back of these volumes (tens
+// of MB) goes through the pinned staging ring in more than one piece.
+TEST(CudaDriver, PreparedDeviceGivesTheCpuBytes) {
+  HDT_REQUIRE_CUDA();
+  for (bool surfaceOnly : {false, true}) {
+    const Shape s = makeShape("two_bodies", 2048);
+    const BuildConfig config = s.config(2048, 16, 16, surfaceOnly);
+    prepareCuda(config, cudaOptions());
+    const PreparedMesh mesh = prepareMesh(s.mesh, config);
+    const Volume gpu = build(mesh, cudaOptions());
+    EXPECT_GT(gpu.leafWords.size() * 4, size_t(20) << 20) << "the ring is not exercised";
+    EXPECT_TRUE(sameVolume(gpu, build(mesh, cpuOptions())));
+  }
+}
+
 struct ChunkCase {
   const char* shape;
   int n, r, l;

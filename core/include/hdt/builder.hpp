@@ -39,6 +39,13 @@ bool cudaAvailable(std::string* why = nullptr);
 // CUDA driver; throws Error(OutOfResources) on device failures.
 Volume buildCuda(const PreparedMesh& mesh, const BuildOptions& options);
 
+// Readies the CUDA driver for builds like `config` on options.device (the
+// context, the kernels such builds launch, the memory pool and the pinned
+// copy-back staging), so that the first build of a process is as fast as a
+// warm one. Takes tens of milliseconds: call it early, e.g. on a thread while
+// the mesh is read. Does nothing without a usable device; never throws.
+void prepareCuda(const BuildConfig& config, const BuildOptions& options);
+
 // Dispatches on options.backend. Auto runs CUDA when available and the CPU
 // driver otherwise (saying so once through options.log), and falls back to
 // the CPU driver if the device fails.

@@ -83,7 +83,7 @@ struct RangeTree {
   RootRange cells;
   std::vector<std::vector<ElementWord>> levels; // height + 1
   std::vector<uint64_t> leafCoord;              // packed leaf coordinates (leaf units, global)
-  std::vector<uint32_t> leafWords;              // leafCoord.size() * leafWordCount(L)
+  LeafWordVector leafWords;              // leafCoord.size() * leafWordCount(L)
 };
 
 // The tree is limited to 2^30 elements (30-bit payloads): refuses a level
@@ -100,7 +100,7 @@ void checkJoinedElementLimit(const GridSpec& grid, const std::vector<RangeTree>&
 // Checks the element limit. Sets grid, elements, levelStart, leafWords.
 // `leafWords`, when given, are all the leaves already in join order (a
 // driver that wrote each range's leaves in place); the ranges carry none.
-Volume joinRanges(const GridSpec& grid, std::vector<RangeTree>&& ranges, std::vector<uint32_t>&& leafWords = {});
+Volume joinRanges(const GridSpec& grid, std::vector<RangeTree>&& ranges, LeafWordVector&& leafWords = {});
 
 // ---- lines of leaves ---------------------------------------------------------------
 // Per line of leaves along one axis, one parity word set (rowWords words,

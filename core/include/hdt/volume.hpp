@@ -4,11 +4,16 @@
 #include "hdt/config.hpp"
 #include "hdt/types.hpp"
 
+#include "hdt/default_init_allocator.hpp"
+
 #include <cstdint>
 #include <string>
 #include <vector>
 
 namespace hdt {
+
+// The leaf grids' words: resize(n) does not zero them (see above).
+using LeafWordVector = std::vector<uint32_t, DefaultInitAllocator<uint32_t>>;
 
 // Wall-clock time of each phase, in milliseconds (paper Fig. 3: T1, T2, T3).
 struct PhaseTimes {
@@ -46,7 +51,7 @@ struct Volume {
   // levelStart[k] is the index of the first element of level k; the array has
   // height + 2 entries, the last one equal to elements.size().
   std::vector<uint64_t> levelStart;
-  std::vector<uint32_t> leafWords;   // leafGrids * leafWordCount(L)
+  LeafWordVector leafWords;          // leafGrids * leafWordCount(L); resize() leaves them unwritten
   Statistics stats;
 
   uint64_t leafCount() const { return leafWords.size() / leafWordCount(grid.leafSize); }

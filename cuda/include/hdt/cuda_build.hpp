@@ -16,7 +16,8 @@ struct CudaBuildReport {
   // Stream time of the copies around the build (Statistics::time covers the
   // device phases T1..classification only).
   double uploadMs = 0;   // triangles to the device
-  double downloadMs = 0; // elements and leaf grids back
+  double downloadMs = 0; // elements and leaf grids back (host wall time of the copies)
+  uint64_t downloadBytes = 0;
   double hostMs = 0;     // host work after the device: joining chunks, statistics
   double wallMs = 0;     // the whole call, as the caller sees it
   int chunks = 1;        // root-grid chunks the build was split into (1 = in one piece)

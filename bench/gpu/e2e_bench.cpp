@@ -1,0 +1,172 @@
+// hdt_e2e_bench: one mesh file to one .hdt file, as hdt-voxelize does it, with
+// every step timed: read, prepare, build (device phases, copy back), write,
+// wall, and the process's peak host memory (so: one run per process).
+//
+// usage: hdt_e2e_bench MESH --res N [--mode surface|solid] [--backend cpu|cuda]
+//                      [--subdivide K] [--hdt OUT.hdt] [--cold] [--warm-check]
+//                      [--out runs.jsonl]
+//   --cold        no hdt::prepareCuda on a thread while reading (the first
+//                 build is then a cold one)
+//   --warm-check  after the run, a second build (nothing copied back) whose
+//                 device phase time is the warm reference for the first
+//   --write-breakdown  after the run, the writer's parts: the same encoding
+//                 into memory (checks + zstd), and a file without compression
+#include "hdt/builder.hpp"
+#include "hdt/cuda_build.hpp"
+#include "hdt/hdt_file.hpp"
+#include "hdt/mesh.hpp"
+#include "hdt/mesh_io.hpp"
+
+#include "subdivide.hpp"
+
+#include <sys/resource.h>
+#include <sys/stat.h>
+
+#include <chrono>
+#include <cstdio>
+#include <ctime>
+#include <fstream>
+#include <iostream>
+#include <sstream>
+#include <string>
+#include <thread>
+
+namespace {
+
+using namespace hdt;
+using Clock = std::chrono::steady_clock;
+
+struct Args {
+  std::string mesh, hdt = "/tmp/hdt_e2e.hdt", out = "e2e-runs.jsonl";
+  int res = 1024, subdivide = 0;
+  bool surfaceOnly = false, cuda = true, cold = false, warmCheck = false, writeBreakdown = false;
+};
+
+Args parse(int argc, char** argv) {
+  Args a;
+  for (int i = 1; i < argc; ++i) {
+    const std::string k = argv[i];
+    auto value = [&]() -> std::string {
+      if (i + 1 >= argc) throw std::runtime_error("missing value after " + k);
+      return argv[++i];
+    };
+    if (k == "--res") a.res = std::stoi(value());
+    else if (k == "--mode") a.surfaceOnly = value() == "surface";
+    else if (k == "--backend") a.cuda = value() == "cuda";
+    else if (k == "--subdivide") a.subdivide = std::stoi(value());
+    else if (k == "--hdt") a.hdt = value();
+    else if (k == "--out") a.out = value();
+    else if (k == "--cold") a.cold = true;
+    else if (k == "--warm-check") a.warmCheck = true;
+    else if (k == "--write-breakdown") a.writeBreakdown = true;
+    else if (!k.empty() && k[0] != '-' && a.mesh.empty()) a.mesh = k;
+    else throw std::runtime_error("unknown argument " + k);
+  }
+  if (a.mesh.empty()) throw std::runtime_error("a mesh file is required");
+  return a;
+}
+
+double msSince(Clock::time_point& t) {
+  const Clock::time_point now = Clock::now();
+  const double ms = std::chrono::duration<double, std::milli>(now - t).count();
+  t = now;
+  return ms;
+}
+
+uint64_t peakResidentBytes() {
+  struct rusage usage {};
+  return getrusage(RUSAGE_SELF, &usage) == 0 ? uint64_t(usage.ru_maxrss) * 1024 : 0;
+}
+
+std::string today() {
+  const std::time_t t = std::time(nullptr);
+  char b[32];
+  std::strftime(b, sizeof b, "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&t));
+  return b;
+}
+
+std::string num(double x) {
+  char b[64];
+  std::snprintf(b, sizeof b, "%.3f", x);
+  return b;
+}
+
+} // namespace
+
+int main(int argc, char** argv) {
+  Args a;
+  try {
+    a = parse(argc, argv);
+  } catch (const std::exception& e) {
+    std::cerr << "hdt_e2e_bench: " << e.what() << "\n";
+    return 2;
+  }
+  std::ostringstream j;
+  const std::string name = a.mesh.substr(a.mesh.find_last_of('/') + 1) +
+                           (a.subdivide ? " (subdivided x" + std::to_string(1 << (2 * a.subdivide)) + ")" : "");
+  j << "{\"mesh\": \"" << name << "\", \"resolution\": " << a.res << ", \"surface_only\": "
+    << (a.surfaceOnly ? "true" : "false") << ", \"backend\": \"" << (a.cuda ? "cuda" : "cpu")
+    << "\", \"cold\": " << (a.cold ? "true" : "false") << ", \"date\": \"" << today()
+    << "\", \"host_threads\": " << std::thread::hardware_concurrency();
+  try {
+    BuildConfig config;
+    config.resolution = a.res;
+    config.surfaceOnly = a.surfaceOnly;
+    BuildOptions options;
+    options.backend = a.cuda ? Backend::Cuda : Backend::Cpu;
+    if (a.cuda) setCudaPoolRetention(UINT64_MAX); // the warm check reuses the pool
+    const Clock::time_point start = Clock::now();
+    Clock::time_point t = start;
+    std::thread warmUp;
+    if (a.cuda && !a.cold) warmUp = std::thread([&] { prepareCuda(config, options); });
+    TriangleMesh mesh = readMesh(a.mesh);
+    for (int k = 0; k < a.subdivide; ++k) mesh = subdivide(mesh);
+    const double readMs = msSince(t);
+    const PreparedMesh prepared = prepareMesh(mesh, config);
+    mesh = TriangleMesh();
+    const double prepareMs = msSince(t);
+    if (warmUp.joinable()) warmUp.join();
+    const double warmUpWaitMs = msSince(t);
+    CudaBuildReport report;
+    const Volume v = a.cuda ? buildCudaWithReport(prepared, options, &report, true) : build(prepared, options);
+    const double buildWallMs = msSince(t);
+    writeHdt(v, a.hdt);
+    const double writeMs = msSince(t);
+    const double wallMs = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+    struct stat st {};
+    stat(a.hdt.c_str(), &st);
+    const Statistics& s = v.stats;
+    j << ", \"gpu\": \"" << report.deviceName << "\", \"triangles\": " << s.triangles
+      << ", \"leaf_grids\": " << s.leafGrids << ", \"leaf_bytes\": " << s.leafBytes << ", \"read_ms\": " << num(readMs)
+      << ", \"prepare_ms\": " << num(prepareMs) << ", \"warm_up_wait_ms\": " << num(warmUpWaitMs)
+      << ", \"build_phases_ms\": " << num(s.time.total) << ", \"build_wall_ms\": " << num(buildWallMs)
+      << ", \"copy_back_ms\": " << num(report.downloadMs) << ", \"copy_back_bytes\": " << report.downloadBytes
+      << ", \"copy_back_gb_per_s\": " << num(report.downloadMs > 0 ? report.downloadBytes / report.downloadMs / 1e6 : 0)
+      << ", \"chunks\": " << report.chunks << ", \"write_ms\": " << num(writeMs) << ", \"file_bytes\": " << st.st_size
+      << ", \"wall_ms\": " << num(wallMs) << ", \"peak_host_bytes\": " << peakResidentBytes()
+      << ", \"peak_device_bytes\": " << s.peakDeviceBytes;
+    if (a.writeBreakdown) {
+      Clock::time_point w = Clock::now();
+      const size_t bytes = serializeHdt(v).size();
+      j << ", \"serialize_ms\": " << num(msSince(w)) << ", \"serialize_bytes\": " << bytes;
+      HdtWriteOptions raw;
+      raw.compressLeaves = false;
+      writeHdt(v, a.hdt, raw);
+      j << ", \"write_raw_ms\": " << num(msSince(w));
+      std::remove(a.hdt.c_str());
+    }
+    if (a.warmCheck && a.cuda) {
+      const Volume warm = buildCudaWithReport(prepared, options, &report, false);
+      j << ", \"warm_build_phases_ms\": " << num(warm.stats.time.total);
+    }
+  } catch (const std::exception& e) {
+    std::string what = e.what();
+    for (char& c : what)
+      if (c == '"' || c == '\\') c = '\'';
+    j << ", \"error\": \"" << what << "\"";
+  }
+  j << "}";
+  std::ofstream(a.out, std::ios::app) << j.str() << "\n";
+  std::cout << j.str() << std::endl;
+  return 0;
+}
