@@ -4,6 +4,8 @@
 
 #include "vtkCellArray.h"
 #include "vtkCellData.h"
+#include "vtkDoubleArray.h"
+#include "vtkFieldData.h"
 #include "vtkFloatArray.h"
 #include "vtkIdTypeArray.h"
 #include "vtkNew.h"
@@ -14,7 +16,6 @@
 #include "vtkUnsignedCharArray.h"
 
 #include <chrono>
-#include <cstring>
 #include <limits>
 
 namespace
@@ -52,13 +53,18 @@ vtkHDTVoxelSurfaceInfo vtkHDTFillVoxelSurface(
   const auto t0 = std::chrono::steady_clock::now();
   hdt::SurfaceOptions options;
   options.maxDepth = maxDepth;
-  const hdt::VoxelSurface surface = hdt::extractVoxelSurface(volume, options);
-  const vtkIdType quads = vtkIdType(surface.quadCount());
-
+  // The core writes the points and states straight into the VTK arrays.
   vtkNew<vtkFloatArray> coordinates;
   coordinates->SetNumberOfComponents(3);
-  coordinates->SetNumberOfTuples(4 * quads);
-  std::memcpy(coordinates->GetPointer(0), surface.points.data(), surface.points.size() * sizeof(float));
+  vtkNew<vtkUnsignedCharArray> states;
+  states->SetName("VoxelState");
+  vtkIdType quads = 0;
+  hdt::extractVoxelSurfaceInto(volume, options, [&](size_t count) {
+    quads = vtkIdType(count);
+    coordinates->SetNumberOfTuples(4 * quads);
+    states->SetNumberOfValues(quads);
+    return hdt::SurfaceBuffers{ coordinates->GetPointer(0), states->GetPointer(0) };
+  });
   vtkNew<vtkPoints> points;
   points->SetData(coordinates);
 
@@ -72,11 +78,6 @@ vtkHDTVoxelSurfaceInfo vtkHDTFillVoxelSurface(
     setQuadCells<vtkIdTypeArray>(cells, quads);
   }
 
-  vtkNew<vtkUnsignedCharArray> states;
-  states->SetName("VoxelState");
-  states->SetNumberOfValues(quads);
-  std::memcpy(states->GetPointer(0), surface.states.data(), surface.states.size());
-
   output->Initialize();
   output->SetPoints(points);
   output->SetPolys(cells);
@@ -87,4 +88,16 @@ vtkHDTVoxelSurfaceInfo vtkHDTFillVoxelSurface(
   info.Milliseconds =
     std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   return info;
+}
+
+void vtkHDTCopyFieldData(vtkDataObject* htg, vtkPolyData* surface, double milliseconds)
+{
+  if (htg)
+  {
+    surface->GetFieldData()->ShallowCopy(htg->GetFieldData());
+  }
+  vtkNew<vtkDoubleArray> time;
+  time->SetName("TimeSurface");
+  time->InsertNextValue(milliseconds);
+  surface->GetFieldData()->AddArray(time);
 }

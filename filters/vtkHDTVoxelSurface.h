@@ -4,6 +4,7 @@
 // (their second output port). Internal to HDT::Filters like the conversion.
 #pragma once
 
+class vtkDataObject;
 class vtkPolyData;
 namespace hdt
 {
@@ -24,3 +25,9 @@ struct vtkHDTVoxelSurfaceInfo
  */
 vtkHDTVoxelSurfaceInfo vtkHDTFillVoxelSurface(
   const hdt::Volume& volume, int maxDepth, vtkPolyData* output);
+
+/**
+ * Gives `surface` the field data of `htg` (the build statistics; arrays are
+ * shared, not copied) and a "TimeSurface" array holding `milliseconds`.
+ */
+void vtkHDTCopyFieldData(vtkDataObject* htg, vtkPolyData* surface, double milliseconds);

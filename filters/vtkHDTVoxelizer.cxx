@@ -167,6 +167,8 @@ void vtkHDTVoxelizer::FillSurface(const hdt::Volume& volume, vtkInformationVecto
   {
     this->SetProgressText("extracting voxel surface");
     this->LastSurfaceTime = vtkHDTFillVoxelSurface(volume, this->MaxDepth, surface).Milliseconds;
+    // The build statistics travel with the surface too (Information panel).
+    vtkHDTCopyFieldData(vtkHyperTreeGrid::GetData(outputVector, 0), surface, this->LastSurfaceTime);
   }
 }
 

@@ -238,7 +238,8 @@ int vtkHDTReader::RequestData(
     {
       this->SetProgressText("extracting voxel surface");
       this->UpdateProgress(0.95);
-      vtkHDTFillVoxelSurface(*this->Internal->Volume, this->MaxDepth, surface);
+      const double ms = vtkHDTFillVoxelSurface(*this->Internal->Volume, this->MaxDepth, surface).Milliseconds;
+      vtkHDTCopyFieldData(output, surface, ms);
     }
   }
   catch (const std::bad_alloc&)

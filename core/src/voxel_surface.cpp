@@ -22,6 +22,7 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <functional>
 #include <string>
 
 namespace hdt {
@@ -79,6 +80,12 @@ struct Context {
 // Surface and inside bits (bit = x cell) of the cell row (cy, cz) of a leaf at
 // cell edge c: a cell is Surface if any voxel is, else Inside if any voxel is.
 void cellRow(const Context& ctx, const uint32_t* words, int cy, int cz, uint32_t& surface, uint32_t& inside) {
+  if (ctx.c == 1) { // full depth: the voxels themselves
+    const uint64_t r = leafRow(words, ctx.L, cy, cz);
+    surface = compactEven(r >> 1);
+    inside = compactEven(r) & ~surface;
+    return;
+  }
   uint32_t s = 0, in = 0;
   for (int z = cz * ctx.c; z < (cz + 1) * ctx.c; ++z)
     for (int y = cy * ctx.c; y < (cy + 1) * ctx.c; ++y) {
@@ -144,7 +151,10 @@ void greedyRectangles(uint32_t* rows, int n, bool merge, Emit&& emit) {
 
 class UnitFaces {
 public:
-  UnitFaces(const Context& ctx, bool merge, std::vector<SurfaceQuad>& out) : ctx_(ctx), merge_(merge), out_(out) {}
+  UnitFaces(const Context& ctx, bool merge, std::vector<SurfaceQuad>& out) : ctx_(ctx), merge_(merge), out_(out) {
+    std::fill(&surfaceMask_[0][0], &surfaceMask_[0][0] + kMaxCells * kMaxCells, 0u);
+    std::fill(&insideMask_[0][0], &insideMask_[0][0] + kMaxCells * kMaxCells, 0u);
+  }
 
   void leaf(const WalkedElement& e) {
     const int n = ctx_.n;
@@ -200,9 +210,8 @@ private:
     const int n = ctx_.n;
     uint32_t layer[kMaxCells];
     neighbourLayer(e, axis, outward, layer);
-    // Face masks per slice (cell index across axis): rows v, bits u.
-    for (int i = 0; i < n; ++i)
-      for (int r = 0; r < n; ++r) surfaceMask_[i][r] = insideMask_[i][r] = 0;
+    // Face masks per slice (cell index across axis): rows v, bits u. They
+    // are all zero here: the greedy pass below clears every bit it reads.
     const int last = outward > 0 ? n - 1 : 0;
     auto split = [&](int slice, int row, uint32_t faces, uint32_t surfaceCells) {
       surfaceMask_[slice][row] |= faces & surfaceCells;
@@ -366,7 +375,11 @@ int surfaceCellEdge(const GridSpec& g, int maxDepth) {
   return std::max(1, g.rootCellVoxels() >> depth);
 }
 
-std::vector<SurfaceQuad> extractSurfaceQuads(const Volume& volume, const SurfaceOptions& options) {
+namespace {
+
+// The quads of every unit, in fixed chunks of units (walk order), each chunk
+// with its own list: the order does not depend on how tasks are scheduled.
+std::vector<std::vector<SurfaceQuad>> extractChunks(const Volume& volume, const SurfaceOptions& options) {
   checkWalkable(volume);
   const GridSpec& g = volume.grid;
   Context ctx(volume);
@@ -388,11 +401,13 @@ std::vector<SurfaceQuad> extractSurfaceQuads(const Volume& volume, const Surface
     if (maybe) units.push_back(e);
   });
 
-  // Fixed chunks of units, each with its own output, joined in order.
-  constexpr size_t kChunk = 64;
+  constexpr size_t kChunk = 256;
   const size_t chunks = (units.size() + kChunk - 1) / kChunk;
   std::vector<std::vector<SurfaceQuad>> parts(chunks);
   tbb::parallel_for(size_t(0), chunks, [&](size_t chunk) {
+    // Room for far more quads than a chunk usually has: pages never written
+    // cost nothing, and the list is never copied while it grows.
+    parts[chunk].reserve(kChunk * 256);
     UnitFaces faces(ctx, options.merge, parts[chunk]);
     const size_t end = std::min(units.size(), (chunk + 1) * kChunk);
     for (size_t i = chunk * kChunk; i < end; ++i) {
@@ -404,36 +419,64 @@ std::vector<SurfaceQuad> extractSurfaceQuads(const Volume& volume, const Surface
       }
     }
   });
-  std::vector<size_t> offset(chunks + 1, 0);
-  for (size_t i = 0; i < chunks; ++i) offset[i + 1] = offset[i] + parts[i].size();
-  std::vector<SurfaceQuad> quads(offset[chunks]);
-  tbb::parallel_for(size_t(0), chunks, [&](size_t i) { std::copy(parts[i].begin(), parts[i].end(), quads.begin() + long(offset[i])); });
+  return parts;
+}
+
+std::vector<size_t> chunkOffsets(const std::vector<std::vector<SurfaceQuad>>& parts) {
+  std::vector<size_t> offset(parts.size() + 1, 0);
+  for (size_t i = 0; i < parts.size(); ++i) offset[i + 1] = offset[i] + parts[i].size();
+  return offset;
+}
+
+// The 4 corners of q in mesh units.
+void quadCorners(const GridSpec& g, const SurfaceQuad& q, float* out) {
+  const int ua = uAxis(q.axis), va = vAxis(q.axis);
+  // Corners p, p + u, p + u + v, p + v turn around u x v, which is +axis for
+  // x and z and -axis for y (u, v in increasing order); reverse as needed.
+  const int turn = (q.axis == 1 ? -1 : 1) * q.outward;
+  const int du[4] = {0, q.du, q.du, 0}, dv[4] = {0, 0, q.dv, q.dv};
+  for (int k = 0; k < 4; ++k) {
+    const int corner = turn > 0 ? k : 3 - k;
+    int voxel[3];
+    voxel[q.axis] = q.plane;
+    voxel[ua] = q.u + du[corner];
+    voxel[va] = q.v + dv[corner];
+    for (int a = 0; a < 3; ++a) out[3 * k + a] = float(g.origin[size_t(a)] + double(voxel[a]) * g.voxelSize);
+  }
+}
+
+} // namespace
+
+std::vector<SurfaceQuad> extractSurfaceQuads(const Volume& volume, const SurfaceOptions& options) {
+  const std::vector<std::vector<SurfaceQuad>> parts = extractChunks(volume, options);
+  const std::vector<size_t> offset = chunkOffsets(parts);
+  std::vector<SurfaceQuad> quads(offset.back());
+  tbb::parallel_for(size_t(0), parts.size(), [&](size_t i) {
+    std::copy(parts[i].begin(), parts[i].end(), quads.begin() + long(offset[i]));
+  });
   return quads;
 }
 
-VoxelSurface extractVoxelSurface(const Volume& volume, const SurfaceOptions& options) {
-  const std::vector<SurfaceQuad> quads = extractSurfaceQuads(volume, options);
-  const GridSpec& g = volume.grid;
-  VoxelSurface s;
-  s.points.resize(quads.size() * 12);
-  s.states.resize(quads.size());
-  tbb::parallel_for(size_t(0), quads.size(), [&](size_t i) {
-    const SurfaceQuad& q = quads[i];
-    const int ua = uAxis(q.axis), va = vAxis(q.axis);
-    // Corners p, p + u, p + u + v, p + v turn around u x v, which is +axis for
-    // x and z and -axis for y (u, v in increasing order); reverse as needed.
-    const int turn = (q.axis == 1 ? -1 : 1) * q.outward;
-    const int du[4] = {0, q.du, q.du, 0}, dv[4] = {0, 0, q.dv, q.dv};
-    float* out = s.points.data() + 12 * i;
-    for (int k = 0; k < 4; ++k) {
-      const int corner = turn > 0 ? k : 3 - k;
-      int voxel[3];
-      voxel[q.axis] = q.plane;
-      voxel[ua] = q.u + du[corner];
-      voxel[va] = q.v + dv[corner];
-      for (int a = 0; a < 3; ++a) out[3 * k + a] = float(g.origin[size_t(a)] + double(voxel[a]) * g.voxelSize);
+void extractVoxelSurfaceInto(const Volume& volume, const SurfaceOptions& options,
+                             const std::function<SurfaceBuffers(size_t quads)>& allocate) {
+  const std::vector<std::vector<SurfaceQuad>> parts = extractChunks(volume, options);
+  const std::vector<size_t> offset = chunkOffsets(parts);
+  const SurfaceBuffers out = allocate(offset.back());
+  tbb::parallel_for(size_t(0), parts.size(), [&](size_t i) {
+    for (size_t k = 0; k < parts[i].size(); ++k) {
+      const size_t quad = offset[i] + k;
+      quadCorners(volume.grid, parts[i][k], out.points + 12 * quad);
+      out.states[quad] = parts[i][k].state;
     }
-    s.states[i] = q.state;
+  });
+}
+
+VoxelSurface extractVoxelSurface(const Volume& volume, const SurfaceOptions& options) {
+  VoxelSurface s;
+  extractVoxelSurfaceInto(volume, options, [&](size_t quads) {
+    s.points.resize(12 * quads);
+    s.states.resize(quads);
+    return SurfaceBuffers{s.points.data(), s.states.data()};
   });
   return s;
 }

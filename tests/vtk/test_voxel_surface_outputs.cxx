@@ -15,6 +15,7 @@
 #include "vtkCellData.h"
 #include "vtkCellTypes.h"
 #include "vtkDataArray.h"
+#include "vtkFieldData.h"
 #include "vtkHyperTreeGrid.h"
 #include "vtkNew.h"
 #include "vtkPoints.h"
@@ -129,7 +130,11 @@ TEST(VoxelSurfaceOutput, VoxelizerPortZeroStaysTheHyperTreeGrid)
   ASSERT_TRUE(htg);
   EXPECT_GT(htg->GetNumberOfCells(), 0);
   ASSERT_TRUE(htg->GetCellData()->GetArray("VoxelState"));
-  EXPECT_GT(v.Filter->GetSurfaceOutput()->GetNumberOfCells(), 0);
+  vtkPolyData* surface = v.Filter->GetSurfaceOutput();
+  EXPECT_GT(surface->GetNumberOfCells(), 0);
+  // The build statistics come along with the surface.
+  EXPECT_TRUE(surface->GetFieldData()->GetAbstractArray("ActiveVoxels"));
+  EXPECT_TRUE(surface->GetFieldData()->GetAbstractArray("TimeSurface"));
 }
 
 TEST(VoxelSurfaceOutput, VoxelizerFailureEmptiesTheSurface)

@@ -22,6 +22,7 @@
 #include "hdt/volume.hpp"
 
 #include <cstdint>
+#include <functional>
 #include <vector>
 
 namespace hdt {
@@ -55,6 +56,16 @@ struct VoxelSurface {
 };
 
 VoxelSurface extractVoxelSurface(const Volume& volume, const SurfaceOptions& options = {});
+
+// The same arrays written straight into the caller's memory (a VTK array, no
+// copy): `allocate` is called once with the quad count and returns room for
+// 12 * quads floats and quads states.
+struct SurfaceBuffers {
+  float* points = nullptr;
+  uint8_t* states = nullptr;
+};
+void extractVoxelSurfaceInto(const Volume& volume, const SurfaceOptions& options,
+                             const std::function<SurfaceBuffers(size_t quads)>& allocate);
 
 // Cell edge in voxels at a level of detail (see above).
 int surfaceCellEdge(const GridSpec& grid, int maxDepth);
