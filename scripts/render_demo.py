@@ -73,8 +73,10 @@ def field(info, name):
 
 
 def print_statistics(source, seconds):
-    data = simple.servermanager.Fetch(source)
-    surface_quads = simple.OutputPort(source, 1).GetDataInformation().GetNumberOfCells()
+    # The statistics travel with the surface too: fetch it, not the (larger) hyper tree grid.
+    data = simple.servermanager.Fetch(source, idx=1)
+    surface_quads = data.GetNumberOfCells()
+    htg = source.GetDataInformation()  # port 0, summary only
     fd = data.GetFieldData()
 
     def value(name, default=None):
@@ -95,8 +97,7 @@ def print_statistics(source, seconds):
         ("memory", "%.1f MiB" % ((value("TopologyBytes", 0) + value("LeafBytes", 0)) / 2 ** 20),
          "tree + leaf grids"),
         ("build time", "%.1f ms" % value("TimeTotal", 0), "backend %s" % value("Backend", "?")),
-        ("hyper tree grid", "{:,} cells".format(data.GetNumberOfCells()),
-         "{:,} leaves, {} levels".format(data.GetNumberOfLeaves(), data.GetNumberOfLevels())),
+        ("hyper tree grid", "{:,} cells".format(htg.GetNumberOfCells()), "port 0"),
         ("HTG conversion", "%.1f ms" % value("TimeConversion", 0), ""),
         ("voxel surface", "{:,} quads".format(surface_quads), "port 1, what is drawn without --cutaway"),
         ("load + render", "%.1f s" % seconds, ""),
