@@ -2,6 +2,7 @@
 
 #include "vtkHDTHyperTreeGridConversion.h"
 #include "vtkHDTMeshConversion.h"
+#include "vtkHDTVoxelSurface.h"
 
 #include "hdt/builder.hpp"
 #include "hdt/config.hpp"
@@ -20,6 +21,7 @@
 #include "vtkInformationVector.h"
 #include "vtkNew.h"
 #include "vtkObjectFactory.h"
+#include "vtkPolyData.h"
 #include "vtkSmartPointer.h"
 
 #include <chrono>
@@ -82,7 +84,7 @@ vtkHDTVoxelizer::vtkHDTVoxelizer()
   : Internal(new Internals)
 {
   this->SetNumberOfInputPorts(1);
-  this->SetNumberOfOutputPorts(1);
+  this->SetNumberOfOutputPorts(2); // the hyper tree grid, the voxel surface
 }
 
 //------------------------------------------------------------------------------
@@ -110,6 +112,12 @@ vtkHyperTreeGrid* vtkHDTVoxelizer::GetOutput(int port)
 }
 
 //------------------------------------------------------------------------------
+vtkPolyData* vtkHDTVoxelizer::GetSurfaceOutput()
+{
+  return vtkPolyData::SafeDownCast(this->GetOutputDataObject(1));
+}
+
+//------------------------------------------------------------------------------
 int vtkHDTVoxelizer::FillInputPortInformation(int, vtkInformation* info)
 {
   info->Set(vtkAlgorithm::INPUT_REQUIRED_DATA_TYPE(), "vtkPolyData");
@@ -118,9 +126,9 @@ int vtkHDTVoxelizer::FillInputPortInformation(int, vtkInformation* info)
 }
 
 //------------------------------------------------------------------------------
-int vtkHDTVoxelizer::FillOutputPortInformation(int, vtkInformation* info)
+int vtkHDTVoxelizer::FillOutputPortInformation(int port, vtkInformation* info)
 {
-  info->Set(vtkDataObject::DATA_TYPE_NAME(), "vtkHyperTreeGrid");
+  info->Set(vtkDataObject::DATA_TYPE_NAME(), port == 0 ? "vtkHyperTreeGrid" : "vtkPolyData");
   return 1;
 }
 
@@ -145,6 +153,23 @@ void vtkHDTVoxelizer::Fail(vtkHyperTreeGrid* output, const char* message)
   {
     output->Initialize();
   }
+  if (vtkPolyData* surface = this->GetSurfaceOutput())
+  {
+    surface->Initialize();
+  }
+}
+
+//------------------------------------------------------------------------------
+void vtkHDTVoxelizer::FillSurface(const hdt::Volume& volume, vtkInformationVector* outputVector)
+{
+  vtkPolyData* surface = vtkPolyData::GetData(outputVector, 1);
+  if (surface)
+  {
+    this->SetProgressText("extracting voxel surface");
+    this->LastSurfaceTime = vtkHDTFillVoxelSurface(volume, this->MaxDepth, surface).Milliseconds;
+    // The build statistics travel with the surface too (Information panel).
+    vtkHDTCopyFieldData(vtkHyperTreeGrid::GetData(outputVector, 0), surface, this->LastSurfaceTime);
+  }
 }
 
 //------------------------------------------------------------------------------
@@ -160,7 +185,12 @@ int vtkHDTVoxelizer::RequestData(
   }
   this->LastVoxelizationTime = 0;
   this->LastConversionTime = 0;
+  this->LastSurfaceTime = 0;
   this->LastRunReusedVolume = false;
+  if (vtkPolyData* surface = vtkPolyData::GetData(outputVector, 1))
+  {
+    surface->Initialize(); // empty unless this run succeeds
+  }
 
   hdt::BuildConfig config;
   config.resolution = this->Resolution;
@@ -293,6 +323,8 @@ int vtkHDTVoxelizer::RequestData(
     conversionTime->SetName("TimeConversion");
     conversionTime->InsertNextValue(info.Milliseconds);
     output->GetFieldData()->AddArray(conversionTime);
+    this->UpdateProgress(0.95);
+    this->FillSurface(*volume, outputVector);
     this->UpdateProgress(1.0);
   }
   catch (const hdt::Error& e)

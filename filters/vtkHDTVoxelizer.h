@@ -18,6 +18,13 @@
  * vtkHDTHyperTreeGridConversion.h for coarse and MaxDepth-cut cells). Field
  * data: the build statistics (the paper's Table 1) and phase times.
  *
+ * Output port 1: the voxel surface (vtkPolyData), the outer faces of the
+ * voxelized solid extracted straight from the HDT (hdt/voxel_surface.hpp):
+ * merged quads with cell data "VoxelState" (the state of the voxel behind
+ * the face), at the level of detail MaxDepth (a cut cell counts as solid when
+ * any voxel below it is). It is what ParaView shows after Apply; the hyper
+ * tree grid (port 0) stays there for the hyper tree grid filters.
+ *
  * Changing only MaxDepth or MaskOutside re-runs the conversion, not the
  * voxelization: the last volume is kept (GetVolume()) while the input and the
  * build properties are unchanged.
@@ -36,6 +43,7 @@
 #endif
 
 class vtkHyperTreeGrid;
+class vtkPolyData;
 #ifndef __VTK_WRAP__
 namespace hdt
 {
@@ -136,10 +144,12 @@ public:
   ///@{
   /**
    * Wall-clock milliseconds of the last run's voxelization (0 when the kept
-   * volume was reused) and of its conversion to the hyper tree grid.
+   * volume was reused), of its conversion to the hyper tree grid and of the
+   * voxel surface extraction.
    */
   vtkGetMacro(LastVoxelizationTime, double);
   vtkGetMacro(LastConversionTime, double);
+  vtkGetMacro(LastSurfaceTime, double);
   ///@}
 
   /**
@@ -150,6 +160,11 @@ public:
 
   vtkHyperTreeGrid* GetOutput();
   vtkHyperTreeGrid* GetOutput(int port);
+
+  /**
+   * The voxel surface (output port 1).
+   */
+  vtkPolyData* GetSurfaceOutput();
 
   /**
    * Convenience for pipelines without an upstream algorithm: a vtkPolyData or
@@ -186,6 +201,7 @@ protected:
   int Threads = 0;
   double LastVoxelizationTime = 0;
   double LastConversionTime = 0;
+  double LastSurfaceTime = 0;
   bool LastRunReusedVolume = false;
 
 private:
@@ -193,6 +209,7 @@ private:
   void operator=(const vtkHDTVoxelizer&) = delete;
 
   void Fail(vtkHyperTreeGrid* output, const char* message);
+  void FillSurface(const hdt::Volume& volume, vtkInformationVector* outputVector);
 
   struct Internals;
   Internals* Internal;

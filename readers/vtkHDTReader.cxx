@@ -1,11 +1,13 @@
 #include "vtkHDTReader.h"
 
 #include "vtkHDTHyperTreeGridConversion.h" // HDT::Filters (private header)
+#include "vtkHDTVoxelSurface.h"            // HDT::Filters (private header)
 
 #include "hdt/error.hpp"
 #include "hdt/hdt_file.hpp"
 #include "hdt/volume.hpp"
 
+#include "vtkDemandDrivenPipeline.h"
 #include "vtkDoubleArray.h"
 #include "vtkErrorCode.h"
 #include "vtkFieldData.h"
@@ -14,6 +16,7 @@
 #include "vtkInformationVector.h"
 #include "vtkNew.h"
 #include "vtkObjectFactory.h"
+#include "vtkPolyData.h"
 
 #include <cstdint>
 #include <cstring>
@@ -80,7 +83,7 @@ vtkHDTReader::vtkHDTReader()
   : Internal(new Internals)
 {
   this->SetNumberOfInputPorts(0);
-  this->SetNumberOfOutputPorts(1);
+  this->SetNumberOfOutputPorts(2); // the hyper tree grid, the voxel surface
 }
 
 //------------------------------------------------------------------------------
@@ -113,11 +116,33 @@ int vtkHDTReader::CanReadFile(const char* fileName)
 }
 
 //------------------------------------------------------------------------------
-int vtkHDTReader::FillOutputPortInformation(int, vtkInformation* info)
+vtkHyperTreeGrid* vtkHDTReader::GetOutput()
 {
-  // The superclass declares vtkDataObject (its filters may output polydata).
-  info->Set(vtkDataObject::DATA_TYPE_NAME(), "vtkHyperTreeGrid");
+  return vtkHyperTreeGrid::SafeDownCast(this->GetOutputDataObject(0));
+}
+
+//------------------------------------------------------------------------------
+vtkPolyData* vtkHDTReader::GetSurfaceOutput()
+{
+  return vtkPolyData::SafeDownCast(this->GetOutputDataObject(1));
+}
+
+//------------------------------------------------------------------------------
+int vtkHDTReader::FillOutputPortInformation(int port, vtkInformation* info)
+{
+  info->Set(vtkDataObject::DATA_TYPE_NAME(), port == 0 ? "vtkHyperTreeGrid" : "vtkPolyData");
   return 1;
+}
+
+//------------------------------------------------------------------------------
+vtkTypeBool vtkHDTReader::ProcessRequest(
+  vtkInformation* request, vtkInformationVector** inInfo, vtkInformationVector* outInfo)
+{
+  if (request->Has(vtkDemandDrivenPipeline::REQUEST_DATA()))
+  {
+    return this->RequestData(request, inInfo, outInfo);
+  }
+  return this->Superclass::ProcessRequest(request, inInfo, outInfo);
 }
 
 //------------------------------------------------------------------------------
@@ -131,6 +156,11 @@ int vtkHDTReader::RequestData(
     return 0;
   }
   this->SetErrorCode(vtkErrorCode::NoError);
+  vtkPolyData* surface = vtkPolyData::GetData(outputVector, 1);
+  if (surface)
+  {
+    surface->Initialize(); // empty unless this run succeeds
+  }
 
   // Every failure: one message, an empty output, no volume kept, and the
   // pipeline goes on (as vtkHDTVoxelizer does).
@@ -140,6 +170,10 @@ int vtkHDTReader::RequestData(
     this->Internal->Volume.reset();
     this->Internal->Stamp = FileStamp();
     output->Initialize();
+    if (surface)
+    {
+      surface->Initialize();
+    }
     return 1;
   };
 
@@ -200,6 +234,13 @@ int vtkHDTReader::RequestData(
     conversionTime->SetName("TimeConversion");
     conversionTime->InsertNextValue(info.Milliseconds);
     output->GetFieldData()->AddArray(conversionTime);
+    if (surface)
+    {
+      this->SetProgressText("extracting voxel surface");
+      this->UpdateProgress(0.95);
+      const double ms = vtkHDTFillVoxelSurface(*this->Internal->Volume, this->MaxDepth, surface).Milliseconds;
+      vtkHDTCopyFieldData(output, surface, ms);
+    }
   }
   catch (const std::bad_alloc&)
   {

@@ -1,12 +1,16 @@
 /**
  * @class   vtkHDTReader
- * @brief   reads an .hdt file (an HDT sparse volume) as a vtkHyperTreeGrid
+ * @brief   reads an .hdt file (an HDT sparse volume) as a vtkHyperTreeGrid and its voxel surface
  *
  * The file (format: docs/hdt-format.md) is read and fully validated by
  * hdt::readHdt, then converted by the same code as vtkHDTVoxelizer's output
  * (vtkHDTToHyperTreeGrid), so reading a file written from the voxelizer gives
  * the voxelizer's hyper tree grid: cell data "VoxelState" (0 outside, 1 inside,
  * 2 surface) and the build statistics as field data.
+ *
+ * Output port 1: the voxel surface (vtkPolyData), as vtkHDTVoxelizer's port 1.
+ * The reader is a plain vtkAlgorithm source with two outputs of different
+ * types (a vtkHyperTreeGridAlgorithm is a one-output HTG filter).
  *
  * MaxDepth and MaskOutside only change the conversion: changing them re-uses
  * the volume read last, as long as FileName and the file's size and time stamp
@@ -21,11 +25,14 @@
 #define vtkHDTReader_h
 
 #include "HDTReadersModule.h" // export macro
-#include "vtkHyperTreeGridAlgorithm.h"
+#include "vtkAlgorithm.h"
 
 #ifndef __VTK_WRAP__
 #include <memory> // for std::shared_ptr
 #endif
+
+class vtkHyperTreeGrid;
+class vtkPolyData;
 
 #ifndef __VTK_WRAP__
 namespace hdt
@@ -34,11 +41,11 @@ struct Volume;
 }
 #endif
 
-class HDTREADERS_EXPORT vtkHDTReader : public vtkHyperTreeGridAlgorithm
+class HDTREADERS_EXPORT vtkHDTReader : public vtkAlgorithm
 {
 public:
   static vtkHDTReader* New();
-  vtkTypeMacro(vtkHDTReader, vtkHyperTreeGridAlgorithm);
+  vtkTypeMacro(vtkHDTReader, vtkAlgorithm);
   void PrintSelf(ostream& os, vtkIndent indent) override;
 
   ///@{
@@ -76,6 +83,17 @@ public:
    */
   virtual int CanReadFile(VTK_FILEPATH const char* fileName);
 
+  ///@{
+  /**
+   * The hyper tree grid (port 0) and the voxel surface (port 1).
+   */
+  vtkHyperTreeGrid* GetOutput();
+  vtkPolyData* GetSurfaceOutput();
+  ///@}
+
+  vtkTypeBool ProcessRequest(vtkInformation* request, vtkInformationVector** inInfo,
+    vtkInformationVector* outInfo) override;
+
 #ifndef __VTK_WRAP__
   /**
    * The volume of the last successful read; null before it and after an
@@ -88,10 +106,8 @@ protected:
   vtkHDTReader();
   ~vtkHDTReader() override;
 
-  int RequestData(vtkInformation*, vtkInformationVector**, vtkInformationVector*) override;
+  virtual int RequestData(vtkInformation*, vtkInformationVector**, vtkInformationVector*);
   int FillOutputPortInformation(int port, vtkInformation* info) override;
-  // Unused: this is a source. vtkHyperTreeGridAlgorithm requires it.
-  int ProcessTrees(vtkHyperTreeGrid*, vtkDataObject*) override { return 1; }
 
   char* FileName = nullptr;
   int MaxDepth = -1;

@@ -29,9 +29,11 @@ echo "== $mesh at 256^3 -> $out/demo-256.nrrd"
 echo "wrote $out/demo-256.nrrd"
 
 # The ParaView side of the main job: pvbatch opens out/demo.hdt with the
-# plugin's reader and renders the voxel surface, cut away to show the inside
-# cells. Depth 5 looks the same as full depth and renders in a fraction of
-# the time. Debian's ParaView renders through X only, hence xvfb-run; -noreset
+# plugin's reader and renders its voxel surface (the reader's second output,
+# extracted from the HDT; depth 5, cells of 2 voxels, looks like full depth at
+# this size and draws a quarter of the quads; --cutaway would show the hyper
+# tree grid cut open instead, slower to draw: bench/results/voxel-surface.md).
+# Debian's ParaView renders through X only, hence xvfb-run; -noreset
 # because pvbatch probes OpenGL with a window of its own first, and a server
 # that resets when its last client leaves refuses connections meanwhile.
 plugin="$build/lib/paraview-5.11/plugins/HDTVoxelizer/HDTVoxelizer.so"
@@ -41,7 +43,7 @@ if [[ -f $plugin ]] && command -v pvbatch >/dev/null; then
   display=()
   [[ -z ${DISPLAY:-} ]] && display=(xvfb-run -a --server-args="-screen 0 1280x1024x24 -noreset")
   "${display[@]}" pvbatch "$root/scripts/render_demo.py" --hdt "$out/demo.hdt" \
-    --png "$out/demo.png" --cutaway --max-depth 5 --plugin "$plugin"
+    --png "$out/demo.png" --max-depth 5 --plugin "$plugin"
 else
   echo "(ParaView plugin not built: skipping the pvbatch render)"
 fi

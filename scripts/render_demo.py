@@ -5,11 +5,12 @@
 
 --hdt opens an .hdt file (written by `hdt-voxelize -o` or File > Save Data)
 with the HDT Reader; --mesh reads a mesh with ParaView's readers and voxelizes
-it with the HDT Voxelizer filter. Either way the hyper tree grid is shown with
-the outside masked, so the Surface representation is the voxel surface, and is
-coloured by VoxelState. --cutaway also clips away the half nearest to the
-camera (an axis-aligned cut, which keeps a hyper tree grid) to show the inside
-voxels and the coarse cells of the tree.
+it with the HDT Voxelizer filter. Either way the voxel surface (the filter's
+second output: the outer faces of the voxels, merged) is shown, coloured by
+VoxelState. --cutaway shows the hyper tree grid instead (first output, outside
+masked) with the half nearest to the camera clipped away (an axis-aligned cut,
+which keeps a hyper tree grid) to show the inside voxels and the coarse cells
+of the tree; it is much slower to draw (ParaView's own HTG surface).
 
 The plugin is loaded from --plugin, else from PV_PLUGIN_PATH (ParaView loads
 it at start-up), else from build*/lib/paraview-*/plugins/HDTVoxelizer/ under
@@ -72,7 +73,10 @@ def field(info, name):
 
 
 def print_statistics(source, seconds):
-    data = simple.servermanager.Fetch(source)
+    # The statistics travel with the surface too: fetch it, not the (larger) hyper tree grid.
+    data = simple.servermanager.Fetch(source, idx=1)
+    surface_quads = data.GetNumberOfCells()
+    htg = source.GetDataInformation()  # port 0, summary only
     fd = data.GetFieldData()
 
     def value(name, default=None):
@@ -93,9 +97,9 @@ def print_statistics(source, seconds):
         ("memory", "%.1f MiB" % ((value("TopologyBytes", 0) + value("LeafBytes", 0)) / 2 ** 20),
          "tree + leaf grids"),
         ("build time", "%.1f ms" % value("TimeTotal", 0), "backend %s" % value("Backend", "?")),
-        ("hyper tree grid", "{:,} cells".format(data.GetNumberOfCells()),
-         "{:,} leaves, {} levels".format(data.GetNumberOfLeaves(), data.GetNumberOfLevels())),
+        ("hyper tree grid", "{:,} cells".format(htg.GetNumberOfCells()), "port 0"),
         ("HTG conversion", "%.1f ms" % value("TimeConversion", 0), ""),
+        ("voxel surface", "{:,} quads".format(surface_quads), "port 1, what is drawn without --cutaway"),
         ("load + render", "%.1f s" % seconds, ""),
     ]
     for name, v, note in rows:
@@ -156,7 +160,8 @@ def main():
 
     # Camera: from --view towards the centre, fitted to the whole voxel surface
     # (also when the cut-away shows only part of it), then a little closer.
-    display = show(source)
+    surface = simple.OutputPort(source, 1)  # port 0 is the hyper tree grid
+    display = show(surface)
     b = info.GetBounds()
     centre = [(b[2 * i] + b[2 * i + 1]) / 2 for i in range(3)]
     direction = [float(v) for v in args.view.split(",")]
@@ -180,7 +185,7 @@ def main():
         clip.HyperTreeGridClipper = "Plane"  # the clip function for hyper tree grids
         clip.HyperTreeGridClipper.Origin = centre
         clip.HyperTreeGridClipper.Normal = normal
-        simple.Hide(source, view)
+        simple.Hide(surface, view)
         display = show(clip)
 
     display.SetScalarBarVisibility(view, True)

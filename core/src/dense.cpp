@@ -1,12 +1,11 @@
-// Dense export: the tree walked once, each element writing its own block of
-// the N^3 array (uniform elements as runs of one value, leaves decoded four
-// voxels at a time). Blocks are disjoint, so subtrees fill in parallel.
+// Dense export: the tree walked once (volume_walk.hpp), each element writing
+// its own block of the N^3 array (uniform elements as runs of one value, leaves
+// decoded four voxels at a time). Blocks are disjoint, so subtrees fill in parallel.
 #include "hdt/dense.hpp"
 
 #include "hdt/error.hpp"
+#include "hdt/volume_walk.hpp"
 
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
 
 #include <array>
 #include <cerrno>
@@ -32,29 +31,13 @@ public:
   DenseFill(const Volume& v, uint8_t* out)
       : v_(v), out_(out), N_(size_t(v.grid.resolution)), L_(v.grid.leafSize) {}
 
-  // Element `index` of `level`, whose block starts at voxel (x, y, z).
-  void element(uint64_t index, int level, size_t x, size_t y, size_t z) const {
-    const ElementWord w = v_.elements[index];
-    const size_t edge = size_t(v_.grid.elementVoxels(level));
-    switch (elementState(w)) {
-    case ElementState::Empty: return; // the array starts out all Outside
-    case ElementState::Full: fill(x, y, z, edge, uint8_t(VoxelState::Inside)); return;
-    case ElementState::Boundary: leaf(elementPayload(w), x, y, z); return;
-    case ElementState::Branch: {
-      const size_t half = edge / 2;
-      const uint64_t first = elementPayload(w);
-      auto child = [&](int c) {
-        element(first + uint64_t(c), level + 1, x + (c & 1) * half, y + ((c >> 1) & 1) * half,
-                z + ((c >> 2) & 1) * half);
-      };
-      // Large subtrees in parallel (so R = 1 is not serial), small ones inline.
-      if (half >= 64) {
-        tbb::parallel_for(0, 8, child);
-      } else {
-        for (int c = 0; c < 8; ++c) child(c);
-      }
-      return;
-    }
+  // One element of the walk: its own block of the array.
+  void operator()(const WalkedElement& e) const {
+    const size_t x = size_t(e.origin[0]), y = size_t(e.origin[1]), z = size_t(e.origin[2]);
+    switch (e.state()) {
+    case ElementState::Full: fill(x, y, z, size_t(e.edge), uint8_t(VoxelState::Inside)); return;
+    case ElementState::Boundary: leaf(e.payload(), x, y, z); return;
+    default: return; // Empty: the array starts out all Outside
     }
   }
 
@@ -113,11 +96,8 @@ std::vector<uint8_t> denseStates(const Volume& volume) {
   const size_t n = size_t(N);
   std::vector<uint8_t> out(n * n * n, uint8_t(VoxelState::Outside));
   const DenseFill fill(volume, out.data());
-  const size_t cell = size_t(g.rootCellVoxels());
-  tbb::parallel_for(tbb::blocked_range<uint64_t>(0, R * R * R), [&](const tbb::blocked_range<uint64_t>& r) {
-    for (uint64_t i = r.begin(); i != r.end(); ++i)
-      fill.element(i, 0, size_t(i % R) * cell, size_t((i / R) % R) * cell, size_t(i / (R * R)) * cell);
-  });
+  // Blocks are disjoint, so the walk's concurrent visits never touch the same byte.
+  parallelWalkVolume(volume, g.height, fill);
   return out;
 }
 

@@ -1,5 +1,7 @@
 #include "hdt/volume.hpp"
 
+#include "hdt/volume_walk.hpp"
+
 #include <tbb/parallel_reduce.h>
 #include <tbb/blocked_range.h>
 
@@ -44,25 +46,12 @@ VoxelState voxelAt(const Volume& v, int x, int y, int z) {
   const GridSpec& g = v.grid;
   if (x < 0 || y < 0 || z < 0 || x >= g.resolution || y >= g.resolution || z >= g.resolution)
     return VoxelState::Outside;
-  int edge = g.rootCellVoxels();
-  const int R = g.rootGrid;
-  uint64_t index = uint64_t(x / edge) + uint64_t(R) * (uint64_t(y / edge) + uint64_t(R) * uint64_t(z / edge));
-  for (;;) {
-    const ElementWord w = v.elements[index];
-    switch (elementState(w)) {
-    case ElementState::Empty: return VoxelState::Outside;
-    case ElementState::Full: return VoxelState::Inside;
-    case ElementState::Boundary: {
-      const int L = g.leafSize;
-      return leafVoxel(v.leaf(elementPayload(w)), L, x % L, y % L, z % L);
-    }
-    case ElementState::Branch: {
-      edge /= 2;
-      const int c = ((x / edge) & 1) | (((y / edge) & 1) << 1) | (((z / edge) & 1) << 2);
-      index = uint64_t(elementPayload(w)) + uint64_t(c);
-      break;
-    }
-    }
+  const WalkedElement e = locateElement(v, x, y, z, g.height);
+  switch (e.state()) {
+  case ElementState::Full: return VoxelState::Inside;
+  case ElementState::Boundary:
+    return leafVoxel(v.leaf(e.payload()), g.leafSize, x - e.origin[0], y - e.origin[1], z - e.origin[2]);
+  default: return VoxelState::Outside; // Empty (a Branch at level h would be malformed)
   }
 }
 

@@ -40,6 +40,23 @@ t.check(htg.GetCellData().GetArray("VoxelState") is not None, "cell array VoxelS
 full_depth = 1 + int(math.log2(L))  # h = log2(N / (R L)) = 1
 t.check_equal(htg.GetNumberOfLevels(), full_depth + 1, "levels (depths 0..h+log2 L)")
 
+# --- the second output: the voxel surface ------------------------------------------
+t.check_equal(vox.GetNumberOfOutputPorts(), 2, "output ports")
+t.check_equal([vox.GetOutputPortName(i) for i in (0, 1)], ["Hyper Tree Grid", "Voxel Surface"],
+              "output port names")
+surface = servermanager.Fetch(vox, idx=1)
+t.check_equal(surface.GetClassName(), "vtkPolyData", "port 1 type")
+t.check(surface.GetNumberOfPolys() > 0 and surface.GetNumberOfPolys() == surface.GetNumberOfCells(),
+        "port 1 holds quads only")
+surface_states = surface.GetCellData().GetArray("VoxelState")
+t.check(surface_states is not None and tuple(surface_states.GetRange()) == (2.0, 2.0),
+        "a sphere's outer faces all bound surface voxels")
+sb, hb = surface.GetBounds(), htg.GetBounds()
+t.check(all(hb[2 * a] <= sb[2 * a] and sb[2 * a + 1] <= hb[2 * a + 1] for a in range(3)),
+        "the surface lies inside the grid")
+t.check(surface.GetFieldData().GetAbstractArray("ActiveVoxels") is not None,
+        "the surface carries the build statistics")
+
 # --- statistics ------------------------------------------------------------------
 stats = t.field_arrays(htg)
 for name in ("Resolution", "RootGridSize", "LeafGridSize", "Height", "TreeElements",
