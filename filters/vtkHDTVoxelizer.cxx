@@ -2,6 +2,7 @@
 
 #include "vtkHDTHyperTreeGridConversion.h"
 #include "vtkHDTMeshConversion.h"
+#include "vtkHDTVolumeHandle.h"
 
 #include "hdt/builder.hpp"
 #include "hdt/config.hpp"
@@ -293,6 +294,7 @@ int vtkHDTVoxelizer::RequestData(
     conversionTime->SetName("TimeConversion");
     conversionTime->InsertNextValue(info.Milliseconds);
     output->GetFieldData()->AddArray(conversionTime);
+    vtkHDTVolumeHandle::Attach(volume, output);
     this->UpdateProgress(1.0);
   }
   catch (const hdt::Error& e)

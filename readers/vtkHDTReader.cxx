@@ -1,6 +1,7 @@
 #include "vtkHDTReader.h"
 
-#include "vtkHDTHyperTreeGridConversion.h" // HDT::Filters (private header)
+#include "vtkHDTHyperTreeGridConversion.h" // HDT::Filters
+#include "vtkHDTVolumeHandle.h"            // HDT::Filters
 
 #include "hdt/error.hpp"
 #include "hdt/hdt_file.hpp"
@@ -200,6 +201,7 @@ int vtkHDTReader::RequestData(
     conversionTime->SetName("TimeConversion");
     conversionTime->InsertNextValue(info.Milliseconds);
     output->GetFieldData()->AddArray(conversionTime);
+    vtkHDTVolumeHandle::Attach(this->Internal->Volume, output);
   }
   catch (const std::bad_alloc&)
   {
