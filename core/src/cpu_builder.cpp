@@ -16,6 +16,7 @@
 #include <tbb/task_arena.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <thread>
@@ -96,9 +97,28 @@ public:
 
 private:
   void report(double fraction, const char* phase) {
+    if (stop_.load(std::memory_order_relaxed)) { // asked inside the phase that just ended
+      throw Error(ErrorKind::Aborted, std::string("build aborted during ") + phase_);
+    }
+    fraction_ = fraction;
+    phase_ = phase;
     if (options_.progress && !options_.progress(fraction, phase)) {
       throw Error(ErrorKind::Aborted, std::string("build aborted during ") + phase);
     }
+  }
+
+  // Inside long parallel loops: true once the user asked to stop (the loop
+  // body then returns at once and the next report() throws Aborted). The
+  // progress callback is asked only from the thread that called run(), which
+  // works in the arena too, at most every 50 ms.
+  bool abortRequested() {
+    if (stop_.load(std::memory_order_relaxed)) return true;
+    if (!options_.progress || std::this_thread::get_id() != caller_) return false;
+    const auto now = Clock::now();
+    if (now - lastPoll_ < std::chrono::milliseconds(50)) return false;
+    lastPoll_ = now;
+    if (!options_.progress(fraction_, phase_)) stop_.store(true, std::memory_order_relaxed);
+    return stop_.load(std::memory_order_relaxed);
   }
 
   // ---- T1: triangles -> root cells ------------------------------------------
@@ -108,6 +128,7 @@ private:
     tbb::combinable<std::vector<Pair>> local;
     tbb::parallel_for(tbb::blocked_range<size_t>(0, mesh_.triangles.size(), 1024),
                       [&](const tbb::blocked_range<size_t>& r) {
+                        if (abortRequested()) return;
                         std::vector<Pair>& out = local.local();
                         for (size_t ti = r.begin(); ti != r.end(); ++ti) {
                           const LatticeTriangle& tri = mesh_.triangles[ti];
@@ -156,6 +177,7 @@ private:
       const int64_t childSize = int64_t(g_.elementVoxels(level + 1)) * kLatticePerVoxel;
       tbb::combinable<std::vector<Pair>> local;
       tbb::parallel_for(tbb::blocked_range<size_t>(0, pairs.size(), 256), [&](const tbb::blocked_range<size_t>& r) {
+        if (abortRequested()) return;
         std::vector<Pair>& out = local.local();
         for (size_t i = r.begin(); i != r.end(); ++i) {
           const uint32_t tri = pairTriangle(pairs[i]);
@@ -204,6 +226,7 @@ private:
     for (size_t i = 0; i < leaves; ++i) leafPairStart_[i + 1] += leafPairStart_[i];
 
     tbb::parallel_for(size_t(0), leaves, [&](size_t leaf) {
+      if (abortRequested()) return;
       int64_t v0[3];
       leafOrigin(leaf, v0);
       uint32_t rows[32 * 32] = {};
@@ -298,6 +321,7 @@ private:
     AxisParity ap;
     std::vector<uint32_t> inside(leaves * rowWords_, 0u);
     tbb::parallel_for(size_t(0), leaves, [&](size_t leaf) {
+      if (abortRequested()) return;
       uint32_t* bits = inside.data() + leaf * rowWords_;
       if (axis != 0) {
         forEachCrossing(leaf, leafPairs, axis, [&](int row, int) { bits[row >> 5] ^= 1u << (row & 31); });
@@ -385,6 +409,7 @@ private:
     }
     const uint32_t wordsPerLeaf = leafWordCount(L_);
     tbb::parallel_for(size_t(0), leafCoords_.size(), [&](size_t leaf) {
+      if (abortRequested()) return;
       uint32_t* words = leafWords_.data() + leaf * wordsPerLeaf;
       if (axes == 1) { // closed: the +x rows are the leaf's own rows
         insideWords(leaf, parity[0], nullptr, nullptr, words);
@@ -440,6 +465,12 @@ private:
   std::vector<uint64_t> leafPairStart_;
   std::vector<uint32_t> leafWords_;
   PhaseTimes times_;
+  // Abort polling inside phases (abortRequested).
+  std::atomic<bool> stop_{false};
+  const std::thread::id caller_ = std::this_thread::get_id();
+  Clock::time_point lastPoll_ = Clock::now();
+  double fraction_ = 0;
+  const char* phase_ = "mapping";
 };
 
 } // namespace
