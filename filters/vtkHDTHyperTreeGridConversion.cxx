@@ -26,6 +26,8 @@
 #include "vtkHDTTreeWalk.h"
 
 #include "hdt/error.hpp"
+#include "hdt/host_memory.hpp"
+#include "hdt/region.hpp"
 #include "hdt/volume.hpp"
 
 #include "vtkBitArray.h"
@@ -82,6 +84,55 @@ int vtkHDTToHyperTreeGrid::FullDepth(const hdt::Volume& volume)
 }
 
 //------------------------------------------------------------------------------
+int vtkHDTToHyperTreeGrid::DepthCut(const hdt::Volume& volume, int maxDepth)
+{
+  const int fullDepth = FullDepth(volume);
+  if (maxDepth == AUTO_DEPTH)
+  {
+    int depth = 0;
+    while (depth < fullDepth &&
+      (int64_t(volume.grid.rootGrid) << (depth + 1)) <= int64_t(AutoDisplayResolution))
+    {
+      ++depth;
+    }
+    return depth;
+  }
+  return maxDepth < 0 ? fullDepth : std::min(maxDepth, fullDepth);
+}
+
+//------------------------------------------------------------------------------
+uint64_t vtkHDTToHyperTreeGrid::EstimatedDisplayBytes(uint64_t cells)
+{
+  // Per cell: VoxelState 1 byte, the tree's 4-byte child table and its share
+  // of the walk's codes, about 6 bytes; ParaView keeps two shallow copies (no
+  // new arrays) and vtkHyperTreeGridGeometry emits up to one quad (4 points of
+  // 24 bytes shared, 5 cell ids of 8 bytes, a state) per leaf cell: ~40 bytes.
+  return cells * 48;
+}
+
+//------------------------------------------------------------------------------
+std::string vtkHDTToHyperTreeGrid::DrawingWarning(const vtkHDTConversionInfo& info)
+{
+  // vtkHyperTreeGridGeometry extracts about 0.16 M polygons a second on one
+  // core (bench/results/pvui.md): 10 M leaf cells is a minute or more.
+  constexpr vtkIdType drawable = 10000000;
+  if (info.LeafCells <= drawable)
+  {
+    return std::string();
+  }
+  return "the hyper tree grid has " + std::to_string(info.LeafCells) + " leaf cells at depth " +
+    std::to_string(info.Depth) +
+    ": drawing it as a surface in ParaView can take minutes. Use Max Depth Auto, the voxel "
+    "surface output, or HDT To Image instead";
+}
+
+//------------------------------------------------------------------------------
+unsigned char vtkHDTToHyperTreeGrid::AggregateState(uint64_t voxels, uint64_t surface, uint64_t inside)
+{
+  return static_cast<unsigned char>(hdt::aggregateState(voxels, surface, inside));
+}
+
+//------------------------------------------------------------------------------
 vtkHDTConversionInfo vtkHDTToHyperTreeGrid::Convert(
   const hdt::Volume& volume, const vtkHDTConversionOptions& options, vtkHyperTreeGrid* output)
 {
@@ -90,18 +141,18 @@ vtkHDTConversionInfo vtkHDTToHyperTreeGrid::Convert(
   {
     throw hdt::Error(hdt::ErrorKind::InvalidArgument, "no output vtkHyperTreeGrid given");
   }
-  if (options.MaxDepth < -1)
+  if (options.MaxDepth < AUTO_DEPTH)
   {
     throw hdt::Error(hdt::ErrorKind::InvalidArgument,
-      "MaxDepth must be -1 (full depth) or at least 0 (got " + std::to_string(options.MaxDepth) +
-        ")");
+      "MaxDepth must be -2 (automatic), -1 (full depth) or at least 0 (got " +
+        std::to_string(options.MaxDepth) + ")");
   }
   const int threads = options.Threads > 0 ? options.Threads : tbb::task_arena::automatic;
   tbb::task_arena arena(threads);
 
   vtkHDTConversionInfo info;
   const int fullDepth = FullDepth(volume);
-  const int depthCut = options.MaxDepth < 0 ? fullDepth : std::min(options.MaxDepth, fullDepth);
+  const int depthCut = DepthCut(volume, options.MaxDepth);
   Context ctx;
   arena.execute([&] { prepareContext(volume, depthCut, options.MaskOutside, ctx); });
 
@@ -166,6 +217,17 @@ vtkHDTConversionInfo vtkHDTToHyperTreeGrid::Convert(
   }
   const vtkIdType total = offsets[trees];
   info.Cells = total;
+  const uint64_t limit = options.MemoryLimitBytes ? options.MemoryLimitBytes : hdt::availableHostBytes();
+  if (limit && EstimatedDisplayBytes(uint64_t(total)) > limit)
+  {
+    throw hdt::Error(hdt::ErrorKind::OutOfResources,
+      "the hyper tree grid would have " + std::to_string(total) + " cells (depth " +
+        std::to_string(depthCut) + "), about " +
+        std::to_string(EstimatedDisplayBytes(uint64_t(total)) >> 20) +
+        " MiB once shown, more than the " + std::to_string(limit >> 20) +
+        " MiB available: choose a smaller Max Depth (Auto shows at most " +
+        std::to_string(AutoDisplayResolution) + " cells per axis)");
+  }
 
   // 2. Output arrays, sized once. VoxelState and the mask are indexed by
   // global vertex and filled in byte-aligned chunks of that range (a tree
@@ -320,6 +382,8 @@ vtkHDTConversionInfo vtkHDTToHyperTreeGrid::Convert(
   if (options.AddFieldData)
   {
     AddFieldData(volume, output->GetFieldData());
+    setSingle<vtkIntArray>(output->GetFieldData(), "DisplayDepth", depthCut);
+    setSingle<vtkIntArray>(output->GetFieldData(), "FullDepth", fullDepth);
   }
   info.Milliseconds = msSince(t0);
   return info;

@@ -202,6 +202,11 @@ int vtkHDTReader::RequestData(
     conversionTime->InsertNextValue(info.Milliseconds);
     output->GetFieldData()->AddArray(conversionTime);
     vtkHDTVolumeHandle::Attach(this->Internal->Volume, output);
+    const std::string warning = vtkHDTToHyperTreeGrid::DrawingWarning(info);
+    if (!warning.empty())
+    {
+      vtkWarningMacro(<< warning);
+    }
   }
   catch (const std::bad_alloc&)
   {
