@@ -75,6 +75,262 @@ void setSingle(vtkFieldData* fd, const char* name, T value)
   fd->AddArray(a); // replaces an array of the same name
 }
 
+
+// Stage 1's result: each tree's codes (breadth-first), its shape, and where
+// its vertices (global index) and descriptor bytes start; one extra entry at
+// the end holds the totals.
+struct WalkedTrees
+{
+  std::vector<std::vector<uint8_t>> Codes;
+  std::vector<TreeShape> Shapes;
+  std::vector<vtkIdType> Offsets;
+  std::vector<vtkIdType> DescBytes;
+  vtkIdType Total() const { return this->Offsets.back(); }
+};
+
+// Stage 2's result: VoxelState, the mask (null without MaskOutside) and the
+// trees' "refined" bits, each tree starting on a byte.
+struct PackedArrays
+{
+  vtkSmartPointer<vtkUnsignedCharArray> States;
+  vtkSmartPointer<vtkBitArray> Mask;
+  vtkSmartPointer<vtkBitArray> Descriptor;
+};
+
+//------------------------------------------------------------------------------
+// Stage 1 of Convert: every tree walked (trees in parallel) into its own code
+// vector, one byte per vertex in breadth-first order (state, refined, masked),
+// then where each tree's vertices and descriptor bytes start.
+WalkedTrees walkTrees(const Context& ctx, uint64_t trees, tbb::task_arena& arena,
+  vtkHDTConversionInfo& info)
+{
+  const auto tWalk = Clock::now();
+  WalkedTrees w;
+  w.Codes.resize(trees);
+  w.Shapes.resize(trees);
+  tbb::enumerable_thread_specific<TreeWalker> walkers([&] { return TreeWalker(ctx); });
+  arena.execute([&] {
+    tbb::parallel_for(tbb::blocked_range<uint64_t>(0, trees, 8),
+      [&](const tbb::blocked_range<uint64_t>& r) {
+        TreeWalker& walker = walkers.local();
+        for (uint64_t t = r.begin(); t != r.end(); ++t)
+        {
+          w.Shapes[t] = walker.Walk(uint32_t(t), w.Codes[t]);
+        }
+      });
+  });
+
+  info.WalkMilliseconds = msSince(tWalk);
+  info.Trees = vtkIdType(trees);
+  info.CellsPerDepth.assign(size_t(ctx.depthCut) + 1, 0);
+  for (const TreeWalker& walker : walkers)
+  {
+    for (size_t d = 0; d < walker.DepthCounts.size(); ++d)
+    {
+      info.CellsPerDepth[d] += walker.DepthCounts[d];
+    }
+    info.LeafCells += walker.LeafCells;
+    info.MaskedCells += walker.MaskedCells;
+  }
+  while (info.CellsPerDepth.size() > 1 && info.CellsPerDepth.back() == 0)
+  {
+    info.CellsPerDepth.pop_back();
+  }
+  info.Depth = int(info.CellsPerDepth.size()) - 1;
+
+  // Global index of each tree's first vertex, and where each tree's
+  // descriptor starts (in bytes: every tree's bits start on a byte, so trees
+  // can be packed and built independently).
+  w.Offsets.assign(trees + 1, 0);
+  w.DescBytes.assign(trees + 1, 0);
+  for (uint64_t t = 0; t < trees; ++t)
+  {
+    // VTK's compact trees index their vertices with 32-bit integers.
+    if (w.Shapes[t].Vertices >= uint64_t(std::numeric_limits<unsigned int>::max()))
+    {
+      throw hdt::Error(hdt::ErrorKind::OutOfResources,
+        "root cell " + std::to_string(t) + " would become a hyper tree of " +
+          std::to_string(w.Shapes[t].Vertices) +
+          " cells, more than VTK's limit of 2^32 - 1 per tree; use a larger RootGridSize or a "
+          "MaxDepth");
+    }
+    w.Offsets[t + 1] = w.Offsets[t] + vtkIdType(w.Shapes[t].Vertices);
+    w.DescBytes[t + 1] = w.DescBytes[t] + vtkIdType((w.Shapes[t].Described() + 7) / 8);
+  }
+  info.Cells = w.Offsets[trees];
+  return w;
+}
+
+//------------------------------------------------------------------------------
+// Stage 2: the output arrays, each sized once and filled in parallel from the
+// codes (which it frees).
+PackedArrays packArrays(WalkedTrees& w, bool maskOutside, tbb::task_arena& arena)
+{
+  // VoxelState and the mask are indexed by
+  // global vertex and filled in byte-aligned chunks of that range (a tree
+  // need not start on a byte there); the descriptor is per tree.
+  const uint64_t trees = w.Shapes.size();
+  const vtkIdType total = w.Total();
+  PackedArrays packed;
+  vtkNew<vtkUnsignedCharArray> states;
+  states->SetName("VoxelState");
+  states->SetNumberOfTuples(total);
+  vtkNew<vtkBitArray> mask;
+  if (maskOutside)
+  {
+    mask->SetName("MaskOutside");
+    mask->SetNumberOfTuples(total);
+  }
+  vtkNew<vtkBitArray> descriptor;
+  descriptor->SetNumberOfTuples(std::max<vtkIdType>(1, 8 * w.DescBytes[trees]));
+  unsigned char* stateOut = states->GetPointer(0);
+  unsigned char* maskOut = maskOutside ? mask->GetPointer(0) : nullptr;
+  unsigned char* descOut = descriptor->GetPointer(0);
+  constexpr vtkIdType chunk = vtkIdType(1) << 16; // a multiple of 8
+  const vtkIdType chunks = (total + chunk - 1) / chunk;
+  tbb::enumerable_thread_specific<std::vector<uint8_t>> buffers(size_t(chunk) + 8);
+  arena.execute([&] {
+    // Work items [0, chunks): state and mask chunks; [chunks, chunks + trees): descriptors.
+    tbb::parallel_for(tbb::blocked_range<vtkIdType>(0, chunks + vtkIdType(trees), 1),
+      [&](const tbb::blocked_range<vtkIdType>& r) {
+        uint8_t* buf = buffers.local().data();
+        for (vtkIdType c = r.begin(); c != r.end(); ++c)
+        {
+          if (c >= chunks)
+          {
+            const uint64_t t = uint64_t(c - chunks);
+            const uint64_t n = w.Shapes[t].Described();
+            const uint8_t* src = w.Codes[t].data();
+            unsigned char* out = descOut + w.DescBytes[t];
+            for (uint64_t i = 0; i + 8 <= n; i += 8)
+            {
+              *out++ = gatherBits(src + i, 2);
+            }
+            if (n % 8)
+            {
+              uint8_t tail[8] = { 0, 0, 0, 0, 0, 0, 0, 0 };
+              std::memcpy(tail, src + (n & ~uint64_t(7)), n % 8);
+              *out = gatherBits(tail, 2);
+            }
+            continue;
+          }
+          const vtkIdType begin = c * chunk;
+          const size_t n = size_t(std::min(total, begin + chunk) - begin);
+          // Gather the chunk's w.Codes from the trees that overlap it; the tree
+          // holding `begin` is the last one whose offset is <= begin.
+          uint64_t t =
+            uint64_t(std::upper_bound(w.Offsets.begin(), w.Offsets.end(), begin) - w.Offsets.begin()) -
+            1;
+          size_t pos = size_t(begin - w.Offsets[t]);
+          for (size_t filled = 0; filled < n; ++t, pos = 0)
+          {
+            const size_t take = std::min(n - filled, w.Codes[t].size() - pos);
+            std::memcpy(buf + filled, w.Codes[t].data() + pos, take);
+            filled += take;
+          }
+          std::memset(buf + n, 0, 8);
+          unsigned char* st = stateOut + begin;
+          for (size_t i = 0; i < n; ++i)
+          {
+            st[i] = buf[i] & kStateBits;
+          }
+          if (maskOut)
+          {
+            unsigned char* mOut = maskOut + begin / 8;
+            for (size_t g8 = 0; g8 < (n + 7) / 8; ++g8)
+            {
+              mOut[g8] = gatherBits(buf + 8 * g8, 3);
+            }
+          }
+        }
+      });
+  });
+  w.Codes.clear();
+  w.Codes.shrink_to_fit();
+  packed.States = states;
+  packed.Mask = maskOutside ? mask.Get() : nullptr;
+  packed.Descriptor = descriptor;
+  return packed;
+
+}
+
+//------------------------------------------------------------------------------
+// Stage 3: the grid and its trees, VTK building each tree from its bits.
+void buildGrid(const hdt::Volume& volume, const WalkedTrees& w, const PackedArrays& packed,
+  vtkHDTConversionOptions::TreeBuildMethod method, tbb::task_arena& arena, vtkHyperTreeGrid* output)
+{
+  // Trees are created one by one (the grid keeps
+  // them in a std::map), then built from their descriptors in parallel: each
+  // build touches only its own tree.
+  const hdt::GridSpec& g = volume.grid;
+  const uint64_t R = uint64_t(g.rootGrid);
+  const uint64_t trees = R * R * R;
+  unsigned char* descOut = packed.Descriptor->GetPointer(0);
+  vtkBitArray* descriptor = packed.Descriptor;
+  output->Initialize();
+  output->SetDimensions(int(R) + 1, int(R) + 1, int(R) + 1);
+  output->SetBranchFactor(2);
+  output->SetTransposedRootIndexing(false); // tree index i + R (j + R k), as HDT's root grid
+  vtkNew<vtkDoubleArray> coords[3];
+  const double rootEdge = g.voxelSize * double(g.rootCellVoxels());
+  for (int a = 0; a < 3; ++a)
+  {
+    coords[a]->SetNumberOfTuples(vtkIdType(R) + 1);
+    for (uint64_t i = 0; i <= R; ++i)
+    {
+      coords[a]->SetValue(vtkIdType(i), g.origin[size_t(a)] + double(i) * rootEdge);
+    }
+  }
+  output->SetXCoordinates(coords[0]);
+  output->SetYCoordinates(coords[1]);
+  output->SetZCoordinates(coords[2]);
+
+  std::vector<vtkHyperTree*> built(trees, nullptr);
+  vtkNew<vtkHyperTreeGridNonOrientedCursor> cursor;
+  for (uint64_t t = 0; t < trees; ++t)
+  {
+    output->InitializeNonOrientedCursor(cursor, vtkIdType(t), true);
+    cursor->SetGlobalIndexStart(w.Offsets[t]);
+    built[t] = cursor->GetTree();
+  }
+  const bool forReader = method == vtkHDTConversionOptions::INITIALIZE_FOR_READER;
+  // InitializeForReader reads its bits from index 0: a per-thread bit array
+  // pointed at the tree's bytes (no copy; `save` = 1, so never freed by it).
+  tbb::enumerable_thread_specific<vtkSmartPointer<vtkBitArray>> views(
+    [] { return vtkSmartPointer<vtkBitArray>::New(); });
+  arena.execute([&] {
+    tbb::parallel_for(tbb::blocked_range<uint64_t>(0, trees, 16),
+      [&](const tbb::blocked_range<uint64_t>& r) {
+        for (uint64_t t = r.begin(); t != r.end(); ++t)
+        {
+          const TreeShape& shape = w.Shapes[t];
+          const vtkIdType bits = vtkIdType(shape.Described());
+          if (!forReader)
+          {
+            built[t]->BuildFromBreadthFirstOrderDescriptor(descriptor, bits, 8 * w.DescBytes[t]);
+          }
+          else if (bits == 0)
+          {
+            // A single leaf: a new tree already is one.
+            built[t]->InitializeForReader(1, 1, 1, nullptr, nullptr, nullptr);
+          }
+          else
+          {
+            vtkBitArray* view = views.local();
+            view->SetArray(descOut + w.DescBytes[t], bits, 1);
+            built[t]->InitializeForReader(vtkIdType(shape.Levels), vtkIdType(shape.Vertices),
+              vtkIdType(shape.LastDepth), view, nullptr, nullptr);
+          }
+        }
+      });
+  });
+  for (auto& view : views)
+  {
+    view->SetArray(nullptr, 0, 1); // let go of the borrowed bytes
+  }
+
+}
+
 } // namespace
 
 //------------------------------------------------------------------------------
@@ -156,67 +412,13 @@ vtkHDTConversionInfo vtkHDTToHyperTreeGrid::Convert(
   Context ctx;
   arena.execute([&] { prepareContext(volume, depthCut, options.MaskOutside, ctx); });
 
-  const hdt::GridSpec& g = volume.grid;
-  const uint64_t R = uint64_t(g.rootGrid);
+  const uint64_t R = uint64_t(volume.grid.rootGrid);
   const uint64_t trees = R * R * R;
-
   info.ContextMilliseconds = msSince(t0);
 
-  // 1. Walk every tree (in parallel) into its own code vector.
-  const auto tWalk = Clock::now();
-  std::vector<std::vector<uint8_t>> codes(trees);
-  std::vector<TreeShape> shapes(trees);
-  tbb::enumerable_thread_specific<TreeWalker> walkers([&] { return TreeWalker(ctx); });
-  arena.execute([&] {
-    tbb::parallel_for(tbb::blocked_range<uint64_t>(0, trees, 8),
-      [&](const tbb::blocked_range<uint64_t>& r) {
-        TreeWalker& walker = walkers.local();
-        for (uint64_t t = r.begin(); t != r.end(); ++t)
-        {
-          shapes[t] = walker.Walk(uint32_t(t), codes[t]);
-        }
-      });
-  });
-
-  info.WalkMilliseconds = msSince(tWalk);
-  info.Trees = vtkIdType(trees);
-  info.CellsPerDepth.assign(size_t(ctx.depthCut) + 1, 0);
-  for (const TreeWalker& w : walkers)
-  {
-    for (size_t d = 0; d < w.DepthCounts.size(); ++d)
-    {
-      info.CellsPerDepth[d] += w.DepthCounts[d];
-    }
-    info.LeafCells += w.LeafCells;
-    info.MaskedCells += w.MaskedCells;
-  }
-  while (info.CellsPerDepth.size() > 1 && info.CellsPerDepth.back() == 0)
-  {
-    info.CellsPerDepth.pop_back();
-  }
-  info.Depth = int(info.CellsPerDepth.size()) - 1;
-
-  // Global index of each tree's first vertex, and where each tree's
-  // descriptor starts (in bytes: every tree's bits start on a byte, so trees
-  // can be packed and built independently).
-  std::vector<vtkIdType> offsets(trees + 1, 0);
-  std::vector<vtkIdType> descBytes(trees + 1, 0);
-  for (uint64_t t = 0; t < trees; ++t)
-  {
-    // VTK's compact trees index their vertices with 32-bit integers.
-    if (shapes[t].Vertices >= uint64_t(std::numeric_limits<unsigned int>::max()))
-    {
-      throw hdt::Error(hdt::ErrorKind::OutOfResources,
-        "root cell " + std::to_string(t) + " would become a hyper tree of " +
-          std::to_string(shapes[t].Vertices) +
-          " cells, more than VTK's limit of 2^32 - 1 per tree; use a larger RootGridSize or a "
-          "MaxDepth");
-    }
-    offsets[t + 1] = offsets[t] + vtkIdType(shapes[t].Vertices);
-    descBytes[t + 1] = descBytes[t] + vtkIdType((shapes[t].Described() + 7) / 8);
-  }
-  const vtkIdType total = offsets[trees];
-  info.Cells = total;
+  // 1. Walk the trees; refuse a grid too large to show before allocating it.
+  WalkedTrees walked = walkTrees(ctx, trees, arena, info);
+  const vtkIdType total = walked.Total();
   const uint64_t limit = options.MemoryLimitBytes ? options.MemoryLimitBytes : hdt::availableHostBytes();
   if (limit && EstimatedDisplayBytes(uint64_t(total)) > limit)
   {
@@ -229,156 +431,17 @@ vtkHDTConversionInfo vtkHDTToHyperTreeGrid::Convert(
         std::to_string(AutoDisplayResolution) + " cells per axis)");
   }
 
-  // 2. Output arrays, sized once. VoxelState and the mask are indexed by
-  // global vertex and filled in byte-aligned chunks of that range (a tree
-  // need not start on a byte there); the descriptor is per tree.
+  // 2. Pack the output arrays; 3. build the grid.
   const auto tPack = Clock::now();
-  vtkNew<vtkUnsignedCharArray> states;
-  states->SetName("VoxelState");
-  states->SetNumberOfTuples(total);
-  vtkNew<vtkBitArray> mask;
-  if (options.MaskOutside)
-  {
-    mask->SetName("MaskOutside");
-    mask->SetNumberOfTuples(total);
-  }
-  vtkNew<vtkBitArray> descriptor;
-  descriptor->SetNumberOfTuples(std::max<vtkIdType>(1, 8 * descBytes[trees]));
-  unsigned char* stateOut = states->GetPointer(0);
-  unsigned char* maskOut = options.MaskOutside ? mask->GetPointer(0) : nullptr;
-  unsigned char* descOut = descriptor->GetPointer(0);
-  constexpr vtkIdType chunk = vtkIdType(1) << 16; // a multiple of 8
-  const vtkIdType chunks = (total + chunk - 1) / chunk;
-  tbb::enumerable_thread_specific<std::vector<uint8_t>> buffers(size_t(chunk) + 8);
-  arena.execute([&] {
-    // Work items [0, chunks): state and mask chunks; [chunks, chunks + trees): descriptors.
-    tbb::parallel_for(tbb::blocked_range<vtkIdType>(0, chunks + vtkIdType(trees), 1),
-      [&](const tbb::blocked_range<vtkIdType>& r) {
-        uint8_t* buf = buffers.local().data();
-        for (vtkIdType c = r.begin(); c != r.end(); ++c)
-        {
-          if (c >= chunks)
-          {
-            const uint64_t t = uint64_t(c - chunks);
-            const uint64_t n = shapes[t].Described();
-            const uint8_t* src = codes[t].data();
-            unsigned char* out = descOut + descBytes[t];
-            for (uint64_t i = 0; i + 8 <= n; i += 8)
-            {
-              *out++ = gatherBits(src + i, 2);
-            }
-            if (n % 8)
-            {
-              uint8_t tail[8] = { 0, 0, 0, 0, 0, 0, 0, 0 };
-              std::memcpy(tail, src + (n & ~uint64_t(7)), n % 8);
-              *out = gatherBits(tail, 2);
-            }
-            continue;
-          }
-          const vtkIdType begin = c * chunk;
-          const size_t n = size_t(std::min(total, begin + chunk) - begin);
-          // Gather the chunk's codes from the trees that overlap it; the tree
-          // holding `begin` is the last one whose offset is <= begin.
-          uint64_t t =
-            uint64_t(std::upper_bound(offsets.begin(), offsets.end(), begin) - offsets.begin()) -
-            1;
-          size_t pos = size_t(begin - offsets[t]);
-          for (size_t filled = 0; filled < n; ++t, pos = 0)
-          {
-            const size_t take = std::min(n - filled, codes[t].size() - pos);
-            std::memcpy(buf + filled, codes[t].data() + pos, take);
-            filled += take;
-          }
-          std::memset(buf + n, 0, 8);
-          unsigned char* st = stateOut + begin;
-          for (size_t i = 0; i < n; ++i)
-          {
-            st[i] = buf[i] & kStateBits;
-          }
-          if (maskOut)
-          {
-            unsigned char* mOut = maskOut + begin / 8;
-            for (size_t g8 = 0; g8 < (n + 7) / 8; ++g8)
-            {
-              mOut[g8] = gatherBits(buf + 8 * g8, 3);
-            }
-          }
-        }
-      });
-  });
+  const PackedArrays packed = packArrays(walked, options.MaskOutside, arena);
   info.PackMilliseconds = msSince(tPack);
-  codes.clear();
-  codes.shrink_to_fit();
-
-  // 3. The grid and its trees. Trees are created one by one (the grid keeps
-  // them in a std::map), then built from their descriptors in parallel: each
-  // build touches only its own tree.
-  output->Initialize();
-  output->SetDimensions(int(R) + 1, int(R) + 1, int(R) + 1);
-  output->SetBranchFactor(2);
-  output->SetTransposedRootIndexing(false); // tree index i + R (j + R k), as HDT's root grid
-  vtkNew<vtkDoubleArray> coords[3];
-  const double rootEdge = g.voxelSize * double(g.rootCellVoxels());
-  for (int a = 0; a < 3; ++a)
-  {
-    coords[a]->SetNumberOfTuples(vtkIdType(R) + 1);
-    for (uint64_t i = 0; i <= R; ++i)
-    {
-      coords[a]->SetValue(vtkIdType(i), g.origin[size_t(a)] + double(i) * rootEdge);
-    }
-  }
-  output->SetXCoordinates(coords[0]);
-  output->SetYCoordinates(coords[1]);
-  output->SetZCoordinates(coords[2]);
 
   const auto tBuild = Clock::now();
-  std::vector<vtkHyperTree*> built(trees, nullptr);
-  vtkNew<vtkHyperTreeGridNonOrientedCursor> cursor;
-  for (uint64_t t = 0; t < trees; ++t)
-  {
-    output->InitializeNonOrientedCursor(cursor, vtkIdType(t), true);
-    cursor->SetGlobalIndexStart(offsets[t]);
-    built[t] = cursor->GetTree();
-  }
-  const bool forReader = options.TreeBuild == vtkHDTConversionOptions::INITIALIZE_FOR_READER;
-  // InitializeForReader reads its bits from index 0: a per-thread bit array
-  // pointed at the tree's bytes (no copy; `save` = 1, so never freed by it).
-  tbb::enumerable_thread_specific<vtkSmartPointer<vtkBitArray>> views(
-    [] { return vtkSmartPointer<vtkBitArray>::New(); });
-  arena.execute([&] {
-    tbb::parallel_for(tbb::blocked_range<uint64_t>(0, trees, 16),
-      [&](const tbb::blocked_range<uint64_t>& r) {
-        for (uint64_t t = r.begin(); t != r.end(); ++t)
-        {
-          const TreeShape& shape = shapes[t];
-          const vtkIdType bits = vtkIdType(shape.Described());
-          if (!forReader)
-          {
-            built[t]->BuildFromBreadthFirstOrderDescriptor(descriptor, bits, 8 * descBytes[t]);
-          }
-          else if (bits == 0)
-          {
-            // A single leaf: a new tree already is one.
-            built[t]->InitializeForReader(1, 1, 1, nullptr, nullptr, nullptr);
-          }
-          else
-          {
-            vtkBitArray* view = views.local();
-            view->SetArray(descOut + descBytes[t], bits, 1);
-            built[t]->InitializeForReader(vtkIdType(shape.Levels), vtkIdType(shape.Vertices),
-              vtkIdType(shape.LastDepth), view, nullptr, nullptr);
-          }
-        }
-      });
-  });
-  for (auto& view : views)
-  {
-    view->SetArray(nullptr, 0, 1); // let go of the borrowed bytes
-  }
+  buildGrid(volume, walked, packed, options.TreeBuild, arena, output);
   info.TreeBuildMilliseconds = msSince(tBuild);
 
-  output->GetCellData()->SetScalars(states);
-  output->SetMask(options.MaskOutside ? mask.Get() : nullptr);
+  output->GetCellData()->SetScalars(packed.States);
+  output->SetMask(packed.Mask);
   if (options.AddFieldData)
   {
     AddFieldData(volume, output->GetFieldData());
