@@ -114,6 +114,7 @@ if args.cli:
     reader = OpenDataFile(hdt)
     t.check(reader is not None and reader.GetXMLName() == "HDTReader",
             "OpenDataFile picks the HDT Reader for .hdt")
+    reader.MaskOutside, reader.MaxDepth = 1, -1  # the voxelizer's settings above
     from_cli = t.fetch(reader)
     a, b = t.htg_summary(from_cli), t.htg_summary(htg)
     for key in a:
