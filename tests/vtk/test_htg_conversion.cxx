@@ -395,3 +395,39 @@ TEST(ConversionRobustness, InconsistentVolumesAreRefused)
 }
 
 } // namespace
+
+// The output's memory check: a grid estimated to need more than the limit once
+// shown is refused before it is built, naming Max Depth; the drawing warning
+// starts above 10 million leaf cells.
+TEST(ConversionMemory, RefusesGridsOverTheLimitAndWarnsBeforeHeavyViews)
+{
+  vtkNew<vtkHDTVoxelizer> filter;
+  filter->SetInputData(hdtvtk::MakeSphere());
+  filter->SetResolution(128);
+  filter->SetLeafGridSize(8);
+  filter->Update();
+  ASSERT_TRUE(filter->GetVolume());
+  vtkNew<vtkHyperTreeGrid> htg;
+  vtkHDTConversionOptions options;
+  options.MaxDepth = -1;
+  const vtkHDTConversionInfo info = vtkHDTToHyperTreeGrid::Convert(*filter->GetVolume(), options, htg);
+  options.MemoryLimitBytes = vtkHDTToHyperTreeGrid::EstimatedDisplayBytes(uint64_t(info.Cells)) - 1;
+  try
+  {
+    vtkHDTToHyperTreeGrid::Convert(*filter->GetVolume(), options, htg);
+    ADD_FAILURE() << "a grid over the memory limit was built";
+  }
+  catch (const hdt::Error& e)
+  {
+    EXPECT_EQ(e.kind(), hdt::ErrorKind::OutOfResources);
+    EXPECT_NE(std::string(e.what()).find("Max Depth"), std::string::npos) << e.what();
+  }
+  options.MaxDepth = 2; // fewer cells: fits
+  EXPECT_NO_THROW(vtkHDTToHyperTreeGrid::Convert(*filter->GetVolume(), options, htg));
+
+  vtkHDTConversionInfo heavy;
+  heavy.LeafCells = 10000000;
+  EXPECT_TRUE(vtkHDTToHyperTreeGrid::DrawingWarning(heavy).empty());
+  heavy.LeafCells = 10000001;
+  EXPECT_NE(vtkHDTToHyperTreeGrid::DrawingWarning(heavy).find("Max Depth Auto"), std::string::npos);
+}
