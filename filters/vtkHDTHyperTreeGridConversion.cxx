@@ -26,6 +26,8 @@
 #include "vtkHDTTreeWalk.h"
 
 #include "hdt/error.hpp"
+#include "hdt/host_memory.hpp"
+#include "hdt/region.hpp"
 #include "hdt/volume.hpp"
 
 #include "vtkBitArray.h"
@@ -73,48 +75,39 @@ void setSingle(vtkFieldData* fd, const char* name, T value)
   fd->AddArray(a); // replaces an array of the same name
 }
 
-} // namespace
+
+// Stage 1's result: each tree's codes (breadth-first), its shape, and where
+// its vertices (global index) and descriptor bytes start; one extra entry at
+// the end holds the totals.
+struct WalkedTrees
+{
+  std::vector<std::vector<uint8_t>> Codes;
+  std::vector<TreeShape> Shapes;
+  std::vector<vtkIdType> Offsets;
+  std::vector<vtkIdType> DescBytes;
+  vtkIdType Total() const { return this->Offsets.back(); }
+};
+
+// Stage 2's result: VoxelState, the mask (null without MaskOutside) and the
+// trees' "refined" bits, each tree starting on a byte.
+struct PackedArrays
+{
+  vtkSmartPointer<vtkUnsignedCharArray> States;
+  vtkSmartPointer<vtkBitArray> Mask;
+  vtkSmartPointer<vtkBitArray> Descriptor;
+};
 
 //------------------------------------------------------------------------------
-int vtkHDTToHyperTreeGrid::FullDepth(const hdt::Volume& volume)
+// Stage 1 of Convert: every tree walked (trees in parallel) into its own code
+// vector, one byte per vertex in breadth-first order (state, refined, masked),
+// then where each tree's vertices and descriptor bytes start.
+WalkedTrees walkTrees(const Context& ctx, uint64_t trees, tbb::task_arena& arena,
+  vtkHDTConversionInfo& info)
 {
-  return volume.grid.height + log2Exact(volume.grid.leafSize);
-}
-
-//------------------------------------------------------------------------------
-vtkHDTConversionInfo vtkHDTToHyperTreeGrid::Convert(
-  const hdt::Volume& volume, const vtkHDTConversionOptions& options, vtkHyperTreeGrid* output)
-{
-  const auto t0 = Clock::now();
-  if (!output)
-  {
-    throw hdt::Error(hdt::ErrorKind::InvalidArgument, "no output vtkHyperTreeGrid given");
-  }
-  if (options.MaxDepth < -1)
-  {
-    throw hdt::Error(hdt::ErrorKind::InvalidArgument,
-      "MaxDepth must be -1 (full depth) or at least 0 (got " + std::to_string(options.MaxDepth) +
-        ")");
-  }
-  const int threads = options.Threads > 0 ? options.Threads : tbb::task_arena::automatic;
-  tbb::task_arena arena(threads);
-
-  vtkHDTConversionInfo info;
-  const int fullDepth = FullDepth(volume);
-  const int depthCut = options.MaxDepth < 0 ? fullDepth : std::min(options.MaxDepth, fullDepth);
-  Context ctx;
-  arena.execute([&] { prepareContext(volume, depthCut, options.MaskOutside, ctx); });
-
-  const hdt::GridSpec& g = volume.grid;
-  const uint64_t R = uint64_t(g.rootGrid);
-  const uint64_t trees = R * R * R;
-
-  info.ContextMilliseconds = msSince(t0);
-
-  // 1. Walk every tree (in parallel) into its own code vector.
   const auto tWalk = Clock::now();
-  std::vector<std::vector<uint8_t>> codes(trees);
-  std::vector<TreeShape> shapes(trees);
+  WalkedTrees w;
+  w.Codes.resize(trees);
+  w.Shapes.resize(trees);
   tbb::enumerable_thread_specific<TreeWalker> walkers([&] { return TreeWalker(ctx); });
   arena.execute([&] {
     tbb::parallel_for(tbb::blocked_range<uint64_t>(0, trees, 8),
@@ -122,7 +115,7 @@ vtkHDTConversionInfo vtkHDTToHyperTreeGrid::Convert(
         TreeWalker& walker = walkers.local();
         for (uint64_t t = r.begin(); t != r.end(); ++t)
         {
-          shapes[t] = walker.Walk(uint32_t(t), codes[t]);
+          w.Shapes[t] = walker.Walk(uint32_t(t), w.Codes[t]);
         }
       });
   });
@@ -130,14 +123,14 @@ vtkHDTConversionInfo vtkHDTToHyperTreeGrid::Convert(
   info.WalkMilliseconds = msSince(tWalk);
   info.Trees = vtkIdType(trees);
   info.CellsPerDepth.assign(size_t(ctx.depthCut) + 1, 0);
-  for (const TreeWalker& w : walkers)
+  for (const TreeWalker& walker : walkers)
   {
-    for (size_t d = 0; d < w.DepthCounts.size(); ++d)
+    for (size_t d = 0; d < walker.DepthCounts.size(); ++d)
     {
-      info.CellsPerDepth[d] += w.DepthCounts[d];
+      info.CellsPerDepth[d] += walker.DepthCounts[d];
     }
-    info.LeafCells += w.LeafCells;
-    info.MaskedCells += w.MaskedCells;
+    info.LeafCells += walker.LeafCells;
+    info.MaskedCells += walker.MaskedCells;
   }
   while (info.CellsPerDepth.size() > 1 && info.CellsPerDepth.back() == 0)
   {
@@ -148,42 +141,50 @@ vtkHDTConversionInfo vtkHDTToHyperTreeGrid::Convert(
   // Global index of each tree's first vertex, and where each tree's
   // descriptor starts (in bytes: every tree's bits start on a byte, so trees
   // can be packed and built independently).
-  std::vector<vtkIdType> offsets(trees + 1, 0);
-  std::vector<vtkIdType> descBytes(trees + 1, 0);
+  w.Offsets.assign(trees + 1, 0);
+  w.DescBytes.assign(trees + 1, 0);
   for (uint64_t t = 0; t < trees; ++t)
   {
     // VTK's compact trees index their vertices with 32-bit integers.
-    if (shapes[t].Vertices >= uint64_t(std::numeric_limits<unsigned int>::max()))
+    if (w.Shapes[t].Vertices >= uint64_t(std::numeric_limits<unsigned int>::max()))
     {
       throw hdt::Error(hdt::ErrorKind::OutOfResources,
         "root cell " + std::to_string(t) + " would become a hyper tree of " +
-          std::to_string(shapes[t].Vertices) +
+          std::to_string(w.Shapes[t].Vertices) +
           " cells, more than VTK's limit of 2^32 - 1 per tree; use a larger RootGridSize or a "
           "MaxDepth");
     }
-    offsets[t + 1] = offsets[t] + vtkIdType(shapes[t].Vertices);
-    descBytes[t + 1] = descBytes[t] + vtkIdType((shapes[t].Described() + 7) / 8);
+    w.Offsets[t + 1] = w.Offsets[t] + vtkIdType(w.Shapes[t].Vertices);
+    w.DescBytes[t + 1] = w.DescBytes[t] + vtkIdType((w.Shapes[t].Described() + 7) / 8);
   }
-  const vtkIdType total = offsets[trees];
-  info.Cells = total;
+  info.Cells = w.Offsets[trees];
+  return w;
+}
 
-  // 2. Output arrays, sized once. VoxelState and the mask are indexed by
+//------------------------------------------------------------------------------
+// Stage 2: the output arrays, each sized once and filled in parallel from the
+// codes (which it frees).
+PackedArrays packArrays(WalkedTrees& w, bool maskOutside, tbb::task_arena& arena)
+{
+  // VoxelState and the mask are indexed by
   // global vertex and filled in byte-aligned chunks of that range (a tree
   // need not start on a byte there); the descriptor is per tree.
-  const auto tPack = Clock::now();
+  const uint64_t trees = w.Shapes.size();
+  const vtkIdType total = w.Total();
+  PackedArrays packed;
   vtkNew<vtkUnsignedCharArray> states;
   states->SetName("VoxelState");
   states->SetNumberOfTuples(total);
   vtkNew<vtkBitArray> mask;
-  if (options.MaskOutside)
+  if (maskOutside)
   {
     mask->SetName("MaskOutside");
     mask->SetNumberOfTuples(total);
   }
   vtkNew<vtkBitArray> descriptor;
-  descriptor->SetNumberOfTuples(std::max<vtkIdType>(1, 8 * descBytes[trees]));
+  descriptor->SetNumberOfTuples(std::max<vtkIdType>(1, 8 * w.DescBytes[trees]));
   unsigned char* stateOut = states->GetPointer(0);
-  unsigned char* maskOut = options.MaskOutside ? mask->GetPointer(0) : nullptr;
+  unsigned char* maskOut = maskOutside ? mask->GetPointer(0) : nullptr;
   unsigned char* descOut = descriptor->GetPointer(0);
   constexpr vtkIdType chunk = vtkIdType(1) << 16; // a multiple of 8
   const vtkIdType chunks = (total + chunk - 1) / chunk;
@@ -198,9 +199,9 @@ vtkHDTConversionInfo vtkHDTToHyperTreeGrid::Convert(
           if (c >= chunks)
           {
             const uint64_t t = uint64_t(c - chunks);
-            const uint64_t n = shapes[t].Described();
-            const uint8_t* src = codes[t].data();
-            unsigned char* out = descOut + descBytes[t];
+            const uint64_t n = w.Shapes[t].Described();
+            const uint8_t* src = w.Codes[t].data();
+            unsigned char* out = descOut + w.DescBytes[t];
             for (uint64_t i = 0; i + 8 <= n; i += 8)
             {
               *out++ = gatherBits(src + i, 2);
@@ -215,16 +216,16 @@ vtkHDTConversionInfo vtkHDTToHyperTreeGrid::Convert(
           }
           const vtkIdType begin = c * chunk;
           const size_t n = size_t(std::min(total, begin + chunk) - begin);
-          // Gather the chunk's codes from the trees that overlap it; the tree
+          // Gather the chunk's w.Codes from the trees that overlap it; the tree
           // holding `begin` is the last one whose offset is <= begin.
           uint64_t t =
-            uint64_t(std::upper_bound(offsets.begin(), offsets.end(), begin) - offsets.begin()) -
+            uint64_t(std::upper_bound(w.Offsets.begin(), w.Offsets.end(), begin) - w.Offsets.begin()) -
             1;
-          size_t pos = size_t(begin - offsets[t]);
+          size_t pos = size_t(begin - w.Offsets[t]);
           for (size_t filled = 0; filled < n; ++t, pos = 0)
           {
-            const size_t take = std::min(n - filled, codes[t].size() - pos);
-            std::memcpy(buf + filled, codes[t].data() + pos, take);
+            const size_t take = std::min(n - filled, w.Codes[t].size() - pos);
+            std::memcpy(buf + filled, w.Codes[t].data() + pos, take);
             filled += take;
           }
           std::memset(buf + n, 0, 8);
@@ -244,13 +245,28 @@ vtkHDTConversionInfo vtkHDTToHyperTreeGrid::Convert(
         }
       });
   });
-  info.PackMilliseconds = msSince(tPack);
-  codes.clear();
-  codes.shrink_to_fit();
+  w.Codes.clear();
+  w.Codes.shrink_to_fit();
+  packed.States = states;
+  packed.Mask = maskOutside ? mask.Get() : nullptr;
+  packed.Descriptor = descriptor;
+  return packed;
 
-  // 3. The grid and its trees. Trees are created one by one (the grid keeps
+}
+
+//------------------------------------------------------------------------------
+// Stage 3: the grid and its trees, VTK building each tree from its bits.
+void buildGrid(const hdt::Volume& volume, const WalkedTrees& w, const PackedArrays& packed,
+  vtkHDTConversionOptions::TreeBuildMethod method, tbb::task_arena& arena, vtkHyperTreeGrid* output)
+{
+  // Trees are created one by one (the grid keeps
   // them in a std::map), then built from their descriptors in parallel: each
   // build touches only its own tree.
+  const hdt::GridSpec& g = volume.grid;
+  const uint64_t R = uint64_t(g.rootGrid);
+  const uint64_t trees = R * R * R;
+  unsigned char* descOut = packed.Descriptor->GetPointer(0);
+  vtkBitArray* descriptor = packed.Descriptor;
   output->Initialize();
   output->SetDimensions(int(R) + 1, int(R) + 1, int(R) + 1);
   output->SetBranchFactor(2);
@@ -269,16 +285,15 @@ vtkHDTConversionInfo vtkHDTToHyperTreeGrid::Convert(
   output->SetYCoordinates(coords[1]);
   output->SetZCoordinates(coords[2]);
 
-  const auto tBuild = Clock::now();
   std::vector<vtkHyperTree*> built(trees, nullptr);
   vtkNew<vtkHyperTreeGridNonOrientedCursor> cursor;
   for (uint64_t t = 0; t < trees; ++t)
   {
     output->InitializeNonOrientedCursor(cursor, vtkIdType(t), true);
-    cursor->SetGlobalIndexStart(offsets[t]);
+    cursor->SetGlobalIndexStart(w.Offsets[t]);
     built[t] = cursor->GetTree();
   }
-  const bool forReader = options.TreeBuild == vtkHDTConversionOptions::INITIALIZE_FOR_READER;
+  const bool forReader = method == vtkHDTConversionOptions::INITIALIZE_FOR_READER;
   // InitializeForReader reads its bits from index 0: a per-thread bit array
   // pointed at the tree's bytes (no copy; `save` = 1, so never freed by it).
   tbb::enumerable_thread_specific<vtkSmartPointer<vtkBitArray>> views(
@@ -288,11 +303,11 @@ vtkHDTConversionInfo vtkHDTToHyperTreeGrid::Convert(
       [&](const tbb::blocked_range<uint64_t>& r) {
         for (uint64_t t = r.begin(); t != r.end(); ++t)
         {
-          const TreeShape& shape = shapes[t];
+          const TreeShape& shape = w.Shapes[t];
           const vtkIdType bits = vtkIdType(shape.Described());
           if (!forReader)
           {
-            built[t]->BuildFromBreadthFirstOrderDescriptor(descriptor, bits, 8 * descBytes[t]);
+            built[t]->BuildFromBreadthFirstOrderDescriptor(descriptor, bits, 8 * w.DescBytes[t]);
           }
           else if (bits == 0)
           {
@@ -302,7 +317,7 @@ vtkHDTConversionInfo vtkHDTToHyperTreeGrid::Convert(
           else
           {
             vtkBitArray* view = views.local();
-            view->SetArray(descOut + descBytes[t], bits, 1);
+            view->SetArray(descOut + w.DescBytes[t], bits, 1);
             built[t]->InitializeForReader(vtkIdType(shape.Levels), vtkIdType(shape.Vertices),
               vtkIdType(shape.LastDepth), view, nullptr, nullptr);
           }
@@ -313,13 +328,125 @@ vtkHDTConversionInfo vtkHDTToHyperTreeGrid::Convert(
   {
     view->SetArray(nullptr, 0, 1); // let go of the borrowed bytes
   }
+
+}
+
+} // namespace
+
+//------------------------------------------------------------------------------
+int vtkHDTToHyperTreeGrid::FullDepth(const hdt::Volume& volume)
+{
+  return volume.grid.height + log2Exact(volume.grid.leafSize);
+}
+
+//------------------------------------------------------------------------------
+int vtkHDTToHyperTreeGrid::DepthCut(const hdt::Volume& volume, int maxDepth)
+{
+  const int fullDepth = FullDepth(volume);
+  if (maxDepth == AUTO_DEPTH)
+  {
+    int depth = 0;
+    while (depth < fullDepth &&
+      (int64_t(volume.grid.rootGrid) << (depth + 1)) <= int64_t(AutoDisplayResolution))
+    {
+      ++depth;
+    }
+    return depth;
+  }
+  return maxDepth < 0 ? fullDepth : std::min(maxDepth, fullDepth);
+}
+
+//------------------------------------------------------------------------------
+uint64_t vtkHDTToHyperTreeGrid::EstimatedDisplayBytes(uint64_t cells)
+{
+  // Per cell: VoxelState 1 byte, the tree's 4-byte child table and its share
+  // of the walk's codes, about 6 bytes; ParaView keeps two shallow copies (no
+  // new arrays) and vtkHyperTreeGridGeometry emits up to one quad (4 points of
+  // 24 bytes shared, 5 cell ids of 8 bytes, a state) per leaf cell: ~40 bytes.
+  return cells * 48;
+}
+
+//------------------------------------------------------------------------------
+std::string vtkHDTToHyperTreeGrid::DrawingWarning(const vtkHDTConversionInfo& info)
+{
+  // vtkHyperTreeGridGeometry extracts about 0.16 M polygons a second on one
+  // core (bench/results/pvui.md): 10 M leaf cells is a minute or more.
+  constexpr vtkIdType drawable = 10000000;
+  if (info.LeafCells <= drawable)
+  {
+    return std::string();
+  }
+  return "the hyper tree grid has " + std::to_string(info.LeafCells) + " leaf cells at depth " +
+    std::to_string(info.Depth) +
+    ": drawing it as a surface in ParaView can take minutes. Use Max Depth Auto, the voxel "
+    "surface output, or HDT To Image instead";
+}
+
+//------------------------------------------------------------------------------
+unsigned char vtkHDTToHyperTreeGrid::AggregateState(uint64_t voxels, uint64_t surface, uint64_t inside)
+{
+  return static_cast<unsigned char>(hdt::aggregateState(voxels, surface, inside));
+}
+
+//------------------------------------------------------------------------------
+vtkHDTConversionInfo vtkHDTToHyperTreeGrid::Convert(
+  const hdt::Volume& volume, const vtkHDTConversionOptions& options, vtkHyperTreeGrid* output)
+{
+  const auto t0 = Clock::now();
+  if (!output)
+  {
+    throw hdt::Error(hdt::ErrorKind::InvalidArgument, "no output vtkHyperTreeGrid given");
+  }
+  if (options.MaxDepth < AUTO_DEPTH)
+  {
+    throw hdt::Error(hdt::ErrorKind::InvalidArgument,
+      "MaxDepth must be -2 (automatic), -1 (full depth) or at least 0 (got " +
+        std::to_string(options.MaxDepth) + ")");
+  }
+  const int threads = options.Threads > 0 ? options.Threads : tbb::task_arena::automatic;
+  tbb::task_arena arena(threads);
+
+  vtkHDTConversionInfo info;
+  const int fullDepth = FullDepth(volume);
+  const int depthCut = DepthCut(volume, options.MaxDepth);
+  Context ctx;
+  arena.execute([&] { prepareContext(volume, depthCut, options.MaskOutside, ctx); });
+
+  const uint64_t R = uint64_t(volume.grid.rootGrid);
+  const uint64_t trees = R * R * R;
+  info.ContextMilliseconds = msSince(t0);
+
+  // 1. Walk the trees; refuse a grid too large to show before allocating it.
+  WalkedTrees walked = walkTrees(ctx, trees, arena, info);
+  const vtkIdType total = walked.Total();
+  const uint64_t limit = options.MemoryLimitBytes ? options.MemoryLimitBytes : hdt::availableHostBytes();
+  if (limit && EstimatedDisplayBytes(uint64_t(total)) > limit)
+  {
+    throw hdt::Error(hdt::ErrorKind::OutOfResources,
+      "the hyper tree grid would have " + std::to_string(total) + " cells (depth " +
+        std::to_string(depthCut) + "), about " +
+        std::to_string(EstimatedDisplayBytes(uint64_t(total)) >> 20) +
+        " MiB once shown, more than the " + std::to_string(limit >> 20) +
+        " MiB available: choose a smaller Max Depth (Auto shows at most " +
+        std::to_string(AutoDisplayResolution) + " cells per axis)");
+  }
+
+  // 2. Pack the output arrays; 3. build the grid.
+  const auto tPack = Clock::now();
+  const PackedArrays packed = packArrays(walked, options.MaskOutside, arena);
+  info.PackMilliseconds = msSince(tPack);
+
+  const auto tBuild = Clock::now();
+  buildGrid(volume, walked, packed, options.TreeBuild, arena, output);
   info.TreeBuildMilliseconds = msSince(tBuild);
 
-  output->GetCellData()->SetScalars(states);
-  output->SetMask(options.MaskOutside ? mask.Get() : nullptr);
+  output->GetCellData()->SetScalars(packed.States);
+  output->SetMask(packed.Mask);
   if (options.AddFieldData)
   {
     AddFieldData(volume, output->GetFieldData());
+    setSingle<vtkIntArray>(output->GetFieldData(), "DisplayDepth", depthCut);
+    setSingle<vtkIntArray>(output->GetFieldData(), "FullDepth", fullDepth);
   }
   info.Milliseconds = msSince(t0);
   return info;

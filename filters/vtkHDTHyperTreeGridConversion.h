@@ -24,6 +24,7 @@
 #include "vtkType.h"
 
 #include <cstdint>
+#include <string>
 #include <vector>
 
 class vtkFieldData;
@@ -36,8 +37,13 @@ struct Volume;
 struct vtkHDTConversionOptions
 {
   // -1: full depth. k >= 0: no cell deeper than k; cells at depth k take the
-  // aggregated state of the voxels below them.
+  // aggregated state of the voxels below them. -2 (AUTO_DEPTH): the deepest
+  // depth whose cells are no smaller than 1/AutoDisplayResolution of the grid
+  // (DepthCut), which keeps the first picture to a few million polygons.
   int MaxDepth = -1;
+  // Refuse (hdt::Error OutOfResources) a grid estimated to need more than this
+  // many bytes once ParaView holds and draws it; 0 = what the host has available.
+  uint64_t MemoryLimitBytes = 0;
   // Mask (hide) every leaf cell whose state is 0 (outside). Refined cells are
   // never masked. With the mask, vtkHyperTreeGridGeometry draws the voxel surface.
   bool MaskOutside = true;
@@ -79,6 +85,25 @@ public:
   // Depth of single-voxel cells: height + log2(L).
   static int FullDepth(const hdt::Volume& volume);
 
+  // MaxDepth value meaning "automatic", and the finest resolution (cells per
+  // axis) it shows: at 1024 the dragon's hyper tree grid surface is about 2.7
+  // million polygons (bench/results/pvui.md).
+  static constexpr int AUTO_DEPTH = -2;
+  static constexpr int AutoDisplayResolution = 1024;
+
+  // The depth the conversion cuts at for a MaxDepth value: full depth for -1
+  // (and values past it), the largest depth with at most AutoDisplayResolution
+  // cells per axis for AUTO_DEPTH (at least 0).
+  static int DepthCut(const hdt::Volume& volume, int maxDepth);
+
+  // A warning when the grid has more leaf cells than ParaView draws in about
+  // a minute (its hyper tree grid surface extraction), else empty.
+  static std::string DrawingWarning(const vtkHDTConversionInfo& info);
+
+  // Bytes a converted grid of `cells` cells is estimated to take once ParaView
+  // shows it (the grid, its copies through the pipeline, the drawn surface).
+  static uint64_t EstimatedDisplayBytes(uint64_t cells);
+
   // Replaces the contents of `output` with the volume. Throws hdt::Error
   // (InvalidArgument for MaxDepth < -1, BadInput for an inconsistent volume:
   // child or leaf indices out of range, wrong level sizes) before touching
@@ -91,13 +116,12 @@ public:
   // LeafBytes), phase times in ms (TimeMapping, TimeBranching, TimeLeaf,
   // TimeClassify, TimeTotal), Backend, Resolution, Height, RootGridSize,
   // LeafGridSize, VoxelSize, Origin, SurfaceOnly, ClosedMesh, Triangles,
-  // DegenerateTriangles, Threads. Replaces arrays of the same names.
+  // DegenerateTriangles, Threads. Replaces arrays of the same names. Convert
+  // adds DisplayDepth (the depth cut used) and FullDepth.
   static void AddFieldData(const hdt::Volume& volume, vtkFieldData* fieldData);
 
   // The state rule above: `voxels` voxels of which `surface` are surface and
   // `inside` inside.
-  static unsigned char AggregateState(uint64_t voxels, uint64_t surface, uint64_t inside)
-  {
-    return surface ? 2 : (2 * inside > voxels ? 1 : 0);
-  }
+  // (hdt::aggregateState, shared with the coarsened image of vtkHDTToImage.)
+  static unsigned char AggregateState(uint64_t voxels, uint64_t surface, uint64_t inside);
 };

@@ -2,6 +2,7 @@
 
 #include "vtkHDTHyperTreeGridConversion.h"
 #include "vtkHDTMeshConversion.h"
+#include "vtkHDTVolumeHandle.h"
 #include "vtkHDTVoxelSurface.h"
 
 #include "hdt/builder.hpp"
@@ -27,7 +28,6 @@
 #include <chrono>
 #include <new>
 #include <sstream>
-#include <thread>
 
 vtkStandardNewMacro(vtkHDTVoxelizer);
 
@@ -77,7 +77,139 @@ struct vtkHDTVoxelizer::Internals
 {
   std::shared_ptr<const hdt::Volume> Volume;
   BuildKey Key;
+
+  static BuildKey MakeKey(vtkHDTVoxelizer* self, vtkDataObject* input);
+  static hdt::BuildOptions MakeBuildOptions(vtkHDTVoxelizer* self);
+  static bool ToMesh(vtkHDTVoxelizer* self, vtkDataObject* input, hdt::TriangleMesh& mesh,
+    vtkHyperTreeGrid* output);
+  static void Convert(vtkHDTVoxelizer* self, const std::shared_ptr<const hdt::Volume>& volume,
+    vtkHyperTreeGrid* output);
 };
+
+//------------------------------------------------------------------------------
+// What decides whether the kept volume can be reused.
+BuildKey vtkHDTVoxelizer::Internals::MakeKey(vtkHDTVoxelizer* self, vtkDataObject* input)
+{
+  BuildKey key;
+  key.Input = input;
+  key.InputMTime = contentMTime(input);
+  key.Resolution = self->Resolution;
+  key.RootGridSize = self->RootGridSize;
+  key.LeafGridSize = self->LeafGridSize;
+  key.Backend = self->Backend;
+  key.Threads = self->Threads;
+  key.SurfaceOnly = self->SurfaceOnly != 0;
+  return key;
+}
+
+//------------------------------------------------------------------------------
+// Every option of the build, in one place. The backend choice (Auto: CUDA when
+// usable, else the CPU; fallback on device failure) is the core's (hdt::build).
+hdt::BuildOptions vtkHDTVoxelizer::Internals::MakeBuildOptions(vtkHDTVoxelizer* self)
+{
+  hdt::BuildOptions options;
+  switch (self->Backend)
+  {
+    case BACKEND_CPU:
+      options.backend = hdt::Backend::Cpu;
+      break;
+    case BACKEND_CUDA:
+      options.backend = hdt::Backend::Cuda;
+      break;
+    default:
+      options.backend = hdt::Backend::Auto;
+      break;
+  }
+  options.threads = self->Threads;
+  // Called by the drivers on this thread only (hdt/builder.hpp), between
+  // phases and inside long ones: the abort flag is read at every call.
+  options.progress = [self](double fraction, const char* phase) {
+    self->SetProgressText(phase);
+    self->UpdateProgress(0.85 * fraction);
+    return !self->CheckAbort();
+  };
+  options.log = [self](const std::string& message) {
+    // Auto on a machine without a usable GPU is the normal case, not worth a
+    // warning; a device that failed and was replaced by the CPU is.
+    if (message.rfind("backend auto: using the CPU driver", 0) == 0)
+    {
+      vtkDebugWithObjectMacro(self, << message);
+    }
+    else
+    {
+      vtkWarningWithObjectMacro(self, << message);
+    }
+  };
+  return options;
+}
+
+//------------------------------------------------------------------------------
+// The input as one triangle mesh; warns about what it ignores. False when
+// there is nothing to voxelize (the output is then set: empty, or an error).
+bool vtkHDTVoxelizer::Internals::ToMesh(
+  vtkHDTVoxelizer* self, vtkDataObject* input, hdt::TriangleMesh& mesh, vtkHyperTreeGrid* output)
+{
+  vtkHDTMeshConversionInfo meshInfo;
+  vtkHDTMeshConversion::AppendDataObject(input, mesh, meshInfo);
+  if (meshInfo.VertexCells || meshInfo.LineCells)
+  {
+    vtkWarningWithObjectMacro(self, << "ignored " << meshInfo.VertexCells << " vertex and "
+                                    << meshInfo.LineCells
+                                    << " line cells: they have no area to voxelize"
+                                    << (meshInfo.Triangles
+                                           ? ""
+                                           : "; the input has no polygons, so the output is empty"));
+  }
+  if (meshInfo.OtherBlocks)
+  {
+    vtkWarningWithObjectMacro(self, << "ignored " << meshInfo.OtherBlocks
+                                    << " block(s) that are not vtkPolyData (the first is a "
+                                    << meshInfo.FirstOtherBlockType
+                                    << "); apply Extract Surface to voxelize their boundary");
+  }
+  if (meshInfo.Triangles > 0)
+  {
+    return true;
+  }
+  if (meshInfo.VertexCells || meshInfo.LineCells)
+  {
+    // Already said by the warning above: nothing with area, empty result.
+    output->Initialize();
+    self->Internal->Key = BuildKey();
+    return false;
+  }
+  self->Fail(output,
+    meshInfo.OtherBlocks
+      ? "the input has no vtkPolyData with polygons or triangle strips to voxelize"
+      : "the input is empty: no polygons or triangle strips to voxelize");
+  return false;
+}
+
+//------------------------------------------------------------------------------
+// The hyper tree grid of the volume at the display options, with its field
+// data (statistics, conversion time, depth used, the volume handle).
+void vtkHDTVoxelizer::Internals::Convert(
+  vtkHDTVoxelizer* self, const std::shared_ptr<const hdt::Volume>& volume, vtkHyperTreeGrid* output)
+{
+  self->SetProgressText("building hyper tree grid");
+  self->UpdateProgress(0.85);
+  vtkHDTConversionOptions conversion;
+  conversion.MaxDepth = self->MaxDepth;
+  conversion.MaskOutside = self->MaskOutside != 0;
+  conversion.Threads = self->Threads;
+  const vtkHDTConversionInfo info = vtkHDTToHyperTreeGrid::Convert(*volume, conversion, output);
+  self->LastConversionTime = info.Milliseconds;
+  vtkNew<vtkDoubleArray> conversionTime;
+  conversionTime->SetName("TimeConversion");
+  conversionTime->InsertNextValue(info.Milliseconds);
+  output->GetFieldData()->AddArray(conversionTime);
+  vtkHDTVolumeHandle::Attach(volume, output);
+  const std::string warning = vtkHDTToHyperTreeGrid::DrawingWarning(info);
+  if (!warning.empty())
+  {
+    vtkWarningWithObjectMacro(self, << warning);
+  }
+}
 
 //------------------------------------------------------------------------------
 vtkHDTVoxelizer::vtkHDTVoxelizer()
@@ -166,7 +298,9 @@ void vtkHDTVoxelizer::FillSurface(const hdt::Volume& volume, vtkInformationVecto
   if (surface)
   {
     this->SetProgressText("extracting voxel surface");
-    this->LastSurfaceTime = vtkHDTFillVoxelSurface(volume, this->MaxDepth, surface).Milliseconds;
+    // The same level of detail as the hyper tree grid (Max Depth, Auto included).
+    const int depth = vtkHDTToHyperTreeGrid::DepthCut(volume, this->MaxDepth);
+    this->LastSurfaceTime = vtkHDTFillVoxelSurface(volume, depth, surface).Milliseconds;
     // The build statistics travel with the surface too (Information panel).
     vtkHDTCopyFieldData(vtkHyperTreeGrid::GetData(outputVector, 0), surface, this->LastSurfaceTime);
   }
@@ -197,16 +331,7 @@ int vtkHDTVoxelizer::RequestData(
   config.rootGrid = this->RootGridSize;
   config.leafSize = this->LeafGridSize;
   config.surfaceOnly = this->SurfaceOnly != 0;
-
-  BuildKey key;
-  key.Input = input;
-  key.InputMTime = contentMTime(input);
-  key.Resolution = this->Resolution;
-  key.RootGridSize = this->RootGridSize;
-  key.LeafGridSize = this->LeafGridSize;
-  key.Backend = this->Backend;
-  key.Threads = this->Threads;
-  key.SurfaceOnly = config.surfaceOnly;
+  const BuildKey key = Internals::MakeKey(this, input);
 
   try
   {
@@ -221,108 +346,22 @@ int vtkHDTVoxelizer::RequestData(
       this->Internal->Volume.reset();
       // Configuration first: it is the user's and cheap to check.
       hdt::validateConfig(config);
-
       hdt::TriangleMesh mesh;
-      vtkHDTMeshConversionInfo meshInfo;
-      vtkHDTMeshConversion::AppendDataObject(input, mesh, meshInfo);
-      if (meshInfo.VertexCells || meshInfo.LineCells)
+      if (!Internals::ToMesh(this, input, mesh, output))
       {
-        vtkWarningMacro(<< "ignored " << meshInfo.VertexCells << " vertex and "
-                        << meshInfo.LineCells
-                        << " line cells: they have no area to voxelize"
-                        << (meshInfo.Triangles ? "" : "; the input has no polygons, so the output is empty"));
-      }
-      if (meshInfo.OtherBlocks)
-      {
-        vtkWarningMacro(<< "ignored " << meshInfo.OtherBlocks
-                        << " block(s) that are not vtkPolyData (the first is a "
-                        << meshInfo.FirstOtherBlockType
-                        << "); apply Extract Surface to voxelize their boundary");
-      }
-      if (meshInfo.Triangles == 0)
-      {
-        if (meshInfo.VertexCells || meshInfo.LineCells)
-        {
-          // Already said by the warning above: nothing with area, empty result.
-          output->Initialize();
-          this->Internal->Key = BuildKey();
-          return 1;
-        }
-        this->Fail(output,
-          meshInfo.OtherBlocks
-            ? "the input has no vtkPolyData with polygons or triangle strips to voxelize"
-            : "the input is empty: no polygons or triangle strips to voxelize");
         return 1;
       }
-
-      const std::thread::id caller = std::this_thread::get_id();
-      hdt::BuildOptions options;
-      options.threads = this->Threads;
-      options.progress = [this, caller](double fraction, const char* phase) {
-        if (std::this_thread::get_id() != caller)
-        {
-          return !this->GetAbortExecute();
-        }
-        this->SetProgressText(phase);
-        this->UpdateProgress(0.85 * fraction);
-        return !this->CheckAbort();
-      };
-      options.log = [this](const std::string& message) {
-        vtkWarningMacro(<< message);
-      };
-      std::string why;
-      switch (this->Backend)
-      {
-        case BACKEND_CPU:
-          options.backend = hdt::Backend::Cpu;
-          break;
-        case BACKEND_CUDA:
-          if (!hdt::cudaAvailable(&why))
-          {
-            this->Fail(output, ("Backend is CUDA but the CUDA driver cannot be used: " + why +
-                                 ". Choose Auto or CPU.")
-                                 .c_str());
-            return 1;
-          }
-          options.backend = hdt::Backend::Cuda;
-          break;
-        default:
-          // Auto: without a usable device go straight to the CPU driver (that
-          // is the normal case on machines without a GPU, not worth a
-          // warning); with one, hdt::build falls back on device failure and
-          // says so through options.log.
-          options.backend = hdt::cudaAvailable(&why) ? hdt::Backend::Auto : hdt::Backend::Cpu;
-          if (options.backend == hdt::Backend::Cpu)
-          {
-            vtkDebugMacro(<< "Backend Auto: using the CPU driver (" << why << ")");
-          }
-          break;
-      }
-
       const auto t0 = Clock::now();
       this->SetProgressText("preparing mesh");
       this->UpdateProgress(0.0);
       const hdt::PreparedMesh prepared = hdt::prepareMesh(mesh, config);
       mesh = hdt::TriangleMesh(); // free the copy before the build
-      auto built = std::make_shared<hdt::Volume>(hdt::build(prepared, options));
+      volume = std::make_shared<hdt::Volume>(hdt::build(prepared, Internals::MakeBuildOptions(this)));
       this->LastVoxelizationTime = msSince(t0);
-      volume = built;
       this->Internal->Volume = volume;
       this->Internal->Key = key;
     }
-
-    this->SetProgressText("building hyper tree grid");
-    this->UpdateProgress(0.85);
-    vtkHDTConversionOptions conversion;
-    conversion.MaxDepth = this->MaxDepth;
-    conversion.MaskOutside = this->MaskOutside != 0;
-    conversion.Threads = this->Threads;
-    const vtkHDTConversionInfo info = vtkHDTToHyperTreeGrid::Convert(*volume, conversion, output);
-    this->LastConversionTime = info.Milliseconds;
-    vtkNew<vtkDoubleArray> conversionTime;
-    conversionTime->SetName("TimeConversion");
-    conversionTime->InsertNextValue(info.Milliseconds);
-    output->GetFieldData()->AddArray(conversionTime);
+    Internals::Convert(this, volume, output);
     this->UpdateProgress(0.95);
     this->FillSurface(*volume, outputVector);
     this->UpdateProgress(1.0);
@@ -337,7 +376,11 @@ int vtkHDTVoxelizer::RequestData(
       output->Initialize();
       return 1;
     }
-    this->Fail(output, e.what());
+    this->Fail(output,
+      (e.kind() == hdt::ErrorKind::InvalidArgument && this->Backend == BACKEND_CUDA
+          ? std::string(e.what()) + ". Choose Backend Auto or CPU."
+          : std::string(e.what()))
+        .c_str());
   }
   catch (const std::bad_alloc&)
   {

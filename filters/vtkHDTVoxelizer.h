@@ -85,8 +85,9 @@ public:
 
   ///@{
   /**
-   * L: leaf grid edge in voxels, 8, 16 or 32. Default 8 (with R = 16 and
-   * N = 256 that is an octree of height 1 over 8^3 leaf grids).
+   * L: leaf grid edge in voxels, 8, 16 or 32. Default 16, the paper's and
+   * hdt-voxelize's (with R = 16 and N = 256: 16^3 leaf grids right under the
+   * root grid, octree height 0).
    */
   vtkSetMacro(LeafGridSize, int);
   vtkGetMacro(LeafGridSize, int);
@@ -115,9 +116,12 @@ public:
 
   ///@{
   /**
-   * -1 (default): full depth (h + log2 L, single voxels). k >= 0: cut the trees
-   * at depth k; cut cells take the aggregated state of their voxels. Values
-   * beyond the full depth mean full depth.
+   * -2 (default, AUTO_DEPTH): the deepest depth with at most 1024 cells per
+   * axis (full depth up to Resolution 1024), which keeps the first picture to
+   * a few million polygons. -1: full depth (h + log2 L, single voxels).
+   * k >= 0: cut the trees at depth k; cut cells take the aggregated state of
+   * their voxels. Values beyond the full depth mean full depth. The depth used
+   * is the field array DisplayDepth (FullDepth beside it).
    */
   vtkSetMacro(MaxDepth, int);
   vtkGetMacro(MaxDepth, int);
@@ -125,8 +129,11 @@ public:
 
   ///@{
   /**
-   * Hide (mask) outside leaf cells, so that a surface representation shows the
-   * voxelized solid. Default on.
+   * Hide (mask) outside leaf cells, so that a surface representation of the
+   * hyper tree grid shows the voxelized solid. Default off: ParaView recomputes
+   * a masked grid's "pure mask" at every copy through the pipeline (up to 5x
+   * the update time, bench/results/pvui.md), and the HTG Contour gives no
+   * cells with it.
    */
   vtkSetMacro(MaskOutside, vtkTypeBool);
   vtkGetMacro(MaskOutside, vtkTypeBool);
@@ -193,11 +200,11 @@ protected:
 
   int Resolution = 256;
   int RootGridSize = 16;
-  int LeafGridSize = 8;
+  int LeafGridSize = 16;
   int Backend = BACKEND_AUTO;
   vtkTypeBool SurfaceOnly = false;
-  int MaxDepth = -1;
-  vtkTypeBool MaskOutside = true;
+  int MaxDepth = -2;
+  vtkTypeBool MaskOutside = false;
   int Threads = 0;
   double LastVoxelizationTime = 0;
   double LastConversionTime = 0;

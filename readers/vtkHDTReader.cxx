@@ -1,7 +1,8 @@
 #include "vtkHDTReader.h"
 
-#include "vtkHDTHyperTreeGridConversion.h" // HDT::Filters (private header)
-#include "vtkHDTVoxelSurface.h"            // HDT::Filters (private header)
+#include "vtkHDTHyperTreeGridConversion.h" // HDT::Filters
+#include "vtkHDTVolumeHandle.h"            // HDT::Filters
+#include "vtkHDTVoxelSurface.h"            // HDT::Filters
 
 #include "hdt/error.hpp"
 #include "hdt/hdt_file.hpp"
@@ -234,11 +235,20 @@ int vtkHDTReader::RequestData(
     conversionTime->SetName("TimeConversion");
     conversionTime->InsertNextValue(info.Milliseconds);
     output->GetFieldData()->AddArray(conversionTime);
+    vtkHDTVolumeHandle::Attach(this->Internal->Volume, output);
+    const std::string warning = vtkHDTToHyperTreeGrid::DrawingWarning(info);
+    if (!warning.empty())
+    {
+      vtkWarningMacro(<< warning);
+    }
     if (surface)
     {
+      // The same level of detail as the hyper tree grid (Max Depth, Auto included).
       this->SetProgressText("extracting voxel surface");
       this->UpdateProgress(0.95);
-      const double ms = vtkHDTFillVoxelSurface(*this->Internal->Volume, this->MaxDepth, surface).Milliseconds;
+      const hdt::Volume& volume = *this->Internal->Volume;
+      const int depth = vtkHDTToHyperTreeGrid::DepthCut(volume, this->MaxDepth);
+      const double ms = vtkHDTFillVoxelSurface(volume, depth, surface).Milliseconds;
       vtkHDTCopyFieldData(output, surface, ms);
     }
   }

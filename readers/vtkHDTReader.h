@@ -58,19 +58,20 @@ public:
 
   ///@{
   /**
-   * -1 (default): full depth, single voxels. k >= 0: cut every tree at depth
+   * -2 (default): automatic, as vtkHDTVoxelizer's (at most 1024 cells per
+   * axis). -1: full depth, single voxels. k >= 0: cut every tree at depth
    * k (0 = the root grid alone) for a quick coarse view; a cut cell is 2 if any
    * voxel below it is on the surface, else 1 if most of its voxels are inside,
    * else 0. Values past the full depth mean full depth.
    */
-  vtkSetClampMacro(MaxDepth, int, -1, VTK_INT_MAX);
+  vtkSetClampMacro(MaxDepth, int, -2, VTK_INT_MAX);
   vtkGetMacro(MaxDepth, int);
   ///@}
 
   ///@{
   /**
    * Hide (mask) the outside leaf cells, so that a surface representation shows
-   * the voxelized solid. Default on, as in vtkHDTVoxelizer.
+   * the voxelized solid. Default off, as in vtkHDTVoxelizer.
    */
   vtkSetMacro(MaskOutside, vtkTypeBool);
   vtkGetMacro(MaskOutside, vtkTypeBool);
@@ -110,8 +111,8 @@ protected:
   int FillOutputPortInformation(int port, vtkInformation* info) override;
 
   char* FileName = nullptr;
-  int MaxDepth = -1;
-  vtkTypeBool MaskOutside = true;
+  int MaxDepth = -2;
+  vtkTypeBool MaskOutside = false;
 
 private:
   vtkHDTReader(const vtkHDTReader&) = delete;

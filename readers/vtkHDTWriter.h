@@ -4,17 +4,16 @@
  *
  * An .hdt file (format: docs/hdt-format.md) stores the HDT volume itself (tree,
  * leaf grids, grid placement, build statistics), not the hyper tree grid made
- * from it. The writer therefore takes the volume from the algorithm that
- * produced its input: a vtkHDTVoxelizer or a vtkHDTReader connected directly
- * (SetInputConnection). Their MaxDepth and MaskOutside are display options and
- * do not change what is written: the file always holds the whole volume, and
- * reading it back with the same MaxDepth and MaskOutside gives the same hyper
- * tree grid.
+ * from it. The writer finds the volume through the handle that vtkHDTVoxelizer
+ * and vtkHDTReader put in their output's field data (vtkHDTVolumeHandle.h), so
+ * it works with SetInputConnection, SetInputData and pass-through filters
+ * alike. MaxDepth and MaskOutside are display options and do not change what
+ * is written: the file always holds the whole volume, and reading it back with
+ * the same MaxDepth and MaskOutside gives the same hyper tree grid.
  *
- * Any other input (a hyper tree grid from another source, one that went
- * through other filters, or one handed over with SetInputData) is refused with
- * an error that says so; nothing is written. Failures set the error code and
- * leave no file behind.
+ * Any other input (a hyper tree grid from another source, one whose volume is
+ * gone, or one moved by a filter) is refused with an error that says so;
+ * nothing is written. Failures set the error code and leave no file behind.
  *
  * @sa vtkHDTReader vtkHDTVoxelizer
  */
@@ -24,18 +23,7 @@
 #include "HDTReadersModule.h" // export macro
 #include "vtkWriter.h"
 
-#ifndef __VTK_WRAP__
-#include <memory> // for std::shared_ptr
-#include <string> // for std::string
-#endif
-
 class vtkHyperTreeGrid;
-#ifndef __VTK_WRAP__
-namespace hdt
-{
-struct Volume;
-}
-#endif
 
 class HDTREADERS_EXPORT vtkHDTWriter : public vtkWriter
 {
@@ -86,12 +74,6 @@ protected:
 private:
   vtkHDTWriter(const vtkHDTWriter&) = delete;
   void operator=(const vtkHDTWriter&) = delete;
-
-#ifndef __VTK_WRAP__
-  // The volume behind the input, from the vtkHDTVoxelizer or vtkHDTReader that
-  // produced it; false with the reason otherwise.
-  bool FindVolume(std::shared_ptr<const hdt::Volume>& volume, std::string& why);
-#endif
 };
 
 #endif

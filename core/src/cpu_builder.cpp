@@ -19,6 +19,7 @@
 #include <tbb/task_arena.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <memory>
@@ -104,9 +105,28 @@ struct CpuRangeBuild::Impl {
 
 private:
   void report(double fraction, const char* phase) {
+    if (stop_.load(std::memory_order_relaxed)) { // asked inside the phase that just ended
+      throw Error(ErrorKind::Aborted, std::string("build aborted during ") + phase_);
+    }
+    fraction_ = fraction;
+    phase_ = phase;
     if (options_.progress && !options_.progress(fraction, phase)) {
       throw Error(ErrorKind::Aborted, std::string("build aborted during ") + phase);
     }
+  }
+
+  // Inside long parallel loops: true once the user asked to stop (the loop
+  // body then returns at once and the next report() throws Aborted). The
+  // progress callback is asked only from the thread that made this build,
+  // which works in the arena too, at most every 50 ms.
+  bool abortRequested() {
+    if (stop_.load(std::memory_order_relaxed)) return true;
+    if (!options_.progress || std::this_thread::get_id() != caller_) return false;
+    const auto now = Clock::now();
+    if (now - lastPoll_ < std::chrono::milliseconds(50)) return false;
+    lastPoll_ = now;
+    if (!options_.progress(fraction_, phase_)) stop_.store(true, std::memory_order_relaxed);
+    return stop_.load(std::memory_order_relaxed);
   }
 
   // ---- T1: triangles -> root cells ------------------------------------------
@@ -115,6 +135,7 @@ private:
     tbb::combinable<std::vector<Pair>> local;
     tbb::parallel_for(tbb::blocked_range<size_t>(0, mesh_.triangles.size(), 1024),
                       [&](const tbb::blocked_range<size_t>& r) {
+                        if (abortRequested()) return;
                         std::vector<Pair>& out = local.local();
                         for (size_t ti = r.begin(); ti != r.end(); ++ti)
                           forEachRootCell(mesh_.triangles[ti], cellSize, g_.rootGrid, cells_.first, cells_.end,
@@ -158,6 +179,7 @@ private:
       const int64_t childSize = int64_t(g_.elementVoxels(level + 1)) * kLatticePerVoxel;
       tbb::combinable<std::vector<Pair>> local;
       tbb::parallel_for(tbb::blocked_range<size_t>(0, pairs.size(), 256), [&](const tbb::blocked_range<size_t>& r) {
+        if (abortRequested()) return;
         std::vector<Pair>& out = local.local();
         for (size_t i = r.begin(); i != r.end(); ++i) {
           const uint32_t tri = pairTriangle(pairs[i]);
@@ -194,6 +216,7 @@ private:
     for (size_t i = 0; i < leaves; ++i) leafPairStart_[i + 1] += leafPairStart_[i];
 
     tbb::parallel_for(size_t(0), leaves, [&](size_t leaf) {
+      if (abortRequested()) return;
       int64_t v0[3];
       leafOrigin(leaf, v0);
       uint32_t rows[32 * 32] = {};
@@ -253,6 +276,7 @@ private:
     std::vector<uint32_t>& parity = exit_[axis];
     parity.assign(leaves * rowWords_, 0u);
     tbb::parallel_for(size_t(0), leaves, [&](size_t leaf) {
+      if (abortRequested()) return;
       uint32_t* bits = parity.data() + leaf * rowWords_;
       if (axis != 0) {
         forEachCrossing(leaf, axis, [&](int row, int) { bits[row >> 5] ^= 1u << (row & 31); });
@@ -297,6 +321,7 @@ private:
     if (beyond)
       for (int a = 0; a < axes_; ++a) stitchLineParity(lines_[a], beyond->axis[a], exit_[a].data(), rowWords_);
     tbb::parallel_for(size_t(0), leafCoords_.size(), [&](size_t leaf) {
+      if (abortRequested()) return;
       uint32_t* words = leafWordsAt(leafWords_.data(), leaf, L_);
       if (axes_ == 1) { // closed: the +x rows are the leaf's own rows
         insideWords(leaf, nullptr, nullptr, words);
@@ -339,6 +364,12 @@ private:
   std::vector<uint32_t> exit_[3]; // per axis, leaves * rowWords: pass 1's parity, then the exit parity
   RangeLines lines_[3];
   RangeBoundary boundary_;
+  // Abort polling inside phases (abortRequested).
+  std::atomic<bool> stop_{false};
+  const std::thread::id caller_ = std::this_thread::get_id();
+  Clock::time_point lastPoll_ = Clock::now();
+  double fraction_ = 0;
+  const char* phase_ = "mapping";
 };
 
 CpuRangeBuild::CpuRangeBuild(const PreparedMesh& mesh, const BuildOptions& options, RootRange cells)

@@ -28,7 +28,8 @@ t.load_plugin(args.plugin, globals())
 
 N, R, L = 256, 16, 8
 sphere = Sphere(ThetaResolution=64, PhiResolution=64, Radius=0.5)
-vox = HDTVoxelizer(Input=sphere, Resolution=N, RootGridSize=R, LeafGridSize=L, Backend="CPU")
+vox = HDTVoxelizer(Input=sphere, Resolution=N, RootGridSize=R, LeafGridSize=L, Backend="CPU",
+                   MaskOutside=1, MaxDepth=-1)  # the masked grid at full depth (not the defaults)
 htg = t.fetch(vox)
 
 # --- type and layout ------------------------------------------------------------
@@ -130,6 +131,7 @@ if args.cli:
     reader = OpenDataFile(hdt)
     t.check(reader is not None and reader.GetXMLName() == "HDTReader",
             "OpenDataFile picks the HDT Reader for .hdt")
+    reader.MaskOutside, reader.MaxDepth = 1, -1  # the voxelizer's settings above
     from_cli = t.fetch(reader)
     a, b = t.htg_summary(from_cli), t.htg_summary(htg)
     for key in a:

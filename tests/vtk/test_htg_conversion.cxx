@@ -59,6 +59,11 @@ TEST_P(Conversion, EveryCellMatchesTheVolume)
   const Case c = GetParam();
   vtkSmartPointer<vtkPolyData> mesh = c.torus ? hdtvtk::MakeTorus() : hdtvtk::MakeSphere();
   vtkNew<vtkHDTVoxelizer> filter;
+  // These tests were written for the masked conversion at full depth with 8^3
+  // leaves (the filter's defaults until issue 13); tests that vary them say so.
+  filter->SetMaskOutside(true);
+  filter->SetMaxDepth(-1);
+  filter->SetLeafGridSize(8);
   filter->SetInputData(mesh);
   filter->SetResolution(c.resolution);
   filter->SetRootGridSize(c.rootGrid);
@@ -157,6 +162,11 @@ INSTANTIATE_TEST_SUITE_P(Meshes, Conversion,
 TEST(ConversionMaxDepth, CutsAndAggregates)
 {
   vtkNew<vtkHDTVoxelizer> filter;
+  // These tests were written for the masked conversion at full depth with 8^3
+  // leaves (the filter's defaults until issue 13); tests that vary them say so.
+  filter->SetMaskOutside(true);
+  filter->SetMaxDepth(-1);
+  filter->SetLeafGridSize(8);
   filter->SetInputData(hdtvtk::MakeTorus());
   filter->SetResolution(128);
   filter->SetRootGridSize(4);
@@ -194,8 +204,25 @@ TEST(ConversionMaxDepth, CutsAndAggregates)
   EXPECT_EQ(info.Cells, htg->GetNumberOfCells());
   EXPECT_EQ(info.LeafCells, htg->GetNumberOfLeaves());
 
-  options.MaxDepth = -2;
+  options.MaxDepth = -3;
   EXPECT_THROW(vtkHDTToHyperTreeGrid::Convert(*volume, options, htg), hdt::Error);
+}
+
+// MaxDepth Auto (-2): the deepest depth with at most 1024 cells per axis.
+TEST(ConversionMaxDepth, AutoDepth)
+{
+  hdt::Volume v;
+  v.grid.rootGrid = 16;
+  v.grid.leafSize = 16;
+  v.grid.height = 4; // N = 4096, full depth 8
+  EXPECT_EQ(vtkHDTToHyperTreeGrid::DepthCut(v, vtkHDTToHyperTreeGrid::AUTO_DEPTH), 6); // 16 << 6 = 1024
+  EXPECT_EQ(vtkHDTToHyperTreeGrid::DepthCut(v, -1), 8);
+  EXPECT_EQ(vtkHDTToHyperTreeGrid::DepthCut(v, 3), 3);
+  EXPECT_EQ(vtkHDTToHyperTreeGrid::DepthCut(v, 20), 8);
+  v.grid.height = 2; // N = 1024: full depth is within the bound
+  EXPECT_EQ(vtkHDTToHyperTreeGrid::DepthCut(v, vtkHDTToHyperTreeGrid::AUTO_DEPTH), 6);
+  v.grid.rootGrid = 2048; // a root grid finer than the bound: the root grid alone
+  EXPECT_EQ(vtkHDTToHyperTreeGrid::DepthCut(v, vtkHDTToHyperTreeGrid::AUTO_DEPTH), 0);
 }
 
 // The aggregation rule itself, including the majority case that a correct
@@ -213,6 +240,11 @@ TEST(ConversionMaxDepth, AggregateRule)
 TEST(ConversionMask, OffMeansNoMaskAndSameStates)
 {
   vtkNew<vtkHDTVoxelizer> filter;
+  // These tests were written for the masked conversion at full depth with 8^3
+  // leaves (the filter's defaults until issue 13); tests that vary them say so.
+  filter->SetMaskOutside(true);
+  filter->SetMaxDepth(-1);
+  filter->SetLeafGridSize(8);
   filter->SetInputData(hdtvtk::MakeSphere());
   filter->SetResolution(128);
   filter->Update();
@@ -241,6 +273,11 @@ TEST(ConversionMask, OffMeansNoMaskAndSameStates)
 TEST(ConversionThreads, SequentialEqualsParallel)
 {
   vtkNew<vtkHDTVoxelizer> filter;
+  // These tests were written for the masked conversion at full depth with 8^3
+  // leaves (the filter's defaults until issue 13); tests that vary them say so.
+  filter->SetMaskOutside(true);
+  filter->SetMaxDepth(-1);
+  filter->SetLeafGridSize(8);
   filter->SetInputData(hdtvtk::MakeTorus());
   filter->SetResolution(256);
   filter->SetRootGridSize(8);
@@ -268,6 +305,11 @@ TEST(ConversionThreads, SequentialEqualsParallel)
 TEST(ConversionTreeBuild, InitializeForReaderEqualsBreadthFirstDescriptor)
 {
   vtkNew<vtkHDTVoxelizer> filter;
+  // These tests were written for the masked conversion at full depth with 8^3
+  // leaves (the filter's defaults until issue 13); tests that vary them say so.
+  filter->SetMaskOutside(true);
+  filter->SetMaxDepth(-1);
+  filter->SetLeafGridSize(8);
   filter->SetInputData(hdtvtk::MakeTorus());
   filter->SetResolution(128);
   filter->SetRootGridSize(4);
@@ -303,6 +345,11 @@ TEST(ConversionTreeBuild, InitializeForReaderEqualsBreadthFirstDescriptor)
 TEST(ConversionRobustness, InconsistentVolumesAreRefused)
 {
   vtkNew<vtkHDTVoxelizer> filter;
+  // These tests were written for the masked conversion at full depth with 8^3
+  // leaves (the filter's defaults until issue 13); tests that vary them say so.
+  filter->SetMaskOutside(true);
+  filter->SetMaxDepth(-1);
+  filter->SetLeafGridSize(8);
   filter->SetInputData(hdtvtk::MakeSphere());
   filter->SetResolution(64);
   filter->SetRootGridSize(4); // height 1
@@ -348,3 +395,39 @@ TEST(ConversionRobustness, InconsistentVolumesAreRefused)
 }
 
 } // namespace
+
+// The output's memory check: a grid estimated to need more than the limit once
+// shown is refused before it is built, naming Max Depth; the drawing warning
+// starts above 10 million leaf cells.
+TEST(ConversionMemory, RefusesGridsOverTheLimitAndWarnsBeforeHeavyViews)
+{
+  vtkNew<vtkHDTVoxelizer> filter;
+  filter->SetInputData(hdtvtk::MakeSphere());
+  filter->SetResolution(128);
+  filter->SetLeafGridSize(8);
+  filter->Update();
+  ASSERT_TRUE(filter->GetVolume());
+  vtkNew<vtkHyperTreeGrid> htg;
+  vtkHDTConversionOptions options;
+  options.MaxDepth = -1;
+  const vtkHDTConversionInfo info = vtkHDTToHyperTreeGrid::Convert(*filter->GetVolume(), options, htg);
+  options.MemoryLimitBytes = vtkHDTToHyperTreeGrid::EstimatedDisplayBytes(uint64_t(info.Cells)) - 1;
+  try
+  {
+    vtkHDTToHyperTreeGrid::Convert(*filter->GetVolume(), options, htg);
+    ADD_FAILURE() << "a grid over the memory limit was built";
+  }
+  catch (const hdt::Error& e)
+  {
+    EXPECT_EQ(e.kind(), hdt::ErrorKind::OutOfResources);
+    EXPECT_NE(std::string(e.what()).find("Max Depth"), std::string::npos) << e.what();
+  }
+  options.MaxDepth = 2; // fewer cells: fits
+  EXPECT_NO_THROW(vtkHDTToHyperTreeGrid::Convert(*filter->GetVolume(), options, htg));
+
+  vtkHDTConversionInfo heavy;
+  heavy.LeafCells = 10000000;
+  EXPECT_TRUE(vtkHDTToHyperTreeGrid::DrawingWarning(heavy).empty());
+  heavy.LeafCells = 10000001;
+  EXPECT_NE(vtkHDTToHyperTreeGrid::DrawingWarning(heavy).find("Max Depth Auto"), std::string::npos);
+}

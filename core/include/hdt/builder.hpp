@@ -22,7 +22,9 @@ struct BuildOptions {
   // Device memory budget in bytes for the CUDA driver (0 = what is free).
   // Smaller budgets make it build the root grid in chunks.
   uint64_t deviceMemoryBudget = 0;
-  // Called between steps with a fraction in [0, 1] and the phase name.
+  // Called between steps with a fraction in [0, 1] and the phase name, and
+  // (CPU driver) about every 50 ms inside long phases; always on the thread
+  // that called build().
   // Returning false aborts the build (Error with ErrorKind::Aborted).
   std::function<bool(double fraction, const char* phase)> progress;
   // Informational messages (backend fallback and the like).

@@ -1,14 +1,4 @@
-// Host memory figures for refusing oversized builds and for statistics.
+// The declarations moved to the public hdt/host_memory.hpp (the VTK layer uses them too).
 #pragma once
 
-#include <cstdint>
-
-namespace hdt {
-
-// MemAvailable from /proc/meminfo, or 0 when unknown.
-uint64_t availableHostBytes();
-
-// Peak resident set size of this process so far (getrusage).
-uint64_t peakResidentBytes();
-
-} // namespace hdt
+#include "hdt/host_memory.hpp"
