@@ -11,6 +11,8 @@
 #include "memory_info.hpp"
 
 #include <tbb/combinable.h>
+#include <tbb/global_control.h>
+#include <tbb/info.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_sort.h>
 #include <tbb/task_arena.h>
@@ -444,6 +446,13 @@ private:
 
 } // namespace
 
+void validateThreads(int threads) {
+  if (threads < 0 || threads > kMaxCpuThreads) {
+    throw Error(ErrorKind::InvalidArgument, "threads must be between 0 (all cores) and " +
+                                                std::to_string(kMaxCpuThreads) + ", got " + std::to_string(threads));
+  }
+}
+
 uint64_t estimateHostBytes(const PreparedMesh& mesh) {
   // Leaf grids dominate. A surface of area A (voxel units) touches about
   // 3A / L^2 leaf grids of L^3 / 4 bytes (closed boxes: faces count twice),
@@ -472,16 +481,25 @@ Volume buildCpu(const PreparedMesh& mesh, const BuildOptions& options) {
                     std::to_string(need >> 20) + " MiB of memory but only " + std::to_string(have >> 20) +
                     " MiB are available; lower the resolution");
   }
-  const int threads = options.threads > 0 ? options.threads : int(std::max(1u, std::thread::hardware_concurrency()));
+  validateThreads(options.threads);
+  const int threads = options.threads > 0 ? options.threads : tbb::info::default_concurrency();
+  // Raising the process-wide worker limit to what was asked for lets oneTBB
+  // oversubscribe without printing its "number of workers is limited" warning
+  // on stderr (the CLI's --quiet must be quiet).
+  tbb::global_control allowed(tbb::global_control::max_allowed_parallelism, size_t(threads));
   tbb::task_arena arena(threads);
   Volume v;
+  int used = 0;
   try {
-    arena.execute([&] { v = CpuBuild(mesh, options).run(mesh.surfaceOnly); });
+    arena.execute([&] {
+      used = tbb::this_task_arena::max_concurrency();
+      v = CpuBuild(mesh, options).run(mesh.surfaceOnly);
+    });
   } catch (const std::bad_alloc&) {
     throw Error(ErrorKind::OutOfResources, "out of host memory while building at resolution " +
                                                std::to_string(mesh.grid.resolution));
   }
-  v.stats.threads = threads;
+  v.stats.threads = used; // what the arena really has, not what was asked for
   return v;
 }
 

@@ -15,9 +15,16 @@ namespace hdt {
 
 enum class Backend { Auto, Cpu, Cuda };
 
+// The most CPU threads a build may ask for: oneTBB caps its workers near
+// max(256, 4 x cores) anyway, and far larger counts crash its arena set-up.
+constexpr int kMaxCpuThreads = 256;
+
+// Throws Error(InvalidArgument) unless 0 <= threads <= kMaxCpuThreads.
+void validateThreads(int threads);
+
 struct BuildOptions {
   Backend backend = Backend::Auto;
-  int threads = 0;     // CPU threads; 0 = all cores
+  int threads = 0;     // CPU threads, 0 to kMaxCpuThreads; 0 = what oneTBB sees (cores, affinity)
   int device = 0;      // CUDA device ordinal
   // Device memory budget in bytes for the CUDA driver (0 = what is free).
   // Smaller budgets make it build the root grid in chunks.
