@@ -134,7 +134,8 @@ void writeJson(std::ostream& out, const Report& r) {
       .add("hdt_file", orNull(r.hdtPath))
       .add("dense_file", orNull(r.densePath))
       .add("duplicate_triangles", number(r.duplicateTriangles))
-      .add("warnings", warnings + "]");
+      .add("warnings", warnings + "]")
+      .add("host_bytes_estimate", number(r.hostBytesEstimate));
   out << o.str() << '\n';
 }
 

@@ -23,6 +23,7 @@ struct Report {
   std::string hdtPath;   // empty when not written
   std::string densePath; // empty when not written
   uint64_t duplicateTriangles = 0;
+  uint64_t hostBytesEstimate = 0;    // hdt::estimateHostBytes (CPU builds)
   std::vector<std::string> warnings; // hdt::buildWarnings
 };
 
@@ -32,7 +33,8 @@ struct Report {
 // leaf_bytes, backend, threads, time_ms {mapping, branching, leaf, classify,
 // total}, peak_host_bytes, then degenerate_triangles, closed_mesh,
 // peak_device_bytes, surface_only, io_ms {read, prepare, write}, hdt_file,
-// dense_file, duplicate_triangles, warnings [strings]. README.md says what
+// dense_file, duplicate_triangles, warnings [strings],
+// host_bytes_estimate. README.md says what
 // each means.
 void writeJson(std::ostream& out, const Report& report);
 

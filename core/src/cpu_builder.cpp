@@ -453,25 +453,6 @@ void validateThreads(int threads) {
   }
 }
 
-uint64_t estimateHostBytes(const PreparedMesh& mesh) {
-  // Leaf grids dominate. A surface of area A (voxel units) touches about
-  // 3A / L^2 leaf grids of L^3 / 4 bytes (closed boxes: faces count twice),
-  // and every triangle touches at least one.
-  double area = 0;
-  for (const LatticeTriangle& t : mesh.triangles) {
-    int64_t n[3];
-    triangleNormal(t, n);
-    area += 0.5 * std::sqrt(double(n[0]) * n[0] + double(n[1]) * n[1] + double(n[2]) * n[2]);
-  }
-  area /= double(kLatticePerVoxel) * double(kLatticePerVoxel);
-  const double L = mesh.grid.leafSize;
-  const double leaves = 3.0 * area / (L * L) + double(mesh.triangles.size());
-  const double perLeaf = L * L * L / 4.0 /*states*/ + 8.0 * 8 /*pairs*/ + 4.0 * 8 * 2 /*elements*/ + 16;
-  const double rootGrid = std::pow(double(mesh.grid.rootGrid), 3) * 20.0;
-  const double triangles = double(mesh.triangles.size()) * (sizeof(LatticeTriangle) + 64);
-  return uint64_t(leaves * perLeaf * 1.5 + rootGrid + triangles);
-}
-
 Volume buildCpu(const PreparedMesh& mesh, const BuildOptions& options) {
   const uint64_t need = estimateHostBytes(mesh);
   const uint64_t have = availableHostBytes();

@@ -54,8 +54,23 @@ Volume build(const PreparedMesh& mesh, const BuildOptions& options);
 // Convenience: prepare + build.
 Volume voxelize(const TriangleMesh& mesh, const BuildConfig& config, const BuildOptions& options);
 
-// Host memory the CPU driver is expected to need at most, from the mesh's
-// surface area; used to refuse absurd resolutions before allocating.
-uint64_t estimateHostBytes(const PreparedMesh& mesh);
+// Host memory a CPU build and the .hdt write after it are expected to need at
+// most (peak resident set), modelled part by part from the grid and the
+// mesh's projected surface area (core/src/memory_estimate.cpp; measured
+// against real peaks in bench/results/memory-estimate.md). Used to refuse
+// builds that cannot fit before allocating.
+struct HostMemoryEstimate {
+  double leafGrids = 0;     // expected leaf grids
+  double leafPairs = 0;     // expected (leaf, triangle) pairs
+  uint64_t rootGrid = 0;    // R^3 cells: element words, coordinates, uniform list
+  uint64_t tree = 0;        // octree levels below the root grid
+  uint64_t leaves = 0;      // leaf states and the classification's per-leaf rows
+  uint64_t pairs = 0;       // (element, triangle) pairs and their sort
+  uint64_t triangles = 0;   // the prepared mesh
+  uint64_t compression = 0; // writing the .hdt: zstd's output buffer
+  uint64_t total = 0;       // the peak: the larger of build and write, plus the process
+};
+HostMemoryEstimate estimateHostMemory(const PreparedMesh& mesh);
+uint64_t estimateHostBytes(const PreparedMesh& mesh); // estimateHostMemory(mesh).total
 
 } // namespace hdt
