@@ -22,7 +22,9 @@
 #include "vtkObjectFactory.h"
 #include "vtkSmartPointer.h"
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <new>
 #include <sstream>
 #include <thread>
@@ -31,6 +33,23 @@ vtkStandardNewMacro(vtkHDTVoxelizer);
 
 namespace
 {
+
+// Upper bound of the hyper tree grid the conversion makes from a build of
+// `mesh`, for the memory check before the build: every tree element and, in
+// each expected leaf grid, a full pyramid of L^3 * 8/7 vertices (fewer when
+// MaxDepth cuts it), at about 8 bytes a vertex (state byte, mask and
+// descriptor bits, VTK's 4-byte child index, the walk's byte).
+uint64_t EstimateHyperTreeGridBytes(const hdt::PreparedMesh& mesh, int maxDepth)
+{
+  const hdt::HostMemoryEstimate e = hdt::estimateHostMemory(mesh);
+  const int L = mesh.grid.leafSize;
+  const int leafDepths = L == 8 ? 3 : L == 16 ? 4 : 5;
+  const int keptDepths = maxDepth < 0 ? leafDepths
+                                      : std::max(0, std::min(leafDepths, maxDepth - mesh.grid.height));
+  const double perLeaf = (std::pow(8.0, keptDepths + 1) - 1) / 7;
+  const double vertices = std::pow(double(mesh.grid.rootGrid), 3) + 2.7 * e.leafGrids + e.leafGrids * perLeaf;
+  return uint64_t(8 * vertices);
+}
 using Clock = std::chrono::steady_clock;
 double msSince(Clock::time_point t0)
 {
@@ -274,7 +293,12 @@ int vtkHDTVoxelizer::RequestData(
       this->UpdateProgress(0.0);
       const hdt::PreparedMesh prepared = hdt::prepareMesh(mesh, config);
       mesh = hdt::TriangleMesh(); // free the copy before the build
+      options.extraHostBytes = EstimateHyperTreeGridBytes(prepared, this->MaxDepth);
       auto built = std::make_shared<hdt::Volume>(hdt::build(prepared, options));
+      for (const std::string& warning : hdt::buildWarnings(prepared, *built))
+      {
+        vtkWarningMacro(<< warning);
+      }
       this->LastVoxelizationTime = msSince(t0);
       volume = built;
       this->Internal->Volume = volume;

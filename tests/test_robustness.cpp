@@ -334,6 +334,57 @@ TEST(Issue12Warnings, DoubledClosedMeshIsReported) {
   EXPECT_TRUE(buildWarnings(once, build(once, o)).empty());
 }
 
+// ---- defect 4: the memory estimate, wrong both ways --------------------------------------
+// Deterministic parts only (a measured peak is not): the estimate covers the
+// peaks the issue measured, and its leaf-grid count brackets the real one.
+// Estimates against measured peaks: bench/results/memory-estimate.md.
+
+TEST(Issue12MemoryEstimate, CoversTheRootGridPeaksTheIssueMeasured) {
+  // Root-grid dominated: R = 512, L = 8, N = 4096 peaked at 4.78 GB (estimated
+  // 3.53 GB then); R = 640, N = 5120 at 9.44 GB (estimated 6.5 GB).
+  const TriangleMesh sphere = builtinMesh("sphere");
+  BuildConfig c;
+  c.leafSize = 8;
+  c.rootGrid = 512;
+  c.resolution = 4096;
+  EXPECT_GT(estimateHostBytes(prepareMesh(sphere, c)), uint64_t(4.78e9));
+  c.rootGrid = 640;
+  c.resolution = 5120;
+  EXPECT_GT(estimateHostBytes(prepareMesh(sphere, c)), uint64_t(9.44e9));
+}
+
+TEST(Issue12MemoryEstimate, LeafGridCountIsBracketed) {
+  // The old model's 3A / L^2 + triangles was 4.4x too high on a CAD mesh of
+  // many small triangles: leaves now follow the projected area.
+  for (const char* name : {"sphere", "torus", "knot"}) {
+    for (int n : {256, 512}) {
+      BuildConfig c;
+      c.resolution = n;
+      c.rootGrid = 16;
+      c.leafSize = n == 256 ? 8 : 16;
+      const PreparedMesh p = prepareMesh(builtinMesh(name), c);
+      BuildOptions o;
+      o.backend = Backend::Cpu;
+      const double actual = double(buildCpu(p, o).stats.leafGrids);
+      const double estimated = estimateHostMemory(p).leafGrids;
+      EXPECT_GE(estimated, actual) << name << " N=" << n;
+      EXPECT_LE(estimated, 1.6 * actual) << name << " N=" << n;
+    }
+  }
+  // Many tiny triangles in few leaves: the estimate must not count one leaf a triangle.
+  TriangleMesh fine = icosphere(6, 1.0); // 81,920 triangles
+  BuildConfig c;
+  c.resolution = 128;
+  c.rootGrid = 4;
+  c.leafSize = 32;
+  const PreparedMesh p = prepareMesh(fine, c);
+  BuildOptions o;
+  o.backend = Backend::Cpu;
+  const double actual = double(buildCpu(p, o).stats.leafGrids);
+  EXPECT_LE(estimateHostMemory(p).leafGrids, 2.0 * actual + 8);
+  EXPECT_LT(estimateHostBytes(p), uint64_t(256) << 20);
+}
+
 } // namespace
 } // namespace test
 } // namespace hdt

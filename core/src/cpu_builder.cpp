@@ -454,7 +454,7 @@ void validateThreads(int threads) {
 }
 
 Volume buildCpu(const PreparedMesh& mesh, const BuildOptions& options) {
-  const uint64_t need = estimateHostBytes(mesh);
+  const uint64_t need = estimateHostBytes(mesh) + options.extraHostBytes;
   const uint64_t have = availableHostBytes();
   if (have != 0 && need > have) {
     throw Error(ErrorKind::OutOfResources,

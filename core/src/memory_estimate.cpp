@@ -58,7 +58,7 @@ HostMemoryEstimate estimateHostMemory(const PreparedMesh& mesh) {
   e.leafPairs = pairs;
   const double axes = mesh.closed ? 1 : 3;
   const double rowBytes = std::ceil(L * L / 32) * 4;
-  const double cellBytes = 4 + 8 + 24 * 2.0; // element, coordinates, uniform entry at worst growth
+  const double cellBytes = 4 + 8 + 24 * 1.2; // element, coordinates, uniform entry and its growth slack
   e.rootGrid = uint64_t(std::pow(double(g.rootGrid), 3) * cellBytes);
   e.tree = uint64_t(leaves * 2.7 * cellBytes);
   const double leafStates = L * L * L / 4;

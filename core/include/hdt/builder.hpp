@@ -29,6 +29,10 @@ struct BuildOptions {
   // Device memory budget in bytes for the CUDA driver (0 = what is free).
   // Smaller budgets make it build the root grid in chunks.
   uint64_t deviceMemoryBudget = 0;
+  // Host memory the caller will need beside the volume (the VTK filter's
+  // hyper tree grid): added to estimateHostBytes when the CPU driver checks
+  // that the build fits.
+  uint64_t extraHostBytes = 0;
   // Called between steps with a fraction in [0, 1] and the phase name.
   // Returning false aborts the build (Error with ErrorKind::Aborted).
   std::function<bool(double fraction, const char* phase)> progress;
