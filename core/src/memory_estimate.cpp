@@ -11,8 +11,8 @@
 //   pairs       8 B per (leaf, triangle) pair, gathered from per-thread vectors
 //               and sorted: about 3 copies at the peak, plus the rank array
 //   triangles   the prepared lattice triangles (36 B) and their edge list
-//   compression writing the .hdt keeps the volume and a zstd output buffer of
-//               up to the leaf bytes (ZSTD_compressBound)
+//   compression writing the .hdt keeps the volume and zstd's output buffer
+//               (resident: the compressed size, taken as 1/4 of the leaf bytes)
 // The leaf and pair counts come from the surface: a planar piece of area A
 // with unit normal n crosses about A (|nx| + |ny| + |nz|) / L^2 cubes of edge
 // L, plus the cubes its edges reach into; every triangle touches at least one.
@@ -46,12 +46,12 @@ HostMemoryEstimate estimateHostMemory(const PreparedMesh& mesh) {
   perimeter /= perVoxel;
   const double triangles = double(mesh.triangles.size());
   // Cubes of edge L the surface meets (closed cubes: touching counts, and
-  // curved or folded surfaces meet a little more than a plane: factor 1.25), and
+  // curved or folded surfaces meet a little more than a plane: factor 1.1), and
   // the pairs: each triangle meets the cubes its area crosses, those its edges
   // run into, and at least one.
   const double leafCells = std::pow(double(g.resolution) / L, 3);
-  const double leaves = std::min(leafCells, 1.25 * projected / (L * L) + 8);
-  const double pairs = 1.25 * projected / (L * L) + perimeter / L + triangles;
+  const double leaves = std::min(leafCells, 1.1 * projected / (L * L) + 8);
+  const double pairs = 1.1 * projected / (L * L) + perimeter / L + triangles;
 
   HostMemoryEstimate e;
   e.leafGrids = leaves;
@@ -65,7 +65,10 @@ HostMemoryEstimate estimateHostMemory(const PreparedMesh& mesh) {
   e.leaves = uint64_t(leaves * (leafStates + 16 + axes * (3 * rowBytes + 16)));
   e.pairs = uint64_t(pairs * (3 * 8 + 4));
   e.triangles = uint64_t(triangles * (36 + 3 * 24));
-  e.compression = uint64_t(leaves * leafStates);
+  // zstd's output buffer is ZSTD_compressBound(raw) but only the pages it
+  // writes become resident: the compressed size, a quarter of the raw leaf
+  // bytes at most on the meshes of bench/results/memory-estimate.md.
+  e.compression = uint64_t(0.25 * leaves * leafStates);
   const double build = double(e.rootGrid + e.tree + e.leaves + e.pairs + e.triangles);
   // Writing: the volume (element words and leaf states) and zstd's buffer.
   const double elementWords = 4 * (std::pow(double(g.rootGrid), 3) + 2.7 * leaves);
