@@ -11,6 +11,7 @@
 //   pairs       8 B per (leaf, triangle) pair, gathered from per-thread vectors
 //               and sorted: about 3 copies at the peak, plus the rank array
 //   triangles   the prepared lattice triangles (36 B) and their edge list
+//   reading     the mesh file's scene and copies while it is read and snapped
 //   compression writing the .hdt keeps the volume and zstd's output buffer
 //               (resident: the compressed size, taken as 1/4 of the leaf bytes)
 // The leaf and pair counts come from the surface: a planar piece of area A
@@ -70,11 +71,13 @@ HostMemoryEstimate estimateHostMemory(const PreparedMesh& mesh) {
   // bytes at most on the meshes of bench/results/memory-estimate.md.
   e.compression = uint64_t(0.25 * leaves * leafStates);
   const double build = double(e.rootGrid + e.tree + e.leaves + e.pairs + e.triangles);
-  // Writing: the volume (element words and leaf states) and zstd's buffer.
-  const double elementWords = 4 * (std::pow(double(g.rootGrid), 3) + 2.7 * leaves);
-  const double write = elementWords + leaves * leafStates + double(e.compression) + double(e.triangles);
-  const double process = 16.0 * (1 << 20); // libraries, thread stacks, allocator slack
-  e.total = uint64_t(std::max(build, write) + process);
+  // Memory freed by one phase mostly stays resident (allocator arenas of the
+  // worker threads), so the phases add up rather than overlap: reading and
+  // preparing the mesh (assimp's scene, the input and lattice copies, the
+  // edge sort: about 400 B a triangle), the build, and the write's buffer.
+  const double reading = 400 * triangles;
+  const double process = 16.0 * (1 << 20); // libraries, thread stacks
+  e.total = uint64_t(reading + build + double(e.compression) + process);
   return e;
 }
 
