@@ -47,16 +47,19 @@ std::string usageText() {
          ")\n"
          "  --backend B      auto, cpu or cuda (default auto: CUDA when a device is usable)\n"
          "  --device N       CUDA device ordinal (default 0)\n"
-         "  --threads T      CPU threads (default 0: all cores)\n"
+         "  --threads T      CPU threads, at most " + std::to_string(kMaxCpuThreads) +
+         " (default 0: all cores)\n"
          "  --surface-only   mark surface voxels only; skip inside/outside classification\n"
-         "  -o OUT.hdt       write the volume as an .hdt file\n"
+         "  -o OUT.hdt       write the volume as an .hdt file (checked before the build,\n"
+         "                   replaced atomically; never the input mesh)\n"
          "  --dense OUT.nrrd write a dense N^3 uint8 NRRD (0 outside, 1 inside, 2 surface; N <= 1024)\n"
          "  --json           print the statistics as one JSON object on stdout\n"
-         "  --quiet          no progress or notes on stderr (errors still go there)\n"
+         "  --quiet          no progress, notes or warnings on stderr (errors still go there)\n"
          "  -h, --help       print this help and exit\n"
          "\n"
          "exit codes: 0 ok, 2 usage or invalid option, 3 bad input file or mesh,\n"
-         "            4 out of memory or device resources, 1 anything else\n";
+         "            4 out of memory or device resources, 5 cannot write an output file,\n"
+         "            1 anything else\n";
 }
 
 Options parseOptions(int argc, const char* const* argv) {
@@ -90,7 +93,13 @@ Options parseOptions(int argc, const char* const* argv) {
     else if (arg == "--leaf-size") o.config.leafSize = parseInt(arg, value(), 1);
     else if (arg == "--backend") o.build.backend = parseBackend(value());
     else if (arg == "--device") o.build.device = parseInt(arg, value(), 0);
-    else if (arg == "--threads") o.build.threads = parseInt(arg, value(), 0);
+    else if (arg == "--threads") {
+      o.build.threads = parseInt(arg, value(), 0);
+      if (o.build.threads > kMaxCpuThreads) {
+        throw UsageError("--threads must be at most " + std::to_string(kMaxCpuThreads) + ", got " +
+                         std::to_string(o.build.threads));
+      }
+    }
     else if (arg == "--surface-only") set(o.config.surfaceOnly);
     else if (arg == "-o" || arg == "--output") o.hdtPath = value();
     else if (arg == "--dense") o.densePath = value();

@@ -86,6 +86,9 @@ struct Row {
 } // namespace
 
 void writeJson(std::ostream& out, const Report& r) {
+  std::string warnings = "[";
+  for (const std::string& w : r.warnings) warnings += (warnings.size() > 1 ? "," : "") + quoted(w);
+
   const Volume& v = *r.volume;
   const Statistics& s = v.stats;
   const GridSpec& g = v.grid;
@@ -129,7 +132,10 @@ void writeJson(std::ostream& out, const Report& r) {
       .add("surface_only", v.surfaceOnly ? "true" : "false")
       .add("io_ms", io.str())
       .add("hdt_file", orNull(r.hdtPath))
-      .add("dense_file", orNull(r.densePath));
+      .add("dense_file", orNull(r.densePath))
+      .add("duplicate_triangles", number(r.duplicateTriangles))
+      .add("warnings", warnings + "]")
+      .add("host_bytes_estimate", number(r.hostBytesEstimate));
   out << o.str() << '\n';
 }
 
@@ -142,7 +148,8 @@ void writeTable(std::ostream& out, const Report& r) {
       {"mesh", r.mesh, "", false},
       {"triangles", withCommas(s.triangles),
        withCommas(s.degenerateTriangles) + " degenerate dropped; " +
-           (v.closedMesh ? "closed" : "open: inside = majority of 3 ray axes")},
+           (v.closedMesh ? "closed" : "open: inside = majority of 3 ray axes") +
+           (r.duplicateTriangles ? "; " + withCommas(r.duplicateTriangles) + " duplicated" : "")},
       {"resolution", std::to_string(g.resolution) + "^3", "voxels"},
       {"root grid", std::to_string(g.rootGrid) + "^3", "cells"},
       {"octree height", std::to_string(g.height), "levels"},

@@ -5,6 +5,7 @@
 
 #include <ostream>
 #include <string>
+#include <vector>
 
 namespace hdt::cli {
 
@@ -21,6 +22,9 @@ struct Report {
   IoTimes io;
   std::string hdtPath;   // empty when not written
   std::string densePath; // empty when not written
+  uint64_t duplicateTriangles = 0;
+  uint64_t hostBytesEstimate = 0;    // hdt::estimateHostBytes (CPU builds)
+  std::vector<std::string> warnings; // hdt::buildWarnings
 };
 
 // Keys, in this order: mesh, triangles, resolution, root_grid, leaf_size,
@@ -29,7 +33,9 @@ struct Report {
 // leaf_bytes, backend, threads, time_ms {mapping, branching, leaf, classify,
 // total}, peak_host_bytes, then degenerate_triangles, closed_mesh,
 // peak_device_bytes, surface_only, io_ms {read, prepare, write}, hdt_file,
-// dense_file. README.md says what each means.
+// dense_file, duplicate_triangles, warnings [strings],
+// host_bytes_estimate. README.md says what
+// each means.
 void writeJson(std::ostream& out, const Report& report);
 
 void writeTable(std::ostream& out, const Report& report);

@@ -3,18 +3,21 @@
 //   readMesh / builtinMesh -> prepareMesh -> build -> writeHdt / writeNrrd -> report
 //
 // Statistics go to stdout (a table, or one JSON object with --json); progress,
-// notes and errors go to stderr. Exit codes follow hdt::ErrorKind: 2 for a bad
-// command line or option, 3 for a bad mesh file, 4 when memory or the device
-// runs out, 1 for anything unexpected.
+// warnings, notes and errors go to stderr. Exit codes follow hdt::ErrorKind:
+// 2 for a bad command line or option, 3 for a bad mesh file, 4 when memory or
+// the device runs out, 5 when an output file cannot be written, 1 for anything
+// unexpected. Outputs are checked before the build and written atomically.
 #include "cli_options.hpp"
 #include "cli_report.hpp"
 
+#include "hdt/atomic_file.hpp"
 #include "hdt/builder.hpp"
 #include "hdt/dense.hpp"
 #include "hdt/error.hpp"
 #include "hdt/hdt_file.hpp"
 #include "hdt/mesh_io.hpp"
 
+#include <signal.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -22,6 +25,7 @@
 #include <cmath>
 #include <cstdio>
 #include <iostream>
+#include <memory>
 #include <new>
 #include <thread>
 
@@ -97,6 +101,34 @@ TriangleMesh loadMesh(const std::string& spec) {
   return readMesh(spec);
 }
 
+// Before any work: every output can be created, and none is the input mesh.
+// (A missing directory found after a long build wastes the build.)
+void checkOutputs(const Options& options) {
+  for (const std::string* path : {&options.hdtPath, &options.densePath}) {
+    if (path->empty()) continue;
+    if (sameExistingFile(*path, options.mesh)) {
+      throw Error(ErrorKind::InvalidArgument, *path + ": is the input mesh; refusing to overwrite it");
+    }
+    checkOutputWritable(*path);
+  }
+}
+
+// Writes -o and --dense to temporary files and renames them into place only
+// when both are complete: a failed --dense leaves no new -o file behind.
+void writeOutputs(const Options& options, const Volume& volume) {
+  std::unique_ptr<AtomicFile> hdt, dense;
+  if (!options.hdtPath.empty()) {
+    hdt = std::make_unique<AtomicFile>(options.hdtPath);
+    about(options.hdtPath, [&] { writeHdt(volume, *hdt); });
+  }
+  if (!options.densePath.empty()) {
+    dense = std::make_unique<AtomicFile>(options.densePath);
+    about(options.densePath, [&] { writeNrrd(volume, *dense); });
+  }
+  if (hdt) hdt->commit();
+  if (dense) dense->commit();
+}
+
 double msSince(Clock::time_point& t) {
   const Clock::time_point now = Clock::now();
   const double ms = std::chrono::duration<double, std::milli>(now - t).count();
@@ -134,6 +166,7 @@ int run(int argc, const char* const* argv) {
                                                 std::to_string(kMaxDenseResolution) + " (got N = " +
                                                 std::to_string(options.config.resolution) + ")");
   }
+  checkOutputs(options);
 
   Report report;
   report.mesh = options.mesh;
@@ -154,16 +187,18 @@ int run(int argc, const char* const* argv) {
   build.log = [&](const std::string& text) { progress.note(text); };
   const Volume volume = about(options.mesh, [&] { return hdt::build(prepared, build); });
   progress.clear();
+  report.warnings = buildWarnings(prepared, volume);
+  if (!options.quiet) {
+    for (const std::string& w : report.warnings)
+      std::fprintf(stderr, "hdt-voxelize: warning: %s: %s\n", options.mesh.c_str(), w.c_str());
+  }
 
   t = Clock::now();
-  if (!options.hdtPath.empty()) {
-    about(options.hdtPath, [&] { writeHdt(volume, options.hdtPath); });
-    report.hdtPath = options.hdtPath;
-  }
-  if (!options.densePath.empty()) {
-    about(options.densePath, [&] { writeNrrd(volume, options.densePath); });
-    report.densePath = options.densePath;
-  }
+  writeOutputs(options, volume);
+  report.hdtPath = options.hdtPath;
+  report.densePath = options.densePath;
+  report.duplicateTriangles = prepared.duplicateTriangles;
+  report.hostBytesEstimate = estimateHostBytes(prepared);
   report.io.write = msSince(t);
 
   report.volume = &volume;
@@ -179,6 +214,7 @@ int exitCode(ErrorKind kind) {
   case ErrorKind::BadInput: return 3;
   case ErrorKind::OutOfResources: return 4;
   case ErrorKind::Aborted: return 1;
+  case ErrorKind::OutputFailed: return 5;
   }
   return 1;
 }
@@ -188,6 +224,9 @@ int exitCode(ErrorKind kind) {
 
 int main(int argc, char** argv) {
   using namespace hdt::cli;
+  // Past a file-size limit (ulimit -f) a write fails with EFBIG instead of
+  // killing the process, so the error is reported and the temporary removed.
+  ::signal(SIGXFSZ, SIG_IGN);
   try {
     return run(argc, argv);
   } catch (const UsageError& e) {

@@ -334,20 +334,30 @@ void buildGrid(const hdt::Volume& volume, const WalkedTrees& w, const PackedArra
 } // namespace
 
 //------------------------------------------------------------------------------
+int vtkHDTToHyperTreeGrid::FullDepth(const hdt::GridSpec& grid)
+{
+  return grid.height + log2Exact(grid.leafSize);
+}
+
 int vtkHDTToHyperTreeGrid::FullDepth(const hdt::Volume& volume)
 {
-  return volume.grid.height + log2Exact(volume.grid.leafSize);
+  return FullDepth(volume.grid);
 }
 
 //------------------------------------------------------------------------------
 int vtkHDTToHyperTreeGrid::DepthCut(const hdt::Volume& volume, int maxDepth)
 {
-  const int fullDepth = FullDepth(volume);
+  return DepthCut(volume.grid, maxDepth);
+}
+
+int vtkHDTToHyperTreeGrid::DepthCut(const hdt::GridSpec& grid, int maxDepth)
+{
+  const int fullDepth = FullDepth(grid);
   if (maxDepth == AUTO_DEPTH)
   {
     int depth = 0;
     while (depth < fullDepth &&
-      (int64_t(volume.grid.rootGrid) << (depth + 1)) <= int64_t(AutoDisplayResolution))
+      (int64_t(grid.rootGrid) << (depth + 1)) <= int64_t(AutoDisplayResolution))
     {
       ++depth;
     }

@@ -31,6 +31,7 @@ class vtkFieldData;
 class vtkHyperTreeGrid;
 namespace hdt
 {
+struct GridSpec;
 struct Volume;
 }
 
@@ -83,6 +84,7 @@ class HDTFILTERS_EXPORT vtkHDTToHyperTreeGrid
 {
 public:
   // Depth of single-voxel cells: height + log2(L).
+  static int FullDepth(const hdt::GridSpec& grid);
   static int FullDepth(const hdt::Volume& volume);
 
   // MaxDepth value meaning "automatic", and the finest resolution (cells per
@@ -94,6 +96,7 @@ public:
   // The depth the conversion cuts at for a MaxDepth value: full depth for -1
   // (and values past it), the largest depth with at most AutoDisplayResolution
   // cells per axis for AUTO_DEPTH (at least 0).
+  static int DepthCut(const hdt::GridSpec& grid, int maxDepth);
   static int DepthCut(const hdt::Volume& volume, int maxDepth);
 
   // A warning when the grid has more leaf cells than ParaView draws in about

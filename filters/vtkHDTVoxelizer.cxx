@@ -25,7 +25,9 @@
 #include "vtkPolyData.h"
 #include "vtkSmartPointer.h"
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <new>
 #include <sstream>
 
@@ -33,6 +35,23 @@ vtkStandardNewMacro(vtkHDTVoxelizer);
 
 namespace
 {
+
+// Upper bound of the hyper tree grid the conversion makes from a build of
+// `mesh`, for the memory check before the build: every tree element and, in
+// each expected leaf grid, a full pyramid of L^3 * 8/7 vertices (fewer when
+// MaxDepth cuts it), at about 8 bytes a vertex (state byte, mask and
+// descriptor bits, VTK's 4-byte child index, the walk's byte).
+uint64_t EstimateHyperTreeGridBytes(const hdt::PreparedMesh& mesh, int maxDepth)
+{
+  const hdt::HostMemoryEstimate e = hdt::estimateHostMemory(mesh);
+  const int L = mesh.grid.leafSize;
+  const int leafDepths = L == 8 ? 3 : L == 16 ? 4 : 5;
+  const int depth = vtkHDTToHyperTreeGrid::DepthCut(mesh.grid, maxDepth); // Auto included
+  const int keptDepths = std::max(0, std::min(leafDepths, depth - mesh.grid.height));
+  const double perLeaf = (std::pow(8.0, keptDepths + 1) - 1) / 7;
+  const double vertices = std::pow(double(mesh.grid.rootGrid), 3) + 2.7 * e.leafGrids + e.leafGrids * perLeaf;
+  return uint64_t(8 * vertices);
+}
 using Clock = std::chrono::steady_clock;
 double msSince(Clock::time_point t0)
 {
@@ -356,7 +375,13 @@ int vtkHDTVoxelizer::RequestData(
       this->UpdateProgress(0.0);
       const hdt::PreparedMesh prepared = hdt::prepareMesh(mesh, config);
       mesh = hdt::TriangleMesh(); // free the copy before the build
-      volume = std::make_shared<hdt::Volume>(hdt::build(prepared, Internals::MakeBuildOptions(this)));
+      hdt::BuildOptions options = Internals::MakeBuildOptions(this);
+      options.extraHostBytes = EstimateHyperTreeGridBytes(prepared, this->MaxDepth);
+      volume = std::make_shared<hdt::Volume>(hdt::build(prepared, options));
+      for (const std::string& warning : hdt::buildWarnings(prepared, *volume))
+      {
+        vtkWarningMacro(<< warning);
+      }
       this->LastVoxelizationTime = msSince(t0);
       this->Internal->Volume = volume;
       this->Internal->Key = key;

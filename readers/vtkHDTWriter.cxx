@@ -69,15 +69,16 @@ void vtkHDTWriter::WriteData()
   options.zstdLevel = this->CompressionLevel;
   try
   {
-    // Checks the volume before creating the file; removes a partial file.
+    // Checks the volume before creating the file; writes a temporary file and
+    // renames it over FileName only when complete (hdt/atomic_file.hpp).
     hdt::writeHdt(*volume, fileName, options);
   }
   catch (const hdt::Error& e)
   {
     // The message already names the file.
     vtkErrorMacro(<< e.what());
-    this->SetErrorCode(e.kind() == hdt::ErrorKind::BadInput ? vtkErrorCode::CannotOpenFileError
-                                                            : vtkErrorCode::UserError);
+    this->SetErrorCode(e.kind() == hdt::ErrorKind::OutputFailed ? vtkErrorCode::CannotOpenFileError
+                                                                : vtkErrorCode::UserError);
   }
   catch (const std::bad_alloc&)
   {

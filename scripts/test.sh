@@ -2,6 +2,9 @@
 # Everything CI checks: install what is missing, build, run every ctest test
 # (GoogleTest suites, CLI cases, and the ParaView/pvpython tests when built).
 #   bash scripts/test.sh [extra cmake arguments]
+# Then the sanitizer runs: the unit tests and CLI cases under ASan + UBSan
+# (scripts/sanitize.sh) and each libFuzzer harness for HDT_FUZZ_SECONDS
+# (default 60, scripts/fuzz.sh); HDT_SKIP_SANITIZERS=1 leaves both out.
 # Exits non-zero when anything fails.
 set -euo pipefail
 
@@ -22,4 +25,9 @@ if [[ -z ${DISPLAY:-} ]] && command -v xvfb-run >/dev/null; then
   xvfb-run --auto-servernum --server-args="-screen 0 1280x1024x24 -noreset" ctest "${ctest_args[@]}"
 else
   ctest "${ctest_args[@]}"
+fi
+
+if [[ ${HDT_SKIP_SANITIZERS:-0} != 1 ]]; then
+  bash "$root/scripts/sanitize.sh"
+  bash "$root/scripts/fuzz.sh" "${HDT_FUZZ_SECONDS:-60}"
 fi

@@ -31,6 +31,7 @@ const char* kindName(ErrorKind k) {
   case ErrorKind::BadInput: return "BadInput";
   case ErrorKind::OutOfResources: return "OutOfResources";
   case ErrorKind::Aborted: return "Aborted";
+  case ErrorKind::OutputFailed: return "OutputFailed";
   }
   return "?";
 }

@@ -10,6 +10,10 @@
 
 #include <gtest/gtest.h>
 
+#if defined(HDT_TEST_HAVE_ZSTD)
+#include <zstd.h>
+#endif
+
 #include <atomic>
 #include <cmath>
 #include <cstdio>
@@ -677,6 +681,41 @@ TEST(HdtFileCorrupt, ZstdFrames) {
   });
   EXPECT_REFUSED(bad, "statistics: active voxels");
 }
+
+#if defined(HDT_TEST_HAVE_ZSTD)
+// Issue 12, defect 5: a frame that does not state its content size was refused
+// only after the decoded size had been allocated and zero-filled (2 GiB for a
+// 1.1 MB file). The frame header is now checked first.
+TEST(HdtFileCorrupt, FrameWithoutContentSizeIsRefusedBeforeAllocating) {
+  if (!haveZstd()) GTEST_SKIP() << "built without zstd";
+  RandomVolumeSpec spec;
+  spec.leafSize = 32; // 8 KiB a leaf: the decoded size dwarfs the frame
+  spec.boundaryChance = 0.9;
+  const Volume v = randomVolume(5, spec);
+  const size_t rawBytes = v.leafWords.size() * 4;
+  ASSERT_GT(rawBytes, size_t(64) << 10);
+  const std::vector<uint8_t> forged = forge(bytesOf(v, compressed()), [&](HdtImage& im) {
+    std::vector<uint8_t> leBytes(rawBytes);
+    for (size_t i = 0; i < v.leafWords.size(); ++i) putLe32(leBytes, 4 * i, v.leafWords[i]);
+    ZSTD_CCtx* c = ZSTD_createCCtx();
+    ZSTD_CCtx_setParameter(c, ZSTD_c_contentSizeFlag, 0);
+    std::vector<uint8_t> frame(ZSTD_compressBound(rawBytes));
+    const size_t n = ZSTD_compress2(c, frame.data(), frame.size(), leBytes.data(), leBytes.size());
+    ZSTD_freeCCtx(c);
+    ASSERT_FALSE(ZSTD_isError(n));
+    frame.resize(n);
+    ASSERT_EQ(ZSTD_getFrameContentSize(frame.data(), frame.size()), ZSTD_CONTENTSIZE_UNKNOWN);
+    im.sections[kLeaves].payload = frame;
+    im.sections[kLeaves].keepHeader = true; // raw size stays the tree's; stored and CRC follow the frame
+    im.sections[kLeaves].stored = frame.size();
+    im.sections[kLeaves].crc = referenceCrc32(frame.data(), frame.size());
+  });
+  std::string m;
+  const size_t largest = largestAllocationDuring([&] { m = refusal(forged); });
+  EXPECT_TRUE(refusedProperly(m) && m.find("does not state its size") != std::string::npos) << m;
+  EXPECT_LT(largest, rawBytes / 2) << "allocated the decoded size before checking the frame: " << m;
+}
+#endif
 
 // ---- the writer and the file entry points ------------------------------------------
 

@@ -69,14 +69,31 @@ GridSpec placeGrid(const BuildConfig& config, const std::array<double, 3>& lo,
     }
     extent = std::max(extent, hi[a] - lo[a]);
   }
-  if (!(extent > 0) || !std::isfinite(extent)) {
+  if (!std::isfinite(extent)) {
+    // Finite coordinates can still be too far apart: +-1e308 overflow to inf.
+    throw Error(ErrorKind::BadInput, "the mesh's extent overflows double precision (coordinates near "
+                                     "+-1.8e308 are too far apart); scale the mesh down");
+  }
+  if (!(extent > 0)) {
     throw Error(ErrorKind::BadInput, "the mesh has zero extent (all points coincide)");
   }
   // Two voxels of the N are margin, so the closed boxes that touch the
   // surface never leave the grid.
   g.voxelSize = extent / double(g.resolution - 2);
   for (int a = 0; a < 3; ++a) {
-    g.origin[a] = 0.5 * (lo[a] + hi[a]) - 0.5 * double(g.resolution) * g.voxelSize;
+    // (lo + hi) / 2 as always (same bytes as before), or lo + (hi - lo) / 2
+    // where the sum of two large coordinates overflows.
+    double centre = 0.5 * (lo[a] + hi[a]);
+    if (!std::isfinite(centre)) centre = lo[a] + 0.5 * (hi[a] - lo[a]);
+    g.origin[a] = centre - 0.5 * double(g.resolution) * g.voxelSize;
+  }
+  const double latticeScale = double(kLatticePerVoxel) / g.voxelSize;
+  bool representable = g.voxelSize > 0 && std::isfinite(latticeScale);
+  for (int a = 0; a < 3; ++a)
+    representable = representable && std::isfinite(g.origin[a] + double(g.resolution) * g.voxelSize);
+  if (!representable) {
+    throw Error(ErrorKind::BadInput, "the grid around the mesh is not representable in double precision "
+                                     "(coordinates near +-1.8e308 or an extent near 1e-308); rescale the mesh");
   }
   return g;
 }

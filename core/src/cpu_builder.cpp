@@ -14,6 +14,8 @@
 #include "hdt/root_ranges.hpp"
 
 #include <tbb/combinable.h>
+#include <tbb/global_control.h>
+#include <tbb/info.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_sort.h>
 #include <tbb/task_arena.h>
@@ -407,44 +409,44 @@ Volume buildWholeGrid(const PreparedMesh& mesh, const BuildOptions& options) {
   return finishVolume(mesh, std::move(v), times);
 }
 
-int threadCount(const BuildOptions& options) {
-  return options.threads > 0 ? options.threads : int(std::max(1u, std::thread::hardware_concurrency()));
+void validateThreads(int threads) {
+  if (threads < 0 || threads > kMaxCpuThreads) {
+    throw Error(ErrorKind::InvalidArgument, "threads must be between 0 (all cores) and " +
+                                                std::to_string(kMaxCpuThreads) + ", got " + std::to_string(threads));
+  }
 }
 
 // Runs a build in an arena of the options' threads; bad_alloc as an Error.
+// The statistics record the threads the arena really has.
 template <class Fn>
 Volume inArena(const PreparedMesh& mesh, const BuildOptions& options, Fn&& fn) {
-  const int threads = threadCount(options);
+  validateThreads(options.threads);
+  const int threads = options.threads > 0 ? options.threads : tbb::info::default_concurrency();
+  // Raising the process-wide worker limit to what was asked for lets oneTBB
+  // oversubscribe without printing its "number of workers is limited" warning
+  // on stderr (the CLI's --quiet must be quiet).
+  tbb::global_control allowed(tbb::global_control::max_allowed_parallelism, size_t(threads));
   tbb::task_arena arena(threads);
   Volume v;
+  int used = 0;
   try {
-    arena.execute([&] { v = fn(); });
+    arena.execute([&] {
+      used = tbb::this_task_arena::max_concurrency();
+      v = fn();
+    });
   } catch (const std::bad_alloc&) {
     throw Error(ErrorKind::OutOfResources, "out of host memory while building at resolution " +
                                                std::to_string(mesh.grid.resolution));
   }
-  v.stats.threads = threads;
+  v.stats.threads = used;
   return v;
 }
 
 } // namespace
 
-uint64_t estimateHostBytes(const PreparedMesh& mesh) {
-  // Leaf grids dominate. A surface of area A (voxel units) touches about
-  // 3A / L^2 leaf grids of L^3 / 4 bytes (closed boxes: faces count twice),
-  // and every triangle touches at least one.
-  double area = 0;
-  for (const LatticeTriangle& t : mesh.triangles) area += triangleArea(t);
-  const double L = mesh.grid.leafSize;
-  const double leaves = 3.0 * area / (L * L) + double(mesh.triangles.size());
-  const double perLeaf = L * L * L / 4.0 /*states*/ + 8.0 * 8 /*pairs*/ + 4.0 * 8 * 2 /*elements*/ + 16;
-  const double rootGrid = std::pow(double(mesh.grid.rootGrid), 3) * 20.0;
-  const double triangles = double(mesh.triangles.size()) * (sizeof(LatticeTriangle) + 64);
-  return uint64_t(leaves * perLeaf * 1.5 + rootGrid + triangles);
-}
 
 Volume buildCpu(const PreparedMesh& mesh, const BuildOptions& options) {
-  const uint64_t need = estimateHostBytes(mesh);
+  const uint64_t need = estimateHostBytes(mesh) + options.extraHostBytes;
   const uint64_t have = availableHostBytes();
   if (have != 0 && need > have) {
     throw Error(ErrorKind::OutOfResources,

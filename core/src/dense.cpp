@@ -3,6 +3,8 @@
 // decoded four voxels at a time). Blocks are disjoint, so subtrees fill in parallel.
 #include "hdt/dense.hpp"
 
+#include "hdt/atomic_file.hpp"
+
 #include "hdt/error.hpp"
 #include "hdt/volume_walk.hpp"
 
@@ -101,8 +103,8 @@ std::vector<uint8_t> denseStates(const Volume& volume) {
   return out;
 }
 
-void writeNrrd(const Volume& volume, const std::string& path) {
-  const std::vector<uint8_t> states = denseStates(volume);
+namespace {
+void writeNrrdTo(const Volume& volume, const std::vector<uint8_t>& states, AtomicFile& out) {
   const GridSpec& g = volume.grid;
   const std::string N = std::to_string(g.resolution), s = number(g.voxelSize);
   // NRRD's "space origin" is the centre of sample (0, 0, 0), not its corner.
@@ -127,20 +129,18 @@ void writeNrrd(const Volume& volume, const std::string& path) {
                              "\n";
   // clang-format on
 
-  struct Close {
-    void operator()(std::FILE* f) const { std::fclose(f); }
-  };
-  std::unique_ptr<std::FILE, Close> f(std::fopen(path.c_str(), "wb"));
-  if (!f) throw Error(ErrorKind::BadInput, path + ": cannot open for writing: " + std::strerror(errno));
-  const bool ok = std::fwrite(header.data(), 1, header.size(), f.get()) == header.size() &&
-                  std::fwrite(states.data(), 1, states.size(), f.get()) == states.size() &&
-                  std::fclose(f.release()) == 0;
-  if (!ok) {
-    const std::string why = std::strerror(errno);
-    f.reset();
-    std::remove(path.c_str());
-    throw Error(ErrorKind::BadInput, path + ": cannot write: " + why);
-  }
+  out.write(header.data(), header.size());
+  out.write(states.data(), states.size());
 }
+} // namespace
+
+void writeNrrd(const Volume& volume, const std::string& path) {
+  const std::vector<uint8_t> states = denseStates(volume); // refusals before the file exists
+  AtomicFile out(path); // the target is replaced only once the file is complete
+  writeNrrdTo(volume, states, out);
+  out.commit();
+}
+
+void writeNrrd(const Volume& volume, AtomicFile& out) { writeNrrdTo(volume, denseStates(volume), out); }
 
 } // namespace hdt

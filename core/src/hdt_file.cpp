@@ -12,6 +12,8 @@
 // without an intermediate copy on little-endian hosts, or through zstd.
 #include "hdt/hdt_file.hpp"
 
+#include "hdt/atomic_file.hpp"
+
 #include "hdt/error.hpp"
 #include "hdt/lattice.hpp"
 
@@ -435,8 +437,10 @@ Compressed compressLeaves(const LeafWordVector& words, int level) {
   return out;
 }
 
-// Decodes exactly `dstSize` bytes from exactly one frame of `srcSize` bytes.
-void decompressLeaves(const uint8_t* src, size_t srcSize, uint8_t* dst, size_t dstSize) {
+// Checks that `srcSize` bytes are exactly one zstd frame stating a content
+// size of `dstSize`. Reads only the frame's headers, so it runs before the
+// destination is allocated (docs/hdt-format.md: nothing allocated on trust).
+void checkLeafFrame(const uint8_t* src, size_t srcSize, size_t dstSize) {
   const unsigned long long content = ZSTD_getFrameContentSize(src, srcSize);
   if (content == ZSTD_CONTENTSIZE_ERROR) invalid("leaf data: not a zstd frame");
   if (content == ZSTD_CONTENTSIZE_UNKNOWN) invalid("leaf data: the zstd frame does not state its size");
@@ -445,6 +449,10 @@ void decompressLeaves(const uint8_t* src, size_t srcSize, uint8_t* dst, size_t d
   }
   const size_t frame = ZSTD_findFrameCompressedSize(src, srcSize);
   if (ZSTD_isError(frame) || frame != srcSize) invalid("leaf data: not exactly one zstd frame");
+}
+
+// Decodes exactly `dstSize` bytes from a frame checkLeafFrame accepted.
+void decompressLeaves(const uint8_t* src, size_t srcSize, uint8_t* dst, size_t dstSize) {
   std::unique_ptr<ZSTD_DCtx, DCtxFree> dctx(ZSTD_createDCtx());
   if (!dctx) throw std::bad_alloc();
   uint8_t none;
@@ -482,7 +490,7 @@ public:
   FileSink(std::FILE* f, const std::string& path) : f_(f), path_(path) {}
   void write(const void* data, size_t size) override {
     if (size != 0 && std::fwrite(data, 1, size, f_) != size) {
-      throw Error(ErrorKind::BadInput, path_ + ": cannot write: " + std::strerror(errno));
+      throw Error(ErrorKind::OutputFailed, path_ + ": cannot write: " + std::strerror(errno));
     }
   }
 
@@ -901,14 +909,18 @@ Volume readVolume(Source& in) {
     }
     const uint64_t words = tree.leaves * leafWordCount(g.leafSize);
     expectRawBytes(h, words * 4);
-    v.leafWords.resize(toSize(words));
     if (h.encoding == Encoding::Raw) {
+      v.leafWords.resize(toSize(words)); // the section is in the file: bounded by its size
       readWordSection(in, h, v.leafWords);
     } else {
 #if defined(HDT_HAVE_ZSTD)
+      // The stored bytes are in the file; the decoded size is allocated only
+      // after the checksum and the frame header agree with it.
       std::vector<uint8_t> scratch;
       const uint8_t* stored = in.view(size_t(h.stored), scratch);
       checkCrc(h, crc32Of(stored, size_t(h.stored)));
+      checkLeafFrame(stored, size_t(h.stored), size_t(h.raw));
+      v.leafWords.resize(toSize(words));
       decompressLeaves(stored, size_t(h.stored), reinterpret_cast<uint8_t*>(v.leafWords.data()),
                        size_t(h.raw));
       littleEndianToHost(v.leafWords.data(), v.leafWords.size());
@@ -963,22 +975,20 @@ std::vector<uint8_t> serializeHdt(const Volume& volume, const HdtWriteOptions& o
   return bytes;
 }
 
+void writeHdt(const Volume& volume, AtomicFile& out, const HdtWriteOptions& options) {
+  const EncodedVolume e = prepare(volume, options, out.path());
+  FileSink sink(out.stream(), out.path());
+  emit(e, volume, sink);
+}
+
 void writeHdt(const Volume& volume, const std::string& path, const HdtWriteOptions& options) {
-  // Encode first: a refused volume must not leave a file behind.
+  // Encode first: a refused volume must not leave a file behind. The bytes go
+  // to a temporary file renamed over `path` only once complete (atomic_file.hpp).
   const EncodedVolume e = prepare(volume, options, path);
-  std::unique_ptr<std::FILE, FileClose> f(std::fopen(path.c_str(), "wb"));
-  if (!f) throw Error(ErrorKind::BadInput, path + ": cannot open for writing: " + std::strerror(errno));
-  try {
-    FileSink sink(f.get(), path);
-    emit(e, volume, sink);
-    std::FILE* raw = f.release();
-    if (std::fclose(raw) != 0)
-      throw Error(ErrorKind::BadInput, path + ": cannot write: " + std::strerror(errno));
-  } catch (...) {
-    f.reset();
-    std::remove(path.c_str()); // no half-written file that looks like a volume
-    throw;
-  }
+  AtomicFile out(path);
+  FileSink sink(out.stream(), path);
+  emit(e, volume, sink);
+  out.commit();
 }
 
 Volume deserializeHdt(const uint8_t* data, size_t size, const std::string& name) {

@@ -3,6 +3,7 @@
 #include "hdt/error.hpp"
 #include "hdt/geometry.hpp"
 #include "hdt/default_init_allocator.hpp"
+#include "hdt/volume.hpp"
 
 #include <sys/mman.h>
 #include <unistd.h>
@@ -10,8 +11,10 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
+#include <tbb/parallel_sort.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <sstream>
 
@@ -227,7 +230,39 @@ std::vector<LatticeTriangle> keptTriangles(const TriangleMesh& mesh, const Scrat
   return out;
 }
 
+// Triangles that repeat another one's corners (any order, any orientation).
+size_t countDuplicates(const std::vector<LatticeTriangle>& tris) {
+  struct Corners {
+    std::array<std::array<int32_t, 3>, 3> p;
+    bool operator<(const Corners& o) const { return p < o.p; }
+    bool operator==(const Corners& o) const { return p == o.p; }
+  };
+  std::vector<Corners> sorted(tris.size());
+  tbb::parallel_for(size_t(0), tris.size(), [&](size_t t) {
+    for (int j = 0; j < 3; ++j)
+      for (int a = 0; a < 3; ++a) sorted[t].p[size_t(j)][size_t(a)] = tris[t].v[j][a];
+    std::sort(sorted[t].p.begin(), sorted[t].p.end());
+  });
+  tbb::parallel_sort(sorted.begin(), sorted.end());
+  const size_t distinct = size_t(std::unique(sorted.begin(), sorted.end()) - sorted.begin());
+  return tris.size() - distinct;
+}
+
 } // namespace
+
+std::vector<std::string> buildWarnings(const PreparedMesh& mesh, const Volume& volume) {
+  std::vector<std::string> out;
+  if (mesh.duplicateTriangles > 0) {
+    out.push_back(std::to_string(mesh.duplicateTriangles) + " of " + std::to_string(mesh.triangles.size()) +
+                  " triangles repeat another triangle's corners (duplicated faces cancel in the "
+                  "inside/outside parity)");
+  }
+  if (volume.closedMesh && !volume.surfaceOnly && volume.stats.insideVoxels == 0) {
+    out.push_back("the mesh is closed but no voxel is inside it (a doubled or self-cancelling "
+                  "surface, or a shell thinner than a voxel)");
+  }
+  return out;
+}
 
 PreparedMesh prepareMesh(const TriangleMesh& mesh, const BuildConfig& config) {
   validateConfig(config); // configuration errors first: they are the caller's
@@ -272,6 +307,7 @@ PreparedMesh prepareMesh(const TriangleMesh& mesh, const BuildConfig& config) {
     throw Error(ErrorKind::OutOfResources, "more than 2^32 - 1 triangles are not supported");
   }
   out.closed = isClosed(out.triangles);
+  out.duplicateTriangles = countDuplicates(out.triangles);
   return out;
 }
 

@@ -323,9 +323,14 @@ TriangleMesh readPly(const std::string& path, std::FILE* f, uint64_t size) {
   TriangleMesh mesh;
   bool haveVertices = false, haveFaces = false;
   for (const PlyElement& e : elements) {
-    size_t minBytes = 0; // per instance: refuse absurd counts before allocating
+    // Refuse absurd counts before allocating or looping. Every entry takes at
+    // least minBytes of the body; an element without properties takes none,
+    // so its count is bounded by the file size instead (no real file declares
+    // more entries than it has bytes) and its entries are not iterated.
+    size_t minBytes = 0;
     for (const PlyProperty& p : e.properties) minBytes += body.minBytes(p.isList ? p.countType : p.type);
-    if (minBytes > 0 && e.count > body.remaining() / minBytes) {
+    const uint64_t room = minBytes > 0 ? body.remaining() / minBytes : uint64_t(data.size());
+    if (e.count > room) {
       fail(path, "truncated: element '" + e.name + "' declares " + std::to_string(e.count) +
                      " entries but the file is too short for them");
     }
@@ -338,6 +343,7 @@ TriangleMesh readPly(const std::string& path, std::FILE* f, uint64_t size) {
     }
     if (isVertex && (axis[0] < 0 || axis[1] < 0 || axis[2] < 0)) fail(path, "PLY vertex element lacks x, y or z");
     if (isFace && indices < 0) fail(path, "PLY face element has no vertex_indices list");
+    if (e.properties.empty()) continue; // empty records: nothing to read
     if (isVertex) {
       haveVertices = true;
       mesh.points.reserve(size_t(e.count) * 3);

@@ -116,5 +116,94 @@ case_dense_too_large() {
   [[ ! -e $work/big.nrrd ]] || fail "wrote a file anyway"
 }
 
+# ---- issue 12 ----------------------------------------------------------------------
+
+case_threads_bound() {
+  for t in 257 10000000 1073741824 2147483647; do
+    run 2 builtin:sphere --resolution 128 --root-grid 8 --threads "$t"
+    stderr_has "--threads must be at most 256"
+  done
+  # The count used is recorded, and oversubscribing stays quiet under --quiet
+  # (oneTBB printed "TBB Warning: The number of workers is currently limited").
+  run 0 builtin:sphere --resolution 128 --root-grid 8 --threads 64 --quiet --json -o "$work/t.hdt"
+  [[ ! -s $work/stderr ]] || fail "--quiet still wrote to stderr"
+  python3 -c 'import json,sys; d=json.load(open(sys.argv[1])); assert d["threads"] == 64, d["threads"]' \
+    "$work/stdout" || fail "JSON threads is not 64"
+}
+
+case_output_checked_first() {
+  # A missing directory is found before the build (exit 5), not after it.
+  run 5 builtin:sphere --resolution 512 --root-grid 8 -o "$work/no/such/dir/x.hdt"
+  stderr_has "$work/no/such/dir/x.hdt: cannot create a file in"
+  [[ ! -s $work/stdout ]] || fail "built before checking the output"
+  run 5 builtin:sphere --resolution 128 --root-grid 8 --dense "$work/no/dir/x.nrrd"
+  mkdir "$work/adir"
+  run 5 builtin:sphere --resolution 128 --root-grid 8 -o "$work/adir"
+  stderr_has "is a directory"
+  [[ -d $work/adir ]] || fail "the directory was removed"
+}
+
+case_refuse_input_overwrite() {
+  "$tool" builtin:sphere --resolution 128 --root-grid 8 --quiet -o "$work/s.hdt" >/dev/null
+  # A small binary STL (one triangle) as the input.
+  python3 - "$work/in.stl" <<'EOF2'
+import struct, sys
+with open(sys.argv[1], "wb") as f:
+    f.write(b"\0" * 80 + struct.pack("<I", 1))
+    f.write(struct.pack("<12fH", 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1, 0, 0))
+EOF2
+  cp "$work/in.stl" "$work/in.copy"
+  run 2 "$work/in.stl" --resolution 128 --root-grid 8 -o "$work/in.stl"
+  stderr_has "is the input mesh; refusing to overwrite it"
+  ln -s in.stl "$work/alias.hdt"
+  run 2 "$work/in.stl" --resolution 128 --root-grid 8 --dense "$work/alias.hdt"
+  cmp -s "$work/in.stl" "$work/in.copy" || fail "the input mesh changed"
+}
+
+case_write_failure_exit_code() {
+  # Exit 5 for a write error (3 is for bad input). Under a file-size limit the
+  # .hdt fits but the dense NRRD (2 MB) does not: neither output may appear,
+  # and an existing -o file keeps its contents.
+  echo old >"$work/v.hdt"
+  local status=0
+  (ulimit -f 1024; "$tool" builtin:torus --resolution 128 --root-grid 8 --quiet -o "$work/v.hdt" \
+     --dense "$work/v.nrrd") >"$work/stdout" 2>"$work/stderr" || status=$?
+  [[ $status == 5 ]] || fail "exited $status, expected 5"
+  stderr_has "$work/v.nrrd: cannot write"
+  [[ $(cat "$work/v.hdt") == old ]] || fail "the -o file changed although --dense failed"
+  [[ ! -e $work/v.nrrd ]] || fail "a partial NRRD was left"
+  [[ $(ls -A "$work" | wc -l) == 3 ]] || fail "temporary files were left: $(ls -A "$work")"
+}
+
+case_ply_hang() {
+  # The 66-byte PLY of issue 12 looped 2^64 - 1 times.
+  printf 'ply\nformat ascii 1.0\nelement junk 18446744073709551615\nend_header\n' >"$work/junk.ply"
+  local status=0
+  timeout 60 "$tool" "$work/junk.ply" --resolution 128 --root-grid 8 >"$work/stdout" 2>"$work/stderr" || status=$?
+  [[ $status == 3 ]] || fail "exited $status, expected 3 (124: it hung)"
+  stderr_has "declares 18446744073709551615 entries"
+}
+
+case_duplicate_warning() {
+  # Every triangle twice: "closed" with nothing inside. Both facts are warned about.
+  python3 - "$work/twice.stl" <<'EOF2'
+import struct, sys
+# a tetrahedron, each face written twice
+p = [(0, 0, 0), (1, 0, 0), (0, 1, 0), (0, 0, 1)]
+faces = [(0, 2, 1), (0, 1, 3), (0, 3, 2), (1, 2, 3)] * 2
+with open(sys.argv[1], "wb") as f:
+    f.write(b"\0" * 80 + struct.pack("<I", len(faces)))
+    for a, b, c in faces:
+        f.write(struct.pack("<12fH", 0, 0, 0, *p[a], *p[b], *p[c], 0))
+EOF2
+  run 0 "$work/twice.stl" --resolution 128 --root-grid 8 --json
+  stderr_has "warning: $work/twice.stl: 4 of 8 triangles repeat"
+  stderr_has "closed but no voxel is inside"
+  python3 -c 'import json,sys; d=json.load(open(sys.argv[1])); assert d["duplicate_triangles"] == 4 and len(d["warnings"]) == 2, d' \
+    "$work/stdout" || fail "JSON lacks the warnings"
+  run 0 "$work/twice.stl" --resolution 128 --root-grid 8 --quiet
+  [[ ! -s $work/stderr ]] || fail "--quiet still printed warnings"
+}
+
 "case_${case_name//-/_}"
 echo "ok: $case_name"

@@ -15,13 +15,24 @@ namespace hdt {
 
 enum class Backend { Auto, Cpu, Cuda };
 
+// The most CPU threads a build may ask for: oneTBB caps its workers near
+// max(256, 4 x cores) anyway, and far larger counts crash its arena set-up.
+constexpr int kMaxCpuThreads = 256;
+
+// Throws Error(InvalidArgument) unless 0 <= threads <= kMaxCpuThreads.
+void validateThreads(int threads);
+
 struct BuildOptions {
   Backend backend = Backend::Auto;
-  int threads = 0;     // CPU threads; 0 = all cores
+  int threads = 0;     // CPU threads, 0 to kMaxCpuThreads; 0 = what oneTBB sees (cores, affinity)
   int device = 0;      // CUDA device ordinal
   // Device memory budget in bytes for the CUDA driver (0 = what is free).
   // Smaller budgets make it build the root grid in chunks.
   uint64_t deviceMemoryBudget = 0;
+  // Host memory the caller will need beside the volume (the VTK filter's
+  // hyper tree grid): added to estimateHostBytes when the CPU driver checks
+  // that the build fits.
+  uint64_t extraHostBytes = 0;
   // Called between steps with a fraction in [0, 1] and the phase name, and
   // (CPU driver) about every 50 ms inside long phases; always on the thread
   // that called build().
@@ -56,8 +67,23 @@ Volume build(const PreparedMesh& mesh, const BuildOptions& options);
 // Convenience: prepare + build.
 Volume voxelize(const TriangleMesh& mesh, const BuildConfig& config, const BuildOptions& options);
 
-// Host memory the CPU driver is expected to need at most, from the mesh's
-// surface area; used to refuse absurd resolutions before allocating.
-uint64_t estimateHostBytes(const PreparedMesh& mesh);
+// Host memory a CPU build and the .hdt write after it are expected to need at
+// most (peak resident set), modelled part by part from the grid and the
+// mesh's projected surface area (core/src/memory_estimate.cpp; measured
+// against real peaks in bench/results/memory-estimate.md). Used to refuse
+// builds that cannot fit before allocating.
+struct HostMemoryEstimate {
+  double leafGrids = 0;     // expected leaf grids
+  double leafPairs = 0;     // expected (leaf, triangle) pairs
+  uint64_t rootGrid = 0;    // R^3 cells: element words, coordinates, uniform list
+  uint64_t tree = 0;        // octree levels below the root grid
+  uint64_t leaves = 0;      // leaf states and the classification's per-leaf rows
+  uint64_t pairs = 0;       // (element, triangle) pairs and their sort
+  uint64_t triangles = 0;   // the prepared mesh
+  uint64_t compression = 0; // writing the .hdt: zstd's output buffer
+  uint64_t total = 0;       // the peak: reading, build and write buffer add up (freed memory stays resident)
+};
+HostMemoryEstimate estimateHostMemory(const PreparedMesh& mesh);
+uint64_t estimateHostBytes(const PreparedMesh& mesh); // estimateHostMemory(mesh).total
 
 } // namespace hdt

@@ -9,12 +9,17 @@
 
 namespace hdt {
 
+class AtomicFile;
+
 constexpr int kMaxDenseResolution = 1024;
 
 // N^3 bytes, x fastest. Throws Error(InvalidArgument) above kMaxDenseResolution.
 std::vector<uint8_t> denseStates(const Volume& volume);
 
 // NRRD (encoding raw, type uint8, sizes N N N, space origin and directions).
+// Replaces `path` only once the whole file is written (hdt/atomic_file.hpp).
 void writeNrrd(const Volume& volume, const std::string& path);
+// Writes into `out` without committing it.
+void writeNrrd(const Volume& volume, AtomicFile& out);
 
 } // namespace hdt

@@ -12,6 +12,7 @@ enum class ErrorKind {
   BadInput,        // unreadable, corrupt or unusable mesh / .hdt file: CLI exit 3
   OutOfResources,  // memory estimate too large, allocation or device failure: CLI exit 4
   Aborted,         // the caller asked to stop
+  OutputFailed,    // an output file cannot be created or written: CLI exit 5
 };
 
 class Error : public std::runtime_error {

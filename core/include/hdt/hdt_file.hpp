@@ -9,14 +9,22 @@
 
 namespace hdt {
 
+class AtomicFile;
+
 struct HdtWriteOptions {
   bool compressLeaves = true; // zstd, when the build has it
   int zstdLevel = 3;
 };
 
-// Serialises to bytes / a file. Throws Error(BadInput) on I/O failure.
+// Serialises to bytes / a file.
 std::vector<uint8_t> serializeHdt(const Volume& volume, const HdtWriteOptions& options = {});
+// writeHdt replaces `path` only once the whole file is written and synced
+// (hdt/atomic_file.hpp): a failure leaves the old file, never a partial one.
+// Refused volumes: Error(InvalidArgument); I/O failures: Error(OutputFailed).
 void writeHdt(const Volume& volume, const std::string& path, const HdtWriteOptions& options = {});
+// Writes into `out` without committing it, for callers that commit several
+// outputs together (the CLI's -o and --dense).
+void writeHdt(const Volume& volume, AtomicFile& out, const HdtWriteOptions& options = {});
 
 // Parses and validates everything (magic, version, sizes, checksums, tree
 // consistency). Never trusts a header field before checking it. Throws

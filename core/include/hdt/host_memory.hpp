@@ -6,7 +6,9 @@
 
 namespace hdt {
 
-// MemAvailable from /proc/meminfo, or 0 when unknown.
+// What this process may still allocate: MemAvailable from /proc/meminfo,
+// capped by the room left under its cgroup memory limit (v2 memory.max, v1
+// memory.limit_in_bytes); 0 when unknown.
 uint64_t availableHostBytes();
 
 // Peak resident set size of this process so far (getrusage).

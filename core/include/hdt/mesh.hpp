@@ -26,6 +26,10 @@ struct PreparedMesh {
   std::vector<LatticeTriangle> triangles; // non-degenerate ones only, input order
   size_t inputTriangles = 0;
   size_t degenerateTriangles = 0;         // zero area after snapping: dropped
+  // Kept triangles with the same three lattice corners (in any order) as
+  // another kept one: each copy beyond the first counts. Duplicates cancel in
+  // the inside parity, so a doubled closed mesh has nothing inside.
+  size_t duplicateTriangles = 0;
   // Every edge is shared by an even number of triangles. Then all three ray
   // directions agree and the classifier needs only one of them.
   bool closed = false;
@@ -39,5 +43,13 @@ void meshBounds(const TriangleMesh& mesh, std::array<double, 3>& lo, std::array<
 // Validates the mesh and configuration, places the grid and snaps the mesh.
 // Throws Error with a message that says what is wrong.
 PreparedMesh prepareMesh(const TriangleMesh& mesh, const BuildConfig& config);
+
+struct Volume;
+
+// Things about a finished build its user should hear about although nothing
+// failed: duplicated triangles, a closed mesh with no inside voxel. One
+// sentence each; empty when all is well. The CLI prints them, the VTK filter
+// emits them with vtkWarningMacro.
+std::vector<std::string> buildWarnings(const PreparedMesh& mesh, const Volume& volume);
 
 } // namespace hdt
