@@ -64,7 +64,9 @@ vox.RootGridSize, vox.Resolution = 8, 128
 view = CreateView("RenderView")
 view.ViewSize = [400, 300]
 view.OrientationAxesVisibility = 0
-display = Show(vox, view)
+display = Show(vox, view)  # the hyper tree grid (port 0): shown as its outline by default
+t.check_equal(display.Representation, "Outline", "the grid port's default representation")
+display.SetRepresentationType("Surface")  # this test looks at the grid's own surface
 t.check_equal(list(display.ColorArrayName), ["CELLS", "VoxelState"], "coloured by VoxelState")
 lut = GetColorTransferFunction("VoxelState")
 t.check_equal(lut.InterpretValuesAsCategories, 1, "VoxelState's colour map is categorical")
@@ -116,6 +118,7 @@ reader = HDTReader(FileName=path, MaskOutside=1)
 # The reader's grid gets the same named colours (the colour map follows the array name).
 Hide(image, view)
 reader_display = Show(reader, view)
+reader_display.SetRepresentationType("Surface")
 t.check_equal(list(reader_display.ColorArrayName), ["CELLS", "VoxelState"], "reader output coloured by VoxelState")
 ResetCamera(view)
 png = os.path.join(args.tmp, "reader.png")

@@ -44,9 +44,20 @@ sphere = Sphere(ThetaResolution=32, PhiResolution=32)
 vox = HDTVoxelizer(Input=sphere)  # every property at its default, as after Apply
 view = GetActiveViewOrCreate("RenderView")
 view.OrientationAxesVisibility = 0
-display = Show(vox, view)
+# What Apply does (pqApplyBehavior::showData): each output port shown in its
+# preferred view. The XML's hints draw port 0 (the hyper tree grid) as its
+# outline and port 1, the voxel surface, as a surface.
+controller = servermanager.vtkSMParaViewPipelineControllerWithRendering()
+for port in range(vox.GetNumberOfOutputPorts()):
+    controller.ShowInPreferredView(vox.SMProxy, port, view.SMProxy)
 Render(view)
 cells = vox.GetDataInformation().GetNumberOfCells()
+grid_display = GetDisplayProperties(OutputPort(vox, 0), view)
+shown = [grid_display.Representation if grid_display.Visibility else "hidden",
+         GetDisplayProperties(OutputPort(vox, 1), view).Representation]
+if shown[0] not in ("Outline", "hidden") or shown[1] != "Surface":
+    problems.append("after Apply, ports shown as %s: want the grid's outline and the voxel surface" % shown)
+display = GetDisplayProperties(OutputPort(vox, 1), view)
 lut = GetColorTransferFunction("VoxelState")
 if list(display.ColorArrayName) != ["CELLS", "VoxelState"]:
     problems.append("not coloured by VoxelState: %s" % list(display.ColorArrayName))
@@ -56,10 +67,13 @@ background = list(view.Background)
 png = os.path.join(tmp, "gui-defaults.png")
 SaveScreenshot(png, view, ImageResolution=[400, 300])
 fractions = named_colour_fractions(png, background)
-if sum(fractions.values()) < 0.9:
-    problems.append("after Apply, pixels other than the named colours: %s" % fractions)
+# A closed solid's outer faces all belong to Surface voxels: the picture is the
+# Surface colour, not the grey of Outside cells.
+if fractions["Surface"] < 0.9:
+    problems.append("after Apply, not the voxel surface in the Surface colour: %s" % fractions)
 
-Hide(vox, view)
+Hide(OutputPort(vox, 0), view)
+Hide(OutputPort(vox, 1), view)
 image = HDTToImage(Input=vox, Level=2)
 slice_display = Show(image, view)
 slice_display.SetRepresentationType("Slice")
