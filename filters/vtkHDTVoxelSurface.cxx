@@ -1,5 +1,6 @@
 #include "vtkHDTVoxelSurface.h"
 
+#include "hdt/huge_pages.hpp"
 #include "hdt/voxel_surface.hpp"
 
 #include "vtkCellArray.h"
@@ -31,6 +32,9 @@ void setQuadCells(vtkCellArray* cells, vtkIdType quads)
   connectivity->SetNumberOfValues(4 * quads);
   Value* off = offsets->GetPointer(0);
   Value* conn = connectivity->GetPointer(0);
+  // Fresh memory: huge pages make its first touch cheap (huge_pages.hpp).
+  hdt::adviseHugePages(off, sizeof(Value) * size_t(quads + 1));
+  hdt::adviseHugePages(conn, sizeof(Value) * size_t(4 * quads));
   vtkSMPTools::For(0, quads + 1, [&](vtkIdType begin, vtkIdType end) {
     for (vtkIdType i = begin; i < end; ++i)
     {

@@ -12,13 +12,18 @@
 //     equal uniform element, or the subtree of an equal Branch: uniform
 //     elements, cut Branches, leaf layers), one rectangle when all of it is
 //     unoccupied.
-// Units are independent, so they run in parallel; their quads are joined in
-// walk order, which fixes the output whatever the thread count.
+// Units are independent, so they run in parallel, in chunks of units; each
+// thread appends its chunks' quads to its own list, and the chunks are joined
+// in walk order, which fixes the output whatever the thread count. Every
+// large array is written fresh, so all of them get huge pages
+// (huge_pages.hpp): page faults, not the faces, were most of the time.
 #include "hdt/voxel_surface.hpp"
 
 #include "hdt/error.hpp"
+#include "hdt/huge_pages.hpp"
 #include "hdt/volume_walk.hpp"
 
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
@@ -149,9 +154,11 @@ void greedyRectangles(uint32_t* rows, int n, bool merge, Emit&& emit) {
   }
 }
 
+using QuadList = std::vector<SurfaceQuad, HugePageAllocator<SurfaceQuad>>;
+
 class UnitFaces {
 public:
-  UnitFaces(const Context& ctx, bool merge, std::vector<SurfaceQuad>& out) : ctx_(ctx), merge_(merge), out_(out) {
+  UnitFaces(const Context& ctx, bool merge, QuadList& out) : ctx_(ctx), merge_(merge), out_(out) {
     std::fill(&surfaceMask_[0][0], &surfaceMask_[0][0] + kMaxCells * kMaxCells, 0u);
     std::fill(&insideMask_[0][0], &insideMask_[0][0] + kMaxCells * kMaxCells, 0u);
   }
@@ -322,7 +329,7 @@ private:
 
   const Context& ctx_;
   bool merge_;
-  std::vector<SurfaceQuad>& out_;
+  QuadList& out_;
   uint32_t surface_[kMaxCells][kMaxCells];  // [z][y], bit x
   uint32_t occupied_[kMaxCells][kMaxCells]; // [z][y], bit x
   uint32_t surfaceMask_[kMaxCells][kMaxCells], insideMask_[kMaxCells][kMaxCells]; // [slice][v], bit u
@@ -377,9 +384,23 @@ int surfaceCellEdge(const GridSpec& g, int maxDepth) {
 
 namespace {
 
-// The quads of every unit, in fixed chunks of units (walk order), each chunk
-// with its own list: the order does not depend on how tasks are scheduled.
-std::vector<std::vector<SurfaceQuad>> extractChunks(const Volume& volume, const SurfaceOptions& options) {
+// The quads of a fixed chunk of units (walk order): a range of the list of
+// the thread that made them.
+struct ChunkQuads {
+  const QuadList* list = nullptr;
+  size_t begin = 0, end = 0;
+  size_t size() const { return end - begin; }
+  const SurfaceQuad* data() const { return list->data() + begin; }
+};
+
+struct SurfaceChunks {
+  tbb::enumerable_thread_specific<QuadList> lists; // addresses stable
+  std::vector<ChunkQuads> chunks;                  // walk order
+};
+
+// The quads of every unit, in fixed chunks of units (walk order): the order
+// does not depend on how tasks are scheduled.
+void extractChunks(const Volume& volume, const SurfaceOptions& options, SurfaceChunks& out) {
   checkWalkable(volume);
   const GridSpec& g = volume.grid;
   Context ctx(volume);
@@ -403,12 +424,11 @@ std::vector<std::vector<SurfaceQuad>> extractChunks(const Volume& volume, const 
 
   constexpr size_t kChunk = 256;
   const size_t chunks = (units.size() + kChunk - 1) / kChunk;
-  std::vector<std::vector<SurfaceQuad>> parts(chunks);
+  out.chunks.assign(chunks, ChunkQuads{});
   tbb::parallel_for(size_t(0), chunks, [&](size_t chunk) {
-    // Room for far more quads than a chunk usually has: pages never written
-    // cost nothing, and the list is never copied while it grows.
-    parts[chunk].reserve(kChunk * 256);
-    UnitFaces faces(ctx, options.merge, parts[chunk]);
+    QuadList& list = out.lists.local();
+    const size_t begin = list.size();
+    UnitFaces faces(ctx, options.merge, list);
     const size_t end = std::min(units.size(), (chunk + 1) * kChunk);
     for (size_t i = chunk * kChunk; i < end; ++i) {
       const WalkedElement& e = units[i];
@@ -418,14 +438,22 @@ std::vector<std::vector<SurfaceQuad>> extractChunks(const Volume& volume, const 
       default: faces.solid(e, ctx.largest[e.index]); break;
       }
     }
+    out.chunks[chunk] = ChunkQuads{&list, begin, list.size()};
   });
-  return parts;
 }
 
-std::vector<size_t> chunkOffsets(const std::vector<std::vector<SurfaceQuad>>& parts) {
-  std::vector<size_t> offset(parts.size() + 1, 0);
-  for (size_t i = 0; i < parts.size(); ++i) offset[i + 1] = offset[i] + parts[i].size();
+std::vector<size_t> chunkOffsets(const std::vector<ChunkQuads>& chunks) {
+  std::vector<size_t> offset(chunks.size() + 1, 0);
+  for (size_t i = 0; i < chunks.size(); ++i) offset[i + 1] = offset[i] + chunks[i].size();
   return offset;
+}
+
+// A vector of `count` elements whose pages are huge where the kernel allows.
+template <class T> void resizeFresh(std::vector<T>& v, size_t count) {
+  v.clear();
+  v.reserve(count);
+  adviseHugePages(v.data(), count * sizeof(T));
+  v.resize(count);
 }
 
 // The 4 corners of q in mesh units.
@@ -448,25 +476,31 @@ void quadCorners(const GridSpec& g, const SurfaceQuad& q, float* out) {
 } // namespace
 
 std::vector<SurfaceQuad> extractSurfaceQuads(const Volume& volume, const SurfaceOptions& options) {
-  const std::vector<std::vector<SurfaceQuad>> parts = extractChunks(volume, options);
-  const std::vector<size_t> offset = chunkOffsets(parts);
-  std::vector<SurfaceQuad> quads(offset.back());
-  tbb::parallel_for(size_t(0), parts.size(), [&](size_t i) {
-    std::copy(parts[i].begin(), parts[i].end(), quads.begin() + long(offset[i]));
+  SurfaceChunks parts;
+  extractChunks(volume, options, parts);
+  const std::vector<size_t> offset = chunkOffsets(parts.chunks);
+  std::vector<SurfaceQuad> quads;
+  resizeFresh(quads, offset.back());
+  tbb::parallel_for(size_t(0), parts.chunks.size(), [&](size_t i) {
+    const ChunkQuads& c = parts.chunks[i];
+    std::copy(c.data(), c.data() + c.size(), quads.begin() + long(offset[i]));
   });
   return quads;
 }
 
 void extractVoxelSurfaceInto(const Volume& volume, const SurfaceOptions& options,
                              const std::function<SurfaceBuffers(size_t quads)>& allocate) {
-  const std::vector<std::vector<SurfaceQuad>> parts = extractChunks(volume, options);
-  const std::vector<size_t> offset = chunkOffsets(parts);
+  SurfaceChunks parts;
+  extractChunks(volume, options, parts);
+  const std::vector<size_t> offset = chunkOffsets(parts.chunks);
   const SurfaceBuffers out = allocate(offset.back());
-  tbb::parallel_for(size_t(0), parts.size(), [&](size_t i) {
-    for (size_t k = 0; k < parts[i].size(); ++k) {
+  adviseHugePages(out.points, 12 * offset.back() * sizeof(float)); // a hint: the caller's memory, not yet written
+  tbb::parallel_for(size_t(0), parts.chunks.size(), [&](size_t i) {
+    const SurfaceQuad* quads = parts.chunks[i].data();
+    for (size_t k = 0; k < parts.chunks[i].size(); ++k) {
       const size_t quad = offset[i] + k;
-      quadCorners(volume.grid, parts[i][k], out.points + 12 * quad);
-      out.states[quad] = parts[i][k].state;
+      quadCorners(volume.grid, quads[k], out.points + 12 * quad);
+      out.states[quad] = quads[k].state;
     }
   });
 }
@@ -474,7 +508,7 @@ void extractVoxelSurfaceInto(const Volume& volume, const SurfaceOptions& options
 VoxelSurface extractVoxelSurface(const Volume& volume, const SurfaceOptions& options) {
   VoxelSurface s;
   extractVoxelSurfaceInto(volume, options, [&](size_t quads) {
-    s.points.resize(12 * quads);
+    resizeFresh(s.points, 12 * quads);
     s.states.resize(quads);
     return SurfaceBuffers{s.points.data(), s.states.data()};
   });
