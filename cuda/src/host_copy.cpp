@@ -2,8 +2,7 @@
 
 #include "check.hpp"
 
-#include <sys/mman.h>
-#include <unistd.h>
+#include "hdt/huge_pages.hpp"
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -66,17 +65,6 @@ Ring& currentRing() {
 void directCopy(cudaStream_t stream, void* host, const void* device, size_t bytes) {
   HDT_CUDA_CHECK(cudaMemcpyAsync(host, device, bytes, cudaMemcpyDeviceToHost, stream));
   HDT_CUDA_CHECK(cudaStreamSynchronize(stream));
-}
-
-// Transparent huge pages for a destination not yet touched (the volume's
-// leaf words: DefaultInitAllocator): one fault per 2 MiB instead of per
-// 4 KiB. Only a hint: where the kernel says no, 4 KiB pages it is.
-void adviseHugePages(void* p, size_t bytes) {
-  constexpr uintptr_t kHuge = uintptr_t(2) << 20;
-  if (bytes < 4 * kHuge) return;
-  const uintptr_t begin = (reinterpret_cast<uintptr_t>(p) + kHuge - 1) & ~(kHuge - 1);
-  const uintptr_t end = (reinterpret_cast<uintptr_t>(p) + bytes) & ~(kHuge - 1);
-  if (end > begin) madvise(reinterpret_cast<void*>(begin), end - begin, MADV_HUGEPAGE);
 }
 
 } // namespace
