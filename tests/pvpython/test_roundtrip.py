@@ -42,6 +42,8 @@ def same_grid(a, b, what):
     fa, fb = t.field_arrays(a), t.field_arrays(b)
     t.check_equal(sorted(fa), sorted(fb), "%s: same field arrays" % what)
     for name in fa:
+        if name == "HDTVolumeId":  # names the process's volume object, not content: each output its own
+            continue
         t.check(fa[name] == fb.get(name), "%s: field %s %r = %r" % (what, name, fa[name], fb.get(name)))
 
 
