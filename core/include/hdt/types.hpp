@@ -100,7 +100,7 @@ struct LeafView {
 // Where leaf `leaf` starts in a driver's array of leaf words. An integer, so
 // that kernels can add it to their own pointer: the T3 kernel's stores
 // compiled to slower code through the pointer-returning form (leafWordsAt;
-// bench/results/gpu-notes.md, "leaf word address").
+// bench/results/gpu-notes.md, "Refactor speed check").
 HDT_HD constexpr uint64_t leafWordOffset(uint64_t leaf, int leafSize) { return leaf * leafWordCount(leafSize); }
 
 // Leaf `leaf` of a driver's array of leaf words.
