@@ -306,7 +306,7 @@ template <int L, bool CROSS>
 __device__ __forceinline__ void writeLeaf(const LeafKernelArgs& k, uint32_t leaf, bool split, const uint32_t* surface,
                                           const uint32_t* masks, const uint32_t* parity) {
   const int lane = threadIdx.x & 31;
-  uint32_t* out = leafWordsAt(k.words, leaf, L);
+  uint32_t* out = k.words + leafWordOffset(leaf, L); // not leafWordsAt: see types.hpp
   if (!split) { // warp-uniform; 16-byte stores (a leaf is 128, 1024 or 8192 bytes)
     // Four leaf words from two words of each bit array (8-byte loads).
     const uint2* s2 = reinterpret_cast<const uint2*>(surface);

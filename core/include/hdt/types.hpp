@@ -97,10 +97,14 @@ struct LeafView {
   }
 };
 
+// Where leaf `leaf` starts in a driver's array of leaf words. An integer, so
+// that kernels can add it to their own pointer: the T3 kernel's stores
+// compiled to slower code through the pointer-returning form (leafWordsAt;
+// bench/results/gpu-notes.md, "Refactor speed check").
+HDT_HD constexpr uint64_t leafWordOffset(uint64_t leaf, int leafSize) { return leaf * leafWordCount(leafSize); }
+
 // Leaf `leaf` of a driver's array of leaf words.
-HDT_HD uint32_t* leafWordsAt(uint32_t* all, uint64_t leaf, int leafSize) {
-  return all + leaf * leafWordCount(leafSize);
-}
+HDT_HD uint32_t* leafWordsAt(uint32_t* all, uint64_t leaf, int leafSize) { return all + leafWordOffset(leaf, leafSize); }
 
 HDT_HD VoxelState leafVoxel(const uint32_t* leafWords, int leafSize, int x, int y, int z) {
   return LeafView{leafWords, leafSize}.voxel(x, y, z);
