@@ -20,7 +20,7 @@
 // 0 up to float rounding); it shows the two grids line up. Not for timing.
 #include "hdt/builder.hpp"
 #include "hdt/error.hpp"
-#include "hdt/memory_info.hpp"
+#include "hdt/host_memory.hpp"
 #include "hdt/mesh.hpp"
 #include "hdt/mesh_io.hpp"
 

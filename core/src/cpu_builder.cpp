@@ -10,7 +10,7 @@
 
 #include "hdt/build_steps.hpp"
 #include "hdt/error.hpp"
-#include "hdt/memory_info.hpp"
+#include "hdt/host_memory.hpp"
 #include "hdt/root_ranges.hpp"
 
 #include <tbb/combinable.h>

@@ -9,7 +9,7 @@
 
 #include "hdt/cuda_build.hpp"
 #include "hdt/error.hpp"
-#include "hdt/memory_info.hpp"
+#include "hdt/host_memory.hpp"
 #include "hdt/root_ranges.hpp" // checkElementLimit
 #include "hdt/mesh.hpp"
 

@@ -1,4 +1,4 @@
-#include "hdt/memory_info.hpp"
+#include "hdt/host_memory.hpp"
 
 #include <sys/resource.h>
 
