@@ -47,6 +47,7 @@ struct Volume {
   GridSpec grid;
   bool surfaceOnly = false;
   bool closedMesh = false;
+  InsideTest insideTest = InsideTest::Parity; // the test that ran (Parity or WindingNumber)
   std::vector<ElementWord> elements; // level order, see types.hpp
   // levelStart[k] is the index of the first element of level k; the array has
   // height + 2 entries, the last one equal to elements.size().
