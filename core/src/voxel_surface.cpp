@@ -414,7 +414,15 @@ void extractChunks(const Volume& volume, const SurfaceOptions& options, SurfaceC
 
   // Units that can have faces, in walk order.
   std::vector<WalkedElement> units;
+  const int rootEdge = g.rootCellVoxels();
+  const uint64_t R = uint64_t(g.rootGrid);
+  const bool allCells = options.cellsFirst == 0 && options.cellsEnd >= R * R * R;
   walkVolume(volume, ctx.cutLevel, [&](const WalkedElement& e) {
+    if (!allCells) {
+      const uint64_t cell = uint64_t(e.origin[0] / rootEdge) +
+                            R * (uint64_t(e.origin[1] / rootEdge) + R * uint64_t(e.origin[2] / rootEdge));
+      if (cell < options.cellsFirst || cell >= options.cellsEnd) return;
+    }
     const ElementState s = e.state();
     const bool maybe = s == ElementState::Boundary ||
                        (s == ElementState::Full && ctx.occupied(int(VoxelState::Inside))) ||

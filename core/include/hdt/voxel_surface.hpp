@@ -41,6 +41,11 @@ struct SurfaceQuad {
 struct SurfaceOptions {
   int maxDepth = -1; // level of detail, see above
   bool merge = true; // false: one quad per cell face (for checks)
+  // Only the faces whose occupied cell lies in root cells [cellsFirst,
+  // cellsEnd) (x fastest): a process's piece of a distributed volume. The
+  // volume must hold the true contents of the face neighbours of those cells
+  // (range_exchange.hpp, the piece volume with its halo).
+  uint64_t cellsFirst = 0, cellsEnd = UINT64_MAX;
 };
 
 // Quads in voxel units, in a fixed order. Throws Error(InvalidArgument) for a

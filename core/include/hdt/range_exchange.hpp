@@ -1,0 +1,56 @@
+// What a build spread over processes sends between them, and the pieces a
+// process keeps: host only, VTK-free and MPI-free (the transport is the
+// caller's: the VTK modules use ParaView's controller, the CLI MPI directly).
+//
+// A distributed build (docs/design.md, "run a build as ranges in several
+// processes") gives each process one range of root cells (root_ranges.hpp,
+// planRootRanges with align = R). The processes exchange their RangeBoundary
+// (packBoundary) between the two stages of CpuRangeBuild; afterwards each
+// holds its RangeTree. A process shows its range as a "piece volume": the
+// whole root grid where the cells of other processes are Empty placeholders
+// (pieceVolume), and a file writer joins the ranges' trees (packRangeTree,
+// joinRanges). sliceVolume cuts a range out of a whole volume (the reader's
+// share of a file, a driver that built everything).
+#pragma once
+
+#include "hdt/root_ranges.hpp"
+#include "hdt/volume.hpp"
+
+#include <cstdint>
+#include <vector>
+
+namespace hdt {
+
+// Byte buffers between processes of one job (same machine byte order). The
+// unpackers check sizes and throw Error(BadInput) on a damaged buffer.
+std::vector<uint8_t> packBoundary(const RangeBoundary& boundary, int rowWords);
+RangeBoundary unpackBoundary(const uint8_t* data, size_t size, int rowWords);
+
+// Levels and leaf words (no leaf coordinates: the join does not need them).
+std::vector<uint8_t> packRangeTree(const RangeTree& tree);
+RangeTree unpackRangeTree(const uint8_t* data, size_t size, const GridSpec& grid);
+
+// The piece of `cells` of a volume (or of a range's tree that holds
+// `cells`), with range-local payloads as a build of that range gives them.
+// Throws Error(InvalidArgument) when `cells` is not inside the source.
+RangeTree sliceVolume(const Volume& volume, RootRange cells);
+RangeTree sliceRangeTree(const GridSpec& grid, const RangeTree& tree, RootRange cells);
+
+// The volume of the whole root grid made of the given ranges (in root-cell
+// order, not overlapping); root cells no range covers are Empty. Flags and
+// statistics are left to the caller.
+Volume pieceVolume(const GridSpec& grid, std::vector<RangeTree>&& ranges);
+
+// The structural statistics of a range's piece (what computeStructureStatistics
+// gives, restricted to the range): they add up over ranges (addStructure)
+// to the whole volume's; finishStructure then derives the paper's bits.
+Statistics rangeStructure(const GridSpec& grid, const RangeTree& tree);
+void addStructure(Statistics& sum, const Statistics& part);
+void finishStructure(Statistics& s);
+
+// The structural statistics as numbers, for a sum over processes.
+constexpr int kStructureFields = 6;
+void structureToArray(const Statistics& s, uint64_t out[kStructureFields]);
+void structureFromArray(const uint64_t in[kStructureFields], Statistics& s);
+
+} // namespace hdt

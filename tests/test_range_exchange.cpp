@@ -1,0 +1,128 @@
+// What a build over processes exchanges (range_exchange.hpp), simulated in
+// one process: every range built on its own, boundaries and trees passed as
+// byte buffers, and the pieces each process keeps. The joined trees must be
+// the one-piece build's bytes; the piece volumes, their statistics and their
+// surfaces must add up to the whole volume's.
+#include "hdt/builder.hpp"
+#include "hdt/error.hpp"
+#include "hdt/range_exchange.hpp"
+#include "hdt/voxel_surface.hpp"
+#include "support/shapes.hpp"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <memory>
+#include <tuple>
+
+namespace hdt {
+namespace test {
+namespace {
+
+// The processes' side of a distributed build: each range built alone, only
+// buffers crossing between them. Returns every range's tree.
+std::vector<RangeTree> buildAsProcesses(const PreparedMesh& mesh, const std::vector<RootRange>& ranges) {
+  BuildOptions options;
+  options.backend = Backend::Cpu;
+  const int rw = rowWordsFor(mesh.grid.leafSize);
+  std::vector<std::unique_ptr<CpuRangeBuild>> builds;
+  std::vector<std::vector<uint8_t>> sent;
+  for (const RootRange& r : ranges) {
+    builds.emplace_back(new CpuRangeBuild(mesh, options, r));
+    sent.push_back(packBoundary(builds.back()->buildTree(), rw));
+  }
+  std::vector<RangeBoundary> received;
+  for (const std::vector<uint8_t>& b : sent) received.push_back(unpackBoundary(b.data(), b.size(), rw));
+  const std::vector<RangeBoundary> beyond = parityBeyondRanges(received, classifiedAxes(mesh.closed), rw);
+  std::vector<RangeTree> trees;
+  for (size_t i = 0; i < builds.size(); ++i) {
+    const std::vector<uint8_t> bytes = packRangeTree(builds[i]->finish(&beyond[i]));
+    trees.push_back(unpackRangeTree(bytes.data(), bytes.size(), mesh.grid));
+  }
+  return trees;
+}
+
+bool sameTree(const RangeTree& a, const RangeTree& b) {
+  return a.cells == b.cells && a.levels == b.levels &&
+         std::equal(a.leafWords.begin(), a.leafWords.end(), b.leafWords.begin(), b.leafWords.end());
+}
+
+std::vector<std::tuple<int, int, int, int, int, int>> quadKeys(const std::vector<SurfaceQuad>& quads) {
+  std::vector<std::tuple<int, int, int, int, int, int>> k;
+  for (const SurfaceQuad& q : quads) k.emplace_back(q.axis * 4 + q.outward + 1, q.state, q.plane, q.u, q.v, q.du * 65536 + q.dv);
+  std::sort(k.begin(), k.end());
+  return k;
+}
+
+class RangeExchange : public ::testing::TestWithParam<ShapeCase> {};
+
+TEST_P(RangeExchange, ProcessesGiveTheSerialVolume) {
+  const ShapeCase& c = GetParam();
+  const PreparedMesh mesh = prepareShapeCase(c);
+  BuildOptions options;
+  options.backend = Backend::Cpu;
+  Volume whole = buildCpu(mesh, options);
+  const uint64_t R = uint64_t(c.r), cells = R * R * R;
+  const std::vector<CellLoad> loads = cellLoads(mesh);
+  for (int k : {1, 2, 3, 4, int(R * R) + 2}) {
+    SCOPED_TRACE("ranks " + std::to_string(k));
+    const std::vector<RootRange> ranges = planRootRanges(loads, cells, k, R);
+    std::vector<RangeTree> trees = buildAsProcesses(mesh, ranges);
+
+    Statistics sum;
+    std::vector<SurfaceQuad> pieceQuads;
+    for (const RangeTree& t : trees) {
+      // A slice of the serial volume is what the range's process built.
+      EXPECT_TRUE(sameTree(sliceVolume(whole, t.cells), t));
+      addStructure(sum, rangeStructure(mesh.grid, t));
+      // The piece volume holds the range's trees as they are.
+      std::vector<RangeTree> own;
+      own.push_back(t);
+      const Volume piece = pieceVolume(mesh.grid, std::move(own));
+      EXPECT_TRUE(sameTree(sliceVolume(piece, t.cells), t));
+      // The faces of the range's cells, read from the whole volume.
+      SurfaceOptions so;
+      so.cellsFirst = t.cells.first;
+      so.cellsEnd = t.cells.end;
+      const std::vector<SurfaceQuad> q = extractSurfaceQuads(whole, so);
+      pieceQuads.insert(pieceQuads.end(), q.begin(), q.end());
+    }
+    finishStructure(sum);
+    EXPECT_EQ(sum.treeElements, whole.stats.treeElements);
+    EXPECT_EQ(sum.leafGrids, whole.stats.leafGrids);
+    EXPECT_EQ(sum.activeVoxels, whole.stats.activeVoxels);
+    EXPECT_EQ(sum.insideVoxels, whole.stats.insideVoxels);
+    EXPECT_EQ(sum.leafBytes, whole.stats.leafBytes);
+    EXPECT_EQ(sum.topologyBytes, whole.stats.topologyBytes);
+    EXPECT_DOUBLE_EQ(sum.paperBitsPerActiveVoxel, whole.stats.paperBitsPerActiveVoxel);
+    EXPECT_EQ(quadKeys(pieceQuads), quadKeys(extractSurfaceQuads(whole)));
+
+    Volume joined = joinRanges(mesh.grid, std::move(trees));
+    joined.surfaceOnly = whole.surfaceOnly;
+    joined.closedMesh = whole.closedMesh;
+    computeStructureStatistics(joined);
+    EXPECT_EQ(firstDifference(whole, joined), "");
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Cpu, RangeExchange,
+                         ::testing::Values(ShapeCase{"sphere", 128, 4, 8, false},
+                                           ShapeCase{"open_hemisphere", 128, 4, 8, false},
+                                           ShapeCase{"torus", 128, 4, 8, true}),
+                         [](const ::testing::TestParamInfo<ShapeCase>& info) { return shapeCaseName(info.param); });
+
+TEST(RangeExchange, DamagedBuffersAreRefused) {
+  const PreparedMesh mesh = prepareShapeCase(ShapeCase{"sphere", 64, 4, 8, false});
+  BuildOptions options;
+  options.backend = Backend::Cpu;
+  const Volume whole = buildCpu(mesh, options);
+  std::vector<uint8_t> bytes = packRangeTree(sliceVolume(whole, RootRange{0, 64}));
+  EXPECT_THROW(unpackRangeTree(bytes.data(), bytes.size() - 1, mesh.grid), Error);
+  bytes[0] ^= 1;
+  EXPECT_THROW(unpackRangeTree(bytes.data(), bytes.size(), mesh.grid), Error);
+  EXPECT_THROW(sliceVolume(whole, RootRange{0, 65}), Error);
+}
+
+} // namespace
+} // namespace test
+} // namespace hdt
