@@ -101,7 +101,7 @@ struct PackedArrays
 // Stage 1 of Convert: every tree walked (trees in parallel) into its own code
 // vector, one byte per vertex in breadth-first order (state, refined, masked),
 // then where each tree's vertices and descriptor bytes start.
-WalkedTrees walkTrees(const Context& ctx, uint64_t trees, tbb::task_arena& arena,
+WalkedTrees walkTrees(const Context& ctx, uint64_t first, uint64_t trees, tbb::task_arena& arena,
   vtkHDTConversionInfo& info)
 {
   const auto tWalk = Clock::now();
@@ -115,7 +115,7 @@ WalkedTrees walkTrees(const Context& ctx, uint64_t trees, tbb::task_arena& arena
         TreeWalker& walker = walkers.local();
         for (uint64_t t = r.begin(); t != r.end(); ++t)
         {
-          w.Shapes[t] = walker.Walk(uint32_t(t), w.Codes[t]);
+          w.Shapes[t] = walker.Walk(uint32_t(first + t), w.Codes[t]);
         }
       });
   });
@@ -149,7 +149,7 @@ WalkedTrees walkTrees(const Context& ctx, uint64_t trees, tbb::task_arena& arena
     if (w.Shapes[t].Vertices >= uint64_t(std::numeric_limits<unsigned int>::max()))
     {
       throw hdt::Error(hdt::ErrorKind::OutOfResources,
-        "root cell " + std::to_string(t) + " would become a hyper tree of " +
+        "root cell " + std::to_string(first + t) + " would become a hyper tree of " +
           std::to_string(w.Shapes[t].Vertices) +
           " cells, more than VTK's limit of 2^32 - 1 per tree; use a larger RootGridSize or a "
           "MaxDepth");
@@ -256,7 +256,7 @@ PackedArrays packArrays(WalkedTrees& w, bool maskOutside, tbb::task_arena& arena
 
 //------------------------------------------------------------------------------
 // Stage 3: the grid and its trees, VTK building each tree from its bits.
-void buildGrid(const hdt::Volume& volume, const WalkedTrees& w, const PackedArrays& packed,
+void buildGrid(const hdt::Volume& volume, uint64_t first, const WalkedTrees& w, const PackedArrays& packed,
   vtkHDTConversionOptions::TreeBuildMethod method, tbb::task_arena& arena, vtkHyperTreeGrid* output)
 {
   // Trees are created one by one (the grid keeps
@@ -264,7 +264,7 @@ void buildGrid(const hdt::Volume& volume, const WalkedTrees& w, const PackedArra
   // build touches only its own tree.
   const hdt::GridSpec& g = volume.grid;
   const uint64_t R = uint64_t(g.rootGrid);
-  const uint64_t trees = R * R * R;
+  const uint64_t trees = w.Shapes.size();
   unsigned char* descOut = packed.Descriptor->GetPointer(0);
   vtkBitArray* descriptor = packed.Descriptor;
   output->Initialize();
@@ -289,7 +289,7 @@ void buildGrid(const hdt::Volume& volume, const WalkedTrees& w, const PackedArra
   vtkNew<vtkHyperTreeGridNonOrientedCursor> cursor;
   for (uint64_t t = 0; t < trees; ++t)
   {
-    output->InitializeNonOrientedCursor(cursor, vtkIdType(t), true);
+    output->InitializeNonOrientedCursor(cursor, vtkIdType(first + t), true);
     cursor->SetGlobalIndexStart(w.Offsets[t]);
     built[t] = cursor->GetTree();
   }
@@ -423,11 +423,12 @@ vtkHDTConversionInfo vtkHDTToHyperTreeGrid::Convert(
   arena.execute([&] { prepareContext(volume, depthCut, options.MaskOutside, ctx); });
 
   const uint64_t R = uint64_t(volume.grid.rootGrid);
-  const uint64_t trees = R * R * R;
+  const uint64_t first = std::min(options.FirstTree, R * R * R);
+  const uint64_t trees = std::max(first, std::min(options.EndTree, R * R * R)) - first;
   info.ContextMilliseconds = msSince(t0);
 
   // 1. Walk the trees; refuse a grid too large to show before allocating it.
-  WalkedTrees walked = walkTrees(ctx, trees, arena, info);
+  WalkedTrees walked = walkTrees(ctx, first, trees, arena, info);
   const vtkIdType total = walked.Total();
   const uint64_t limit = options.MemoryLimitBytes ? options.MemoryLimitBytes : hdt::availableHostBytes();
   if (limit && EstimatedDisplayBytes(uint64_t(total)) > limit)
@@ -447,7 +448,7 @@ vtkHDTConversionInfo vtkHDTToHyperTreeGrid::Convert(
   info.PackMilliseconds = msSince(tPack);
 
   const auto tBuild = Clock::now();
-  buildGrid(volume, walked, packed, options.TreeBuild, arena, output);
+  buildGrid(volume, first, walked, packed, options.TreeBuild, arena, output);
   info.TreeBuildMilliseconds = msSince(tBuild);
 
   output->GetCellData()->SetScalars(packed.States);

@@ -62,6 +62,11 @@ struct vtkHDTConversionOptions
     BREADTH_FIRST_DESCRIPTOR
   };
   TreeBuildMethod TreeBuild = INITIALIZE_FOR_READER;
+  // Only the trees of root cells [FirstTree, EndTree) (x fastest): a process's
+  // share of a distributed grid, which keeps the whole root grid and holds
+  // only its own trees (vtkHDTDistributedBuild.h). Default: every tree.
+  uint64_t FirstTree = 0;
+  uint64_t EndTree = UINT64_MAX;
 };
 
 struct vtkHDTConversionInfo
@@ -69,7 +74,7 @@ struct vtkHDTConversionInfo
   vtkIdType Cells = 0;       // all HTG vertices (coarse and leaf cells)
   vtkIdType LeafCells = 0;   // unrefined cells
   vtkIdType MaskedCells = 0; // leaves hidden by MaskOutside
-  vtkIdType Trees = 0;       // = R^3
+  vtkIdType Trees = 0;       // = R^3, or EndTree - FirstTree
   int Depth = 0;             // deepest depth present
   std::vector<vtkIdType> CellsPerDepth;
   // Wall-clock milliseconds: the whole conversion and its parts.

@@ -51,12 +51,14 @@ void setQuadCells(vtkCellArray* cells, vtkIdType quads)
 }
 } // namespace
 
-vtkHDTVoxelSurfaceInfo vtkHDTFillVoxelSurface(
-  const hdt::Volume& volume, int maxDepth, vtkPolyData* output)
+vtkHDTVoxelSurfaceInfo vtkHDTFillVoxelSurface(const hdt::Volume& volume, int maxDepth,
+  vtkPolyData* output, unsigned long long firstCell, unsigned long long endCell)
 {
   const auto t0 = std::chrono::steady_clock::now();
   hdt::SurfaceOptions options;
   options.maxDepth = maxDepth;
+  options.cellsFirst = firstCell;
+  options.cellsEnd = endCell;
   // The core writes the points and states straight into the VTK arrays.
   vtkNew<vtkFloatArray> coordinates;
   coordinates->SetNumberOfComponents(3);

@@ -21,10 +21,11 @@ struct vtkHDTVoxelSurfaceInfo
  * Replaces the contents of `output` with the surface of `volume` at level of
  * detail `maxDepth` (the hyper tree grid's depth; -1 = full). The core's
  * arrays are copied as they are: 4 points a quad, 32-bit cell storage when it
- * fits. Throws what the core throws (hdt::Error, std::bad_alloc).
+ * fits. Only the faces of root cells [firstCell, endCell): a rank's piece
+ * (vtkHDTDistributedBuild.h). Throws what the core throws (hdt::Error, std::bad_alloc).
  */
-vtkHDTVoxelSurfaceInfo vtkHDTFillVoxelSurface(
-  const hdt::Volume& volume, int maxDepth, vtkPolyData* output);
+vtkHDTVoxelSurfaceInfo vtkHDTFillVoxelSurface(const hdt::Volume& volume, int maxDepth,
+  vtkPolyData* output, unsigned long long firstCell = 0, unsigned long long endCell = ~0ull);
 
 /**
  * Gives `surface` the field data of `htg` (the build statistics; arrays are

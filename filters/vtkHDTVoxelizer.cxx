@@ -1,5 +1,6 @@
 #include "vtkHDTVoxelizer.h"
 
+#include "vtkHDTDistributedBuild.h"
 #include "vtkHDTHyperTreeGridConversion.h"
 #include "vtkHDTMeshConversion.h"
 #include "vtkHDTVolumeHandle.h"
@@ -20,6 +21,7 @@
 #include "vtkHyperTreeGrid.h"
 #include "vtkInformation.h"
 #include "vtkInformationVector.h"
+#include "vtkMultiProcessController.h"
 #include "vtkNew.h"
 #include "vtkObjectFactory.h"
 #include "vtkPolyData.h"
@@ -52,6 +54,22 @@ uint64_t EstimateHyperTreeGridBytes(const hdt::PreparedMesh& mesh, int maxDepth)
   const double vertices = std::pow(double(mesh.grid.rootGrid), 3) + 2.7 * e.leafGrids + e.leafGrids * perLeaf;
   return uint64_t(8 * vertices);
 }
+// FNV-1a over the mesh's bytes: equal on every rank for the gathered mesh.
+uint64_t MeshHash(const hdt::TriangleMesh& mesh)
+{
+  uint64_t h = 1469598103934665603ull;
+  auto add = [&h](const void* data, size_t bytes) {
+    const unsigned char* p = static_cast<const unsigned char*>(data);
+    for (size_t i = 0; i < bytes; ++i)
+    {
+      h = (h ^ p[i]) * 1099511628211ull;
+    }
+  };
+  add(mesh.points.data(), mesh.points.size() * sizeof(double));
+  add(mesh.triangles.data(), mesh.triangles.size() * sizeof(uint32_t));
+  return h ^ mesh.triangles.size();
+}
+
 using Clock = std::chrono::steady_clock;
 double msSince(Clock::time_point t0)
 {
@@ -84,6 +102,15 @@ struct BuildKey
   vtkMTimeType InputMTime = 0;
   int Resolution = 0, RootGridSize = 0, LeafGridSize = 0, Backend = 0, Threads = 0;
   bool SurfaceOnly = false;
+  // Across MPI ranks: the gathered mesh's contents instead of the input's
+  // identity (ParaView re-executes pieces upstream between output ports).
+  uint64_t MeshHash = 0;
+  bool SameBuild(const BuildKey& o) const
+  {
+    return Resolution == o.Resolution && RootGridSize == o.RootGridSize &&
+      LeafGridSize == o.LeafGridSize && Backend == o.Backend && Threads == o.Threads &&
+      SurfaceOnly == o.SurfaceOnly;
+  }
   bool operator==(const BuildKey& o) const
   {
     return Input == o.Input && InputMTime == o.InputMTime && Resolution == o.Resolution &&
@@ -96,11 +123,14 @@ struct vtkHDTVoxelizer::Internals
 {
   std::shared_ptr<const hdt::Volume> Volume;
   BuildKey Key;
+  // Across MPI ranks: the split and this rank's share (Volume is its piece).
+  vtkHDTDistributedPiece Piece;
+  bool Distributed = false;
 
   static BuildKey MakeKey(vtkHDTVoxelizer* self, vtkDataObject* input);
   static hdt::BuildOptions MakeBuildOptions(vtkHDTVoxelizer* self);
   static bool ToMesh(vtkHDTVoxelizer* self, vtkDataObject* input, hdt::TriangleMesh& mesh,
-    vtkHyperTreeGrid* output);
+    vtkHyperTreeGrid* output, vtkMultiProcessController* ranks);
   static void Convert(vtkHDTVoxelizer* self, const std::shared_ptr<const hdt::Volume>& volume,
     vtkHyperTreeGrid* output);
 };
@@ -165,11 +195,25 @@ hdt::BuildOptions vtkHDTVoxelizer::Internals::MakeBuildOptions(vtkHDTVoxelizer* 
 //------------------------------------------------------------------------------
 // The input as one triangle mesh; warns about what it ignores. False when
 // there is nothing to voxelize (the output is then set: empty, or an error).
-bool vtkHDTVoxelizer::Internals::ToMesh(
-  vtkHDTVoxelizer* self, vtkDataObject* input, hdt::TriangleMesh& mesh, vtkHyperTreeGrid* output)
+// Across ranks (`ranks` not null) the mesh is every rank's triangles, and an
+// empty mesh is said once, by rank 0.
+bool vtkHDTVoxelizer::Internals::ToMesh(vtkHDTVoxelizer* self, vtkDataObject* input,
+  hdt::TriangleMesh& mesh, vtkHyperTreeGrid* output, vtkMultiProcessController* ranks)
 {
   vtkHDTMeshConversionInfo meshInfo;
   vtkHDTMeshConversion::AppendDataObject(input, mesh, meshInfo);
+  if (ranks)
+  {
+    vtkHDTDistributed::GatherMesh(ranks, mesh);
+    meshInfo.Triangles = vtkIdType(mesh.triangleCount());
+    if (meshInfo.Triangles == 0 && ranks->GetLocalProcessId() != 0)
+    {
+      output->Initialize(); // rank 0 says why
+      self->Internal->Volume.reset();
+      self->Internal->Key = BuildKey();
+      return false;
+    }
+  }
   if (meshInfo.VertexCells || meshInfo.LineCells)
   {
     vtkWarningWithObjectMacro(self, << "ignored " << meshInfo.VertexCells << " vertex and "
@@ -216,12 +260,21 @@ void vtkHDTVoxelizer::Internals::Convert(
   conversion.MaxDepth = self->MaxDepth;
   conversion.MaskOutside = self->MaskOutside != 0;
   conversion.Threads = self->Threads;
+  if (self->Internal->Distributed)
+  {
+    conversion.FirstTree = self->Internal->Piece.Cells.first;
+    conversion.EndTree = self->Internal->Piece.Cells.end;
+  }
   const vtkHDTConversionInfo info = vtkHDTToHyperTreeGrid::Convert(*volume, conversion, output);
   self->LastConversionTime = info.Milliseconds;
   vtkNew<vtkDoubleArray> conversionTime;
   conversionTime->SetName("TimeConversion");
   conversionTime->InsertNextValue(info.Milliseconds);
   output->GetFieldData()->AddArray(conversionTime);
+  if (self->Internal->Distributed)
+  {
+    vtkHDTDistributed::AddFieldData(self->Internal->Piece, output->GetFieldData());
+  }
   vtkHDTVolumeHandle::Attach(volume, output);
   const std::string warning = vtkHDTToHyperTreeGrid::DrawingWarning(info);
   if (!warning.empty())
@@ -319,7 +372,10 @@ void vtkHDTVoxelizer::FillSurface(const hdt::Volume& volume, vtkInformationVecto
     this->SetProgressText("extracting voxel surface");
     // The same level of detail as the hyper tree grid (Max Depth, Auto included).
     const int depth = vtkHDTToHyperTreeGrid::DepthCut(volume, this->MaxDepth);
-    this->LastSurfaceTime = vtkHDTFillVoxelSurface(volume, depth, surface).Milliseconds;
+    const bool piece = this->Internal->Distributed;
+    this->LastSurfaceTime = vtkHDTFillVoxelSurface(volume, depth, surface,
+      piece ? this->Internal->Piece.Cells.first : 0, piece ? this->Internal->Piece.Cells.end : ~0ull)
+                              .Milliseconds;
     // The build statistics travel with the surface too (Information panel).
     vtkHDTCopyFieldData(vtkHyperTreeGrid::GetData(outputVector, 0), surface, this->LastSurfaceTime);
   }
@@ -350,12 +406,30 @@ int vtkHDTVoxelizer::RequestData(
   config.rootGrid = this->RootGridSize;
   config.leafSize = this->LeafGridSize;
   config.surfaceOnly = this->SurfaceOnly != 0;
-  const BuildKey key = Internals::MakeKey(this, input);
+  BuildKey key = Internals::MakeKey(this, input);
 
   try
   {
     std::shared_ptr<const hdt::Volume> volume;
-    if (this->Internal->Volume && this->Internal->Key == key)
+    // Across MPI ranks every rank takes the same path (the build is
+    // collective): the mesh is gathered first, and the kept volume is reused
+    // when the gathered mesh and the build options are the same everywhere.
+    vtkMultiProcessController* ranks = vtkHDTDistributed::Controller();
+    hdt::TriangleMesh mesh;
+    bool reuse = this->Internal->Volume && this->Internal->Key == key;
+    if (ranks)
+    {
+      hdt::validateConfig(config);
+      if (!Internals::ToMesh(this, input, mesh, output, ranks))
+      {
+        return 1;
+      }
+      key.MeshHash = MeshHash(mesh);
+      reuse = this->Internal->Volume && this->Internal->Key.SameBuild(key) &&
+        this->Internal->Key.MeshHash == key.MeshHash;
+      reuse = !vtkHDTDistributed::Any(ranks, !reuse);
+    }
+    if (reuse)
     {
       volume = this->Internal->Volume;
       this->LastRunReusedVolume = true;
@@ -365,8 +439,7 @@ int vtkHDTVoxelizer::RequestData(
       this->Internal->Volume.reset();
       // Configuration first: it is the user's and cheap to check.
       hdt::validateConfig(config);
-      hdt::TriangleMesh mesh;
-      if (!Internals::ToMesh(this, input, mesh, output))
+      if (!ranks && !Internals::ToMesh(this, input, mesh, output, nullptr))
       {
         return 1;
       }
@@ -377,7 +450,17 @@ int vtkHDTVoxelizer::RequestData(
       mesh = hdt::TriangleMesh(); // free the copy before the build
       hdt::BuildOptions options = Internals::MakeBuildOptions(this);
       options.extraHostBytes = EstimateHyperTreeGridBytes(prepared, this->MaxDepth);
-      volume = std::make_shared<hdt::Volume>(hdt::build(prepared, options));
+      this->Internal->Distributed = ranks != nullptr;
+      if (ranks)
+      {
+        this->Internal->Piece = vtkHDTDistributed::Build(ranks, prepared, options);
+        volume = this->Internal->Piece.Volume;
+        this->Internal->Piece.Volume.reset(); // kept in Internal->Volume only
+      }
+      else
+      {
+        volume = std::make_shared<hdt::Volume>(hdt::build(prepared, options));
+      }
       for (const std::string& warning : hdt::buildWarnings(prepared, *volume))
       {
         vtkWarningMacro(<< warning);

@@ -1,5 +1,8 @@
 #include "vtkHDTReader.h"
 
+#include "vtkHDTDistributedBuild.h"
+#include "vtkMultiProcessController.h"
+
 #include "vtkHDTHyperTreeGridConversion.h" // HDT::Filters
 #include "vtkHDTVolumeHandle.h"            // HDT::Filters
 #include "vtkHDTVoxelSurface.h"            // HDT::Filters
@@ -76,6 +79,7 @@ bool stampOf(const std::string& name, FileStamp& stamp, std::string& why)
 struct vtkHDTReader::Internals
 {
   std::shared_ptr<const hdt::Volume> Volume;
+  std::shared_ptr<const hdt::Volume> Piece; // this rank's share, across MPI ranks (kept for the writer)
   FileStamp Stamp;
 };
 
@@ -142,6 +146,15 @@ vtkTypeBool vtkHDTReader::ProcessRequest(
   if (request->Has(vtkDemandDrivenPipeline::REQUEST_DATA()))
   {
     return this->RequestData(request, inInfo, outInfo);
+  }
+  if (request->Has(vtkDemandDrivenPipeline::REQUEST_INFORMATION()))
+  {
+    // Every rank runs (and shows its share of the trees): without this the
+    // executive runs a reader for piece 0 only.
+    for (int port = 0; port < outInfo->GetNumberOfInformationObjects(); ++port)
+    {
+      outInfo->GetInformationObject(port)->Set(CAN_HANDLE_PIECE_REQUEST(), 1);
+    }
   }
   return this->Superclass::ProcessRequest(request, inInfo, outInfo);
 }
@@ -228,14 +241,30 @@ int vtkHDTReader::RequestData(
     vtkHDTConversionOptions options;
     options.MaxDepth = this->MaxDepth;
     options.MaskOutside = this->MaskOutside != 0;
-    const vtkHDTConversionInfo info =
-      vtkHDTToHyperTreeGrid::Convert(*this->Internal->Volume, options, output);
+    // Across MPI ranks every rank read the file and shows a share of its
+    // trees: the whole root grid, its own trees (vtkHDTDistributedBuild.h).
+    std::shared_ptr<const hdt::Volume> shown = this->Internal->Volume;
+    vtkHDTDistributedPiece piece;
+    vtkMultiProcessController* ranks = vtkHDTDistributed::Controller();
+    if (ranks)
+    {
+      piece = vtkHDTDistributed::Share(ranks, this->Internal->Volume);
+      shown = piece.Volume;
+      this->Internal->Piece = piece.Volume;
+      options.FirstTree = piece.Cells.first;
+      options.EndTree = piece.Cells.end;
+    }
+    const vtkHDTConversionInfo info = vtkHDTToHyperTreeGrid::Convert(*shown, options, output);
+    if (ranks)
+    {
+      vtkHDTDistributed::AddFieldData(piece, output->GetFieldData());
+    }
     // Same field arrays as the voxelizer's output (TimeConversion is this run's).
     vtkNew<vtkDoubleArray> conversionTime;
     conversionTime->SetName("TimeConversion");
     conversionTime->InsertNextValue(info.Milliseconds);
     output->GetFieldData()->AddArray(conversionTime);
-    vtkHDTVolumeHandle::Attach(this->Internal->Volume, output);
+    vtkHDTVolumeHandle::Attach(shown, output);
     const std::string warning = vtkHDTToHyperTreeGrid::DrawingWarning(info);
     if (!warning.empty())
     {
@@ -246,9 +275,10 @@ int vtkHDTReader::RequestData(
       // The same level of detail as the hyper tree grid (Max Depth, Auto included).
       this->SetProgressText("extracting voxel surface");
       this->UpdateProgress(0.95);
-      const hdt::Volume& volume = *this->Internal->Volume;
+      const hdt::Volume& volume = *shown;
       const int depth = vtkHDTToHyperTreeGrid::DepthCut(volume, this->MaxDepth);
-      const double ms = vtkHDTFillVoxelSurface(volume, depth, surface).Milliseconds;
+      const double ms =
+        vtkHDTFillVoxelSurface(volume, depth, surface, options.FirstTree, options.EndTree).Milliseconds;
       vtkHDTCopyFieldData(output, surface, ms);
     }
   }

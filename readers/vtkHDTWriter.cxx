@@ -1,5 +1,11 @@
 #include "vtkHDTWriter.h"
 
+#include "vtkHDTDistributedBuild.h"
+#include "vtkFieldData.h"
+#include "vtkInformationVector.h"
+#include "vtkMultiProcessController.h"
+#include "vtkStreamingDemandDrivenPipeline.h"
+
 #include "vtkHDTVolumeHandle.h" // HDT::Filters
 
 #include "hdt/error.hpp"
@@ -42,6 +48,21 @@ int vtkHDTWriter::FillInputPortInformation(int, vtkInformation* info)
 }
 
 //------------------------------------------------------------------------------
+vtkTypeBool vtkHDTWriter::ProcessRequest(
+  vtkInformation* request, vtkInformationVector** inInfo, vtkInformationVector* outInfo)
+{
+  vtkMultiProcessController* ranks = vtkHDTDistributed::Controller();
+  if (ranks && request->Has(vtkStreamingDemandDrivenPipeline::REQUEST_UPDATE_EXTENT()))
+  {
+    vtkInformation* in = inInfo[0]->GetInformationObject(0);
+    in->Set(vtkStreamingDemandDrivenPipeline::UPDATE_PIECE_NUMBER(), ranks->GetLocalProcessId());
+    in->Set(vtkStreamingDemandDrivenPipeline::UPDATE_NUMBER_OF_PIECES(), ranks->GetNumberOfProcesses());
+    return 1;
+  }
+  return this->Superclass::ProcessRequest(request, inInfo, outInfo);
+}
+
+//------------------------------------------------------------------------------
 void vtkHDTWriter::WriteData()
 {
   if (!this->FileName || !*this->FileName)
@@ -57,8 +78,44 @@ void vtkHDTWriter::WriteData()
   };
 
   std::string why;
-  const std::shared_ptr<const hdt::Volume> volume = vtkHDTVolumeHandle::Find(this->GetInput(), why);
-  if (!volume)
+  std::shared_ptr<const hdt::Volume> volume = vtkHDTVolumeHandle::Find(this->GetInput(), why);
+  // Across MPI ranks (a grid split by the voxelizer or the reader): the
+  // ranks' trees are gathered on rank 0, which writes the one file.
+  if (vtkMultiProcessController* ranks = vtkHDTDistributed::Controller())
+  {
+    if (vtkHDTDistributed::Any(ranks, !volume))
+    {
+      fail(vtkErrorCode::UserError, volume ? "no HDT volume on another rank" : why);
+      return;
+    }
+    const std::vector<hdt::RootRange> split =
+      vtkHDTDistributed::RangesOf(this->GetInput()->GetFieldData(), ranks->GetNumberOfProcesses());
+    if (vtkHDTDistributed::Any(ranks, split.empty()))
+    {
+      // Not a split grid (every rank holds the whole volume): rank 0 writes it.
+      if (ranks->GetLocalProcessId() != 0)
+      {
+        return;
+      }
+    }
+    else
+    {
+      try
+      {
+        volume = vtkHDTDistributed::Gather(ranks, *volume, split, 0);
+      }
+      catch (const std::exception& e)
+      {
+        fail(vtkErrorCode::UserError, e.what());
+        return;
+      }
+      if (!volume)
+      {
+        return; // not rank 0
+      }
+    }
+  }
+  else if (!volume)
   {
     fail(vtkErrorCode::UserError, why);
     return;

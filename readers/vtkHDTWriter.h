@@ -66,6 +66,10 @@ protected:
 
   void WriteData() override;
   int FillInputPortInformation(int port, vtkInformation* info) override;
+  // Across MPI ranks: asks the input for this rank's piece (vtkWriter::Write
+  // would ask every rank for the whole data, piece 0 of 1).
+  vtkTypeBool ProcessRequest(vtkInformation* request, vtkInformationVector** inInfo,
+    vtkInformationVector* outInfo) override;
 
   char* FileName = nullptr;
   vtkTypeBool CompressLeaves = true;

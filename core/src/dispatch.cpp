@@ -10,6 +10,7 @@ bool cudaAvailable(std::string* why) {
   if (why) *why = "this build has no CUDA driver (configured with HDT_ENABLE_CUDA=OFF)";
   return false;
 }
+int cudaDeviceCount() { return 0; }
 Volume buildCuda(const PreparedMesh&, const BuildOptions&) {
   throw Error(ErrorKind::InvalidArgument,
               "backend cuda requested but this build has no CUDA driver (HDT_ENABLE_CUDA=OFF)");

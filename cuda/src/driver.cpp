@@ -124,6 +124,15 @@ bool cudaAvailable(std::string* why) {
   return true;
 }
 
+int cudaDeviceCount() {
+  int count = 0;
+  if (cudaGetDeviceCount(&count) != cudaSuccess) {
+    cudaGetLastError();
+    return 0;
+  }
+  return count;
+}
+
 Volume buildCudaWithReport(const PreparedMesh& mesh, const BuildOptions& options, CudaBuildReport* report,
                            bool keepResult) {
   CudaBuildReport local;

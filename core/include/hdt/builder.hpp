@@ -49,6 +49,10 @@ Volume buildCpu(const PreparedMesh& mesh, const BuildOptions& options);
 // `why` receives the reason when not.
 bool cudaAvailable(std::string* why = nullptr);
 
+// CUDA devices this process sees (0 without the CUDA driver or a device):
+// ranks of a distributed build pick device (local rank mod count).
+int cudaDeviceCount();
+
 // CUDA driver; throws Error(OutOfResources) on device failures.
 Volume buildCuda(const PreparedMesh& mesh, const BuildOptions& options);
 
