@@ -7,6 +7,7 @@
 // 2 for a bad command line or option, 3 for a bad mesh file, 4 when memory or
 // the device runs out, 5 when an output file cannot be written, 1 for anything
 // unexpected. Outputs are checked before the build and written atomically.
+#include "cli_mpi.hpp"
 #include "cli_options.hpp"
 #include "cli_report.hpp"
 
@@ -153,7 +154,7 @@ private:
   std::thread thread_;
 };
 
-int run(int argc, const char* const* argv) {
+int run(int argc, const char* const* argv, const MpiSession& session) {
   const Options options = parseOptions(argc, argv);
   if (options.help) {
     std::cout << usageText();
@@ -181,12 +182,15 @@ int run(int argc, const char* const* argv) {
   report.io.prepare = msSince(t);
   warmUp.join();
 
-  ProgressLine progress(!options.quiet);
+  ProgressLine progress(!options.quiet && session.rank() == 0);
   BuildOptions build = options.build;
   build.progress = [&](double fraction, const char* phase) { return progress.update(fraction, phase); };
   build.log = [&](const std::string& text) { progress.note(text); };
-  const Volume volume = about(options.mesh, [&] { return hdt::build(prepared, build); });
+  const Volume volume = about(options.mesh, [&] {
+    return session.size() > 1 ? buildAcrossRanks(session, prepared, build) : hdt::build(prepared, build);
+  });
   progress.clear();
+  if (session.rank() != 0) return 0; // rank 0 has the joined volume and writes
   report.warnings = buildWarnings(prepared, volume);
   if (!options.quiet) {
     for (const std::string& w : report.warnings)
@@ -227,19 +231,22 @@ int main(int argc, char** argv) {
   // Past a file-size limit (ulimit -f) a write fails with EFBIG instead of
   // killing the process, so the error is reported and the temporary removed.
   ::signal(SIGXFSZ, SIG_IGN);
+  MpiSession session(argc, argv); // one rank unless built with HDT_WITH_MPI and run by mpiexec
+  // Across ranks an error on one rank ends them all (the others would wait forever).
+  auto failed = [&](int code) { return session.size() > 1 ? (session.abort(code), code) : code; };
   try {
-    return run(argc, argv);
+    return run(argc, argv, session);
   } catch (const UsageError& e) {
     std::fprintf(stderr, "hdt-voxelize: %s\nTry 'hdt-voxelize --help'.\n", e.what());
-    return 2;
+    return failed(2);
   } catch (const hdt::Error& e) {
     std::fprintf(stderr, "hdt-voxelize: error: %s\n", e.what());
-    return exitCode(e.kind());
+    return failed(exitCode(e.kind()));
   } catch (const std::bad_alloc&) {
     std::fprintf(stderr, "hdt-voxelize: error: out of memory\n");
-    return 4;
+    return failed(4);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "hdt-voxelize: internal error: %s\n", e.what());
-    return 1;
+    return failed(1);
   }
 }
