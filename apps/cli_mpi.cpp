@@ -6,6 +6,7 @@
 #include <cstdlib>
 
 #if defined(HDT_WITH_MPI)
+#include "hdt/host_memory.hpp"
 #include "hdt/range_exchange.hpp"
 
 #include <mpi.h>
@@ -149,6 +150,9 @@ Volume buildAcrossRanks(const MpiSession& session, const PreparedMesh& mesh, con
   const double mine[4] = {times.mapping, times.branching, times.leaf, times.classify};
   double slowest[4] = {0, 0, 0, 0};
   MPI_Reduce(mine, slowest, 4, MPI_DOUBLE, MPI_MAX, 0, MPI_COMM_WORLD);
+  const unsigned long long peak = peakResidentBytes();
+  unsigned long long largestPeak = 0; // the largest rank's, before rank 0 joins
+  MPI_Reduce(&peak, &largestPeak, 1, MPI_UNSIGNED_LONG_LONG, MPI_MAX, 0, MPI_COMM_WORLD);
   if (me != 0) {
     sendBytes(packRangeTree(own), 0);
     Volume grid;
@@ -169,6 +173,7 @@ Volume buildAcrossRanks(const MpiSession& session, const PreparedMesh& mesh, con
   v.stats.degenerateTriangles = mesh.degenerateTriangles;
   v.stats.time = PhaseTimes{slowest[0], slowest[1], slowest[2], slowest[3], msSince(t0)};
   v.stats.backend = backend;
+  v.stats.peakHostBytes = std::max<uint64_t>(largestPeak, peakResidentBytes());
   v.stats.threads = options.threads > 0 ? options.threads : tbb::this_task_arena::max_concurrency();
   return v;
 }
