@@ -10,16 +10,17 @@
 #include "vtkCommunicator.h"
 #include "vtkDoubleArray.h"
 #include "vtkFieldData.h"
-#include "vtkMPI.h"
-#include "vtkMPICommunicator.h"
 #include "vtkMultiProcessController.h"
 #include "vtkNew.h"
 #include "vtkTypeUInt64Array.h"
 
 #include <tbb/task_arena.h>
 
+#include <unistd.h>
+
 #include <algorithm>
 #include <chrono>
+#include <cstring>
 #include <functional>
 
 namespace
@@ -266,17 +267,22 @@ bool vtkHDTDistributed::Any(vtkMultiProcessController* c, bool value)
 //------------------------------------------------------------------------------
 int vtkHDTDistributed::LocalRank(vtkMultiProcessController* c)
 {
-  auto* comm = vtkMPICommunicator::SafeDownCast(c->GetCommunicator());
-  if (!comm || !comm->GetMPIComm() || !comm->GetMPIComm()->GetHandle())
+  // The ranks on this node are those with this host's name: what
+  // MPI_Comm_split_type(MPI_COMM_TYPE_SHARED) gives, through the controller,
+  // so that the module needs no MPI library of its own (its VTK tests run on
+  // machines without MPI).
+  constexpr int kName = 256;
+  char name[kName] = {};
+  gethostname(name, kName - 1);
+  const int K = c->GetNumberOfProcesses(), me = c->GetLocalProcessId();
+  std::vector<char> all(static_cast<size_t>(K) * kName);
+  c->AllGather(name, all.data(), kName);
+  int local = 0;
+  for (int r = 0; r < me; ++r)
   {
-    return c->GetLocalProcessId();
+    local += std::strncmp(all.data() + size_t(r) * kName, name, kName) == 0 ? 1 : 0;
   }
-  MPI_Comm node;
-  MPI_Comm_split_type(*comm->GetMPIComm()->GetHandle(), MPI_COMM_TYPE_SHARED, 0, MPI_INFO_NULL, &node);
-  int rank = 0;
-  MPI_Comm_rank(node, &rank);
-  MPI_Comm_free(&node);
-  return rank;
+  return local;
 }
 
 //------------------------------------------------------------------------------

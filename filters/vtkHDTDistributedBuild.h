@@ -91,6 +91,7 @@ public:
   static std::shared_ptr<hdt::Volume> Gather(vtkMultiProcessController* c,
     const hdt::Volume& pieceVolume, const std::vector<hdt::RootRange>& ranges, int root);
 
-  // The rank's index among the ranks on its node (MPI_Comm_split_type shared).
+  // The rank's index among the ranks on its node (the ranks with its host
+  // name, as MPI_Comm_split_type shared would group them; collective).
   static int LocalRank(vtkMultiProcessController* c);
 };
