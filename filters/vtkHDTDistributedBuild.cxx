@@ -10,6 +10,7 @@
 #include "vtkCommunicator.h"
 #include "vtkDoubleArray.h"
 #include "vtkFieldData.h"
+#include "vtkIntArray.h"
 #include "vtkMultiProcessController.h"
 #include "vtkNew.h"
 #include "vtkTypeUInt64Array.h"
@@ -380,6 +381,8 @@ vtkHDTDistributedPiece vtkHDTDistributed::Build(
     piece.Backend = "cpu";
   }
   times.total = msSince(t0);
+  piece.RankDevices.assign(static_cast<size_t>(K), -1);
+  c->AllGather(&piece.Device, piece.RankDevices.data(), 1);
 
   hdt::Statistics stats;
   reduceStatistics(c, g, own, times, piece, stats);
@@ -417,6 +420,7 @@ vtkHDTDistributedPiece vtkHDTDistributed::Share(
   piece.Ranges = hdt::planRootRanges(loads, cells, K, R);
   piece.Cells = piece.Ranges[size_t(me)];
   piece.RankTimes.assign(size_t(K), whole->stats.time);
+  piece.RankDevices.assign(size_t(K), -1); // nothing was built here
   piece.Backend = whole->stats.backend;
   const auto halo = haloOf(piece.Cells, R);
   std::vector<hdt::RangeTree> parts;
@@ -465,6 +469,13 @@ void vtkHDTDistributed::AddFieldData(const vtkHDTDistributedPiece& piece, vtkFie
     times->SetTypedTuple(vtkIdType(r), v);
   }
   fd->AddArray(times);
+  vtkNew<vtkIntArray> devices;
+  devices->SetName("RankDevices");
+  for (int d : piece.RankDevices)
+  {
+    devices->InsertNextValue(d);
+  }
+  fd->AddArray(devices);
 }
 
 //------------------------------------------------------------------------------

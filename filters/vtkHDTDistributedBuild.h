@@ -17,9 +17,9 @@
 // the halo's, other cells Empty. Only its own trees go to the hyper tree grid
 // (vtkHDTConversionOptions::FirstTree/EndTree) and only its own cells' faces to
 // the voxel surface. The statistics are summed over ranks (equal on all of
-// them); field arrays RankRootRanges (K x 2: each rank's root cells) and
-// RankTimes (K x 5: mapping, branching, leaf, classify, total ms) describe the
-// split. The writer gathers the ranks' trees into one volume on rank 0.
+// them); field arrays RankRootRanges (K x 2: each rank's root cells),
+// RankTimes (K x 5: mapping, branching, leaf, classify, total ms) and
+// RankDevices (K: each rank's CUDA device, -1 for the CPU) describe the split. The writer gathers the ranks' trees into one volume on rank 0.
 //
 // With a GPU (Backend CUDA, or Auto with a usable device) a rank builds on
 // device (local rank mod device count); the CUDA driver has no range build
@@ -54,6 +54,7 @@ struct vtkHDTDistributedPiece
   std::vector<hdt::PhaseTimes> RankTimes;    // every rank's build times
   std::string Backend;                       // what ran on the ranks ("cpu", "cuda": all alike)
   int Device = -1;                           // this rank's CUDA device, -1 for the CPU
+  std::vector<int> RankDevices;              // every rank's
 };
 
 class HDTFILTERS_EXPORT vtkHDTDistributed

@@ -12,21 +12,22 @@ set -euo pipefail
 build=$1 mesh=$2
 shift 2
 resolutions=${*:-2048 4096}
+backend=${HDT_BENCH_BACKEND:-cuda} # cpu: a dry run of this script on a machine without a GPU
 root=$(cd "$(dirname "$0")/../.." && pwd)
 out="$root/bench/results/mpi-gpu-runs.jsonl"
 tmp=${TMPDIR:-/tmp}/hdt-mpi-gpu
 mkdir -p "$tmp"
 export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
-gpu=$(nvidia-smi --query-gpu=name --format=csv,noheader | head -1 || echo unknown)
+gpu=$(nvidia-smi --query-gpu=name --format=csv,noheader 2>/dev/null | head -1 || true)
 date=$(date -Iminutes)
 for n in $resolutions; do
-  "$build/apps/hdt-voxelize" "$mesh" --resolution "$n" --backend cuda --json --quiet -o "$tmp/serial.hdt" > "$tmp/serial.json"
+  "$build/apps/hdt-voxelize" "$mesh" --resolution "$n" --backend "$backend" --json --quiet -o "$tmp/serial.hdt" > "$tmp/serial.json"
   for k in 1 2 3 4; do
     for rep in 1 2 3; do
       t0=$(date +%s.%N)
       mpiexec --oversubscribe --bind-to none -n "$k" "$build/apps/hdt-voxelize-mpi" "$mesh" --resolution "$n" \
-        --backend cuda --json --quiet -o "$tmp/r$k.hdt" > "$tmp/r$k.json"
-      wall=$(echo "$(date +%s.%N) - $t0" | bc)
+        --backend "$backend" --json --quiet -o "$tmp/r$k.hdt" > "$tmp/r$k.json"
+      wall=$(python3 -c "print($(date +%s.%N) - $t0)")
       python3 "$root/tests/cli/compare_hdt.py" "$tmp/serial.hdt" "$tmp/r$k.hdt" > /dev/null
       python3 - "$tmp/r$k.json" "$k" "$rep" "$wall" "$gpu" "$date" "$out" <<'PY'
 import json, sys

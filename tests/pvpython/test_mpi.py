@@ -91,6 +91,8 @@ if data.IsA("vtkHyperTreeGrid"):
         trees[str(index)] = [int(n), hashlib.sha1(states[start:start + n].tobytes()).hexdigest()]
     out["trees"] = trees
     out["split"] = data.GetFieldData().GetArray("RankRootRanges") is not None
+    devices = data.GetFieldData().GetArray("RankDevices")
+    out["devices"] = [int(devices.GetTuple1(i)) for i in range(devices.GetNumberOfTuples())] if devices else None
 else:
     quads = []
     if data.GetNumberOfCells():
@@ -157,6 +159,8 @@ def merged(pieces, case, ranks):
             t.check(tid not in trees, "%s: tree %s is on one rank only" % (case, tid))
             trees[tid] = d
         t.check_equal(p["split"], ranks > 1, "%s: rank %d's grid says how it is split" % (case, r))
+        t.check_equal(p["devices"], [-1] * ranks if ranks > 1 else None,
+                      "%s: rank %d's grid says every rank ran on the CPU" % (case, r))
     for p in pieces["surface"]:
         quads += p["quads"]
     return {"trees": trees, "quads": sorted(quads), "stats": [p["stats"] for p in pieces["htg"]],
