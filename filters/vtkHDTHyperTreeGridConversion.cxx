@@ -115,7 +115,7 @@ WalkedTrees walkTrees(const Context& ctx, uint64_t trees, tbb::task_arena& arena
         TreeWalker& walker = walkers.local();
         for (uint64_t t = r.begin(); t != r.end(); ++t)
         {
-          w.Shapes[t] = walker.Walk(uint32_t(t), w.Codes[t]);
+          w.Shapes[t] = walker.Walk(t, w.Codes[t]);
         }
       });
   });
