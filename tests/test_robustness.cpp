@@ -354,35 +354,40 @@ TEST(Issue12MemoryEstimate, CoversTheRootGridPeaksTheIssueMeasured) {
 }
 
 TEST(Issue12MemoryEstimate, LeafGridCountIsBracketed) {
-  // The old model's 3A / L^2 + triangles was 4.4x too high on a CAD mesh of
-  // many small triangles: leaves now follow the projected area.
+  // Leaves come from a raster of the triangles at the leaf level that counts
+  // each leaf cube once: an upper bound, tight where the old area model was
+  // not (3A / L^2 + triangles was 4.4x too high on a CAD mesh of many small
+  // triangles; the projected area counted both sides of a thin wall, 2x).
+  const auto bracket = [](const Shape& shape, int n, int r, int l, const std::string& what) {
+    const PreparedMesh p = prepareMesh(shape.mesh, shape.config(n, r, l, false));
+    BuildOptions o;
+    o.backend = Backend::Cpu;
+    const double actual = double(buildCpu(p, o).stats.leafGrids);
+    const double estimated = estimateHostMemory(p).leafGrids;
+    EXPECT_GE(estimated, actual) << what << " N=" << n;
+    EXPECT_LE(estimated, 1.15 * actual) << what << " N=" << n;
+  };
   for (const char* name : {"sphere", "torus", "knot"}) {
-    for (int n : {256, 512}) {
-      BuildConfig c;
-      c.resolution = n;
-      c.rootGrid = 16;
-      c.leafSize = n == 256 ? 8 : 16;
-      const PreparedMesh p = prepareMesh(builtinMesh(name), c);
-      BuildOptions o;
-      o.backend = Backend::Cpu;
-      const double actual = double(buildCpu(p, o).stats.leafGrids);
-      const double estimated = estimateHostMemory(p).leafGrids;
-      EXPECT_GE(estimated, actual) << name << " N=" << n;
-      EXPECT_LE(estimated, 1.6 * actual) << name << " N=" << n;
-    }
+    Shape s;
+    s.mesh = builtinMesh(name);
+    bracket(s, 256, 16, 8, name);
+    bracket(s, 512, 16, 16, name);
   }
+  for (int n : {256, 512}) {
+    bracket(thinPlateShape(n), n, 8, 8, "thin plate");
+    bracket(tiltedThinPlateShape(n), n, 8, 8, "tilted thin plate");
+    bracket(gridAlignedBoxShape(n), n, 8, 8, "box with faces on leaf planes");
+  }
+  bracket(rotatedCubeShape(), 256, 8, 8, "rotated cube");
   // Many tiny triangles in few leaves: the estimate must not count one leaf a triangle.
-  TriangleMesh fine = icosphere(6, 1.0); // 81,920 triangles
+  Shape fine;
+  fine.mesh = icosphere(6, 1.0);
+  bracket(fine, 128, 4, 32, "icosphere of 81,920 triangles");
   BuildConfig c;
   c.resolution = 128;
   c.rootGrid = 4;
   c.leafSize = 32;
-  const PreparedMesh p = prepareMesh(fine, c);
-  BuildOptions o;
-  o.backend = Backend::Cpu;
-  const double actual = double(buildCpu(p, o).stats.leafGrids);
-  EXPECT_LE(estimateHostMemory(p).leafGrids, 2.0 * actual + 8);
-  EXPECT_LT(estimateHostBytes(p), uint64_t(256) << 20);
+  EXPECT_LT(estimateHostBytes(prepareMesh(icosphere(6, 1.0), c)), uint64_t(256) << 20);
 }
 
 } // namespace
