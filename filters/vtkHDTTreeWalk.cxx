@@ -43,7 +43,7 @@ inline Tally octantTally(const uint32_t* words, int L, int ox, int oy, int oz, i
     {
       const uint64_t r = leafRow(words, L, y, z) >> (2 * ox);
       surface |= (r >> 1) & lanes;
-      inside += uint64_t(__builtin_popcountll(r & lanes));
+      inside += uint64_t(hdt::popcount32(uint32_t(r & lanes)) + hdt::popcount32(uint32_t((r & lanes) >> 32)));
     }
   }
   Tally t;

@@ -134,8 +134,10 @@ LeafRaster touchedLeafCells(const PreparedMesh& mesh) {
   r.leaves = tbb::parallel_reduce(
       tbb::blocked_range<size_t>(0, words, 1 << 14), 0.0,
       [&](const tbb::blocked_range<size_t>& range, double n) {
-        for (size_t i = range.begin(); i != range.end(); ++i)
-          n += double(__builtin_popcountll(bits[i].load(std::memory_order_relaxed)));
+        for (size_t i = range.begin(); i != range.end(); ++i) {
+          const uint64_t word = bits[i].load(std::memory_order_relaxed);
+          n += double(popcount32(uint32_t(word)) + popcount32(uint32_t(word >> 32)));
+        }
         return n;
       },
       std::plus<double>());
