@@ -340,17 +340,23 @@ TEST(Issue12Warnings, DoubledClosedMeshIsReported) {
 // Estimates against measured peaks: bench/results/memory-estimate.md.
 
 TEST(Issue12MemoryEstimate, CoversTheRootGridPeaksTheIssueMeasured) {
-  // Root-grid dominated: R = 512, L = 8, N = 4096 peaked at 4.78 GB (estimated
-  // 3.53 GB then); R = 640, N = 5120 at 9.44 GB (estimated 6.5 GB).
+  // Root-grid dominated: R = 512, L = 8, N = 4096 and R = 640, N = 5120 (the
+  // issue's cases, estimated at 3.53 and 6.5 GB then). With the root-range CPU
+  // driver they peak at 1.86 and 3.56 GB (bench/results/memory-estimate.md):
+  // the estimate covers them, within 1.5x.
   const TriangleMesh sphere = builtinMesh("sphere");
   BuildConfig c;
   c.leafSize = 8;
   c.rootGrid = 512;
   c.resolution = 4096;
-  EXPECT_GT(estimateHostBytes(prepareMesh(sphere, c)), uint64_t(4.78e9));
+  const uint64_t e4096 = estimateHostBytes(prepareMesh(sphere, c));
+  EXPECT_GT(e4096, uint64_t(1.86e9));
+  EXPECT_LT(e4096, uint64_t(1.5 * 1.86e9));
   c.rootGrid = 640;
   c.resolution = 5120;
-  EXPECT_GT(estimateHostBytes(prepareMesh(sphere, c)), uint64_t(9.44e9));
+  const uint64_t e5120 = estimateHostBytes(prepareMesh(sphere, c));
+  EXPECT_GT(e5120, uint64_t(3.56e9));
+  EXPECT_LT(e5120, uint64_t(1.5 * 3.56e9));
 }
 
 TEST(Issue12MemoryEstimate, LeafGridCountIsBracketed) {

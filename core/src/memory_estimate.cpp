@@ -1,9 +1,9 @@
 // The host memory model behind the CPU driver's refusal of oversized builds.
 //
 // Each part follows the data structures of cpu_builder.cpp and hdt_file.cpp:
-//   root grid   per cell: the element word (4 B), its packed coordinates (8 B)
-//               and, for untouched cells, a UniformElement (24 B) in a vector
-//               that grows by doubling (x 1.5 on average, x 2 at worst)
+//   root grid   per cell: the element word (4 B), its packed coordinates (8 B,
+//               while branching and again while the uniform elements are
+//               classified) and 4 B for the joined volume's copy of the words
 //   tree        per leaf: the leaf level's cells (8 per touched parent, about
 //               2 per leaf on a surface) and the levels above, as above
 //   leaves      per leaf: L^3 / 4 bytes of states, coordinates and pair start,
@@ -182,7 +182,7 @@ HostMemoryEstimate estimateHostMemory(const PreparedMesh& mesh) {
   e.leafPairs = pairs;
   const double axes = mesh.closed ? 1 : 3;
   const double rowBytes = std::ceil(L * L / 32) * 4;
-  const double cellBytes = 4 + 8 + 24 * 1.2; // element, coordinates, uniform entry and its growth slack
+  const double cellBytes = 4 + 8 + 4; // element, coordinates, joined copy
   e.rootGrid = uint64_t(std::pow(double(g.rootGrid), 3) * cellBytes);
   e.tree = uint64_t(leaves * 2.7 * cellBytes);
   const double leafStates = L * L * L / 4;
