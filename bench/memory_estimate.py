@@ -25,6 +25,7 @@ GRID = [  # (mesh, N, R, L): root-grid dominated, surface dominated, in between
     ("builtin:knot", 4096, 512, 8),
     ("cycloidal-drive.ply", 2048, 16, 16),
     ("cycloidal-drive.ply", 4096, 16, 16),
+    ("cycloidal-drive.ply", 8192, 16, 16),
     ("stanford-dragon-100k.ply", 4096, 32, 8),
     ("nefertiti.obj", 2048, 64, 32),
     ("turbine-blade.stl", 4096, 16, 32),

@@ -51,6 +51,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstring>
 #include <limits>
 #include <string>
@@ -367,13 +368,27 @@ int vtkHDTToHyperTreeGrid::DepthCut(const hdt::GridSpec& grid, int maxDepth)
 }
 
 //------------------------------------------------------------------------------
+double vtkHDTToHyperTreeGrid::EstimatedCells(const hdt::GridSpec& grid, double leafGrids, int maxDepth)
+{
+  const int leafDepths = log2Exact(grid.leafSize);
+  const int keptDepths = std::max(0, std::min(leafDepths, DepthCut(grid, maxDepth) - grid.height));
+  const double perLeaf = (std::pow(8.0, keptDepths + 1) - 1) / 7;
+  return std::pow(double(grid.rootGrid), 3) + 2.7 * leafGrids + leafGrids * perLeaf;
+}
+
+uint64_t vtkHDTToHyperTreeGrid::EstimatedGridBytes(uint64_t cells)
+{
+  // Per cell: VoxelState 1 byte, the mask and descriptor bits, the tree's
+  // 4-byte child table and the walk's code byte: about 8 bytes.
+  return cells * 8;
+}
+
 uint64_t vtkHDTToHyperTreeGrid::EstimatedDisplayBytes(uint64_t cells)
 {
-  // Per cell: VoxelState 1 byte, the tree's 4-byte child table and its share
-  // of the walk's codes, about 6 bytes; ParaView keeps two shallow copies (no
-  // new arrays) and vtkHyperTreeGridGeometry emits up to one quad (4 points of
-  // 24 bytes shared, 5 cell ids of 8 bytes, a state) per leaf cell: ~40 bytes.
-  return cells * 48;
+  // The grid, and: ParaView keeps two shallow copies (no new arrays) and
+  // vtkHyperTreeGridGeometry emits up to one quad (4 points of 24 bytes
+  // shared, 5 cell ids of 8 bytes, a state) per leaf cell: ~40 bytes.
+  return EstimatedGridBytes(cells) + cells * 40;
 }
 
 //------------------------------------------------------------------------------

@@ -108,8 +108,14 @@ public:
   // a minute (its hyper tree grid surface extraction), else empty.
   static std::string DrawingWarning(const vtkHDTConversionInfo& info);
 
-  // Bytes a converted grid of `cells` cells is estimated to take once ParaView
-  // shows it (the grid, its copies through the pipeline, the drawn surface).
+  // The memory model of a converted grid, in one place. EstimatedCells: the
+  // cells expected before a build from the expected leaf grids: every tree
+  // element and, in each leaf grid, a full pyramid of L^3 * 8/7 cells (fewer
+  // when the depth cut of `maxDepth` removes levels). EstimatedGridBytes: the
+  // grid itself. EstimatedDisplayBytes: the grid once ParaView shows it (its
+  // copies through the pipeline, the drawn surface).
+  static double EstimatedCells(const hdt::GridSpec& grid, double leafGrids, int maxDepth);
+  static uint64_t EstimatedGridBytes(uint64_t cells);
   static uint64_t EstimatedDisplayBytes(uint64_t cells);
 
   // Replaces the contents of `output` with the volume. Throws hdt::Error

@@ -2,16 +2,10 @@
 
 #include "vtkHDTHyperTreeGridConversion.h" // AggregateState
 
-#include "hdt/error.hpp"
-
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
-#include <atomic>
-#include <cmath>
-#include <mutex>
-#include <string>
 
 namespace hdt_htg
 {
@@ -49,7 +43,7 @@ inline Tally octantTally(const uint32_t* words, int L, int ox, int oy, int oz, i
     {
       const uint64_t r = leafRow(words, L, y, z) >> (2 * ox);
       surface |= (r >> 1) & lanes;
-      inside += uint64_t(__builtin_popcountll(r & lanes));
+      inside += uint64_t(hdt::popcount32(uint32_t(r & lanes)) + hdt::popcount32(uint32_t((r & lanes) >> 32)));
     }
   }
   Tally t;
@@ -102,29 +96,28 @@ inline bool mixed(unsigned flags)
 //------------------------------------------------------------------------------
 // Exact tally of an element's voxels (slow path for Branch elements with no
 // surface voxel below them, which a correct build never has).
-Tally Context::elementTally(uint64_t index, int level) const
+Tally Context::elementTally(const hdt::WalkedElement& e) const
 {
-  const hdt::ElementWord w = this->volume->elements[index];
-  const uint64_t edge = uint64_t(this->volume->grid.elementVoxels(level));
   Tally t;
-  switch (hdt::elementState(w))
-  {
-    case hdt::ElementState::Empty:
-      t.voxels = edge * edge * edge;
-      break;
-    case hdt::ElementState::Full:
-      t.voxels = t.inside = edge * edge * edge;
-      break;
-    case hdt::ElementState::Boundary:
-      t = leafTally(this->volume->leaf(hdt::elementPayload(w)), this->L);
-      break;
-    case hdt::ElementState::Branch:
-      for (uint32_t c = 0; c < 8; ++c)
-      {
-        t.add(this->elementTally(uint64_t(hdt::elementPayload(w)) + c, level + 1));
-      }
-      break;
-  }
+  auto add = [&](const hdt::WalkedElement& below) {
+    const uint64_t edge = uint64_t(below.edge);
+    switch (below.state())
+    {
+      case hdt::ElementState::Empty:
+        t.voxels += edge * edge * edge;
+        break;
+      case hdt::ElementState::Full:
+        t.voxels += edge * edge * edge;
+        t.inside += edge * edge * edge;
+        break;
+      case hdt::ElementState::Boundary:
+        t.add(leafTally(this->volume->leaf(below.payload()), this->L));
+        break;
+      case hdt::ElementState::Branch: // not reached: the walk goes to the leaf level
+        break;
+    }
+  };
+  hdt::walkSubtree(*this->volume, e, this->height, add);
   return t;
 }
 
@@ -132,43 +125,8 @@ Tally Context::elementTally(uint64_t index, int level) const
 // Context::elementSurface is filled bottom-up, level by level.
 void prepareContext(const hdt::Volume& v, int depthCut, bool mask, Context& ctx)
 {
+  hdt::validateVolume(v);
   const hdt::GridSpec& g = v.grid;
-  auto bad = [](const std::string& what) {
-    throw hdt::Error(hdt::ErrorKind::BadInput, "inconsistent HDT volume: " + what);
-  };
-  if (g.leafSize != 8 && g.leafSize != 16 && g.leafSize != 32)
-  {
-    bad("leaf size " + std::to_string(g.leafSize) + " is not 8, 16 or 32");
-  }
-  if (g.rootGrid < 1 || g.height < 0 || g.height > 16 ||
-    int64_t(g.rootGrid) * (int64_t(1) << g.height) * g.leafSize != g.resolution)
-  {
-    bad("resolution " + std::to_string(g.resolution) + " is not R * 2^h * L");
-  }
-  if (!(g.voxelSize > 0) || !std::isfinite(g.voxelSize) || !std::isfinite(g.origin[0]) ||
-    !std::isfinite(g.origin[1]) || !std::isfinite(g.origin[2]))
-  {
-    bad("voxel size or origin is not finite");
-  }
-  const uint64_t R = uint64_t(g.rootGrid);
-  if (v.levelStart.size() != size_t(g.height) + 2 || v.levelStart[0] != 0 ||
-    v.levelStart.back() != v.elements.size() || v.levelStart[1] != R * R * R)
-  {
-    bad("level table does not match the element array and the root grid");
-  }
-  for (size_t k = 0; k + 1 < v.levelStart.size(); ++k)
-  {
-    if (v.levelStart[k] > v.levelStart[k + 1])
-    {
-      bad("level table is not increasing");
-    }
-  }
-  const uint32_t wordsPerLeaf = hdt::leafWordCount(g.leafSize);
-  if (v.leafWords.size() % wordsPerLeaf != 0)
-  {
-    bad("leaf payload is not a whole number of leaf grids");
-  }
-
   ctx.volume = &v;
   ctx.depthCut = depthCut;
   ctx.mask = mask;
@@ -177,73 +135,37 @@ void prepareContext(const hdt::Volume& v, int depthCut, bool mask, Context& ctx)
   ctx.height = g.height;
   ctx.leafCount = v.leafCount();
   ctx.elementSurface.assign(v.elements.size(), 0);
-
-  std::atomic<bool> failed{ false };
-  std::string failure;
-  std::mutex failureMutex;
-  auto fail = [&](const std::string& what) {
-    std::lock_guard<std::mutex> lock(failureMutex);
-    if (!failed.exchange(true))
-    {
-      failure = what;
-    }
-  };
-
+  const uint32_t wordsPerLeaf = hdt::leafWordCount(g.leafSize);
   for (int level = g.height; level >= 0; --level)
   {
-    const uint64_t begin = v.levelStart[size_t(level)];
-    const uint64_t end = v.levelStart[size_t(level) + 1];
-    const uint64_t childBegin = level < g.height ? v.levelStart[size_t(level) + 1] : 0;
-    const uint64_t childEnd = level < g.height ? v.levelStart[size_t(level) + 2] : 0;
-    tbb::parallel_for(tbb::blocked_range<uint64_t>(begin, end, 4096),
+    tbb::parallel_for(tbb::blocked_range<uint64_t>(v.levelStart[size_t(level)], v.levelStart[size_t(level) + 1], 4096),
       [&](const tbb::blocked_range<uint64_t>& r) {
         for (uint64_t e = r.begin(); e != r.end(); ++e)
         {
           const hdt::ElementWord w = v.elements[e];
           const uint64_t p = hdt::elementPayload(w);
+          uint32_t any = 0;
           switch (hdt::elementState(w))
           {
             case hdt::ElementState::Empty:
             case hdt::ElementState::Full:
               break;
             case hdt::ElementState::Boundary:
-            {
-              if (level != g.height || p >= ctx.leafCount)
-              {
-                fail("element " + std::to_string(e) + " has a bad leaf reference");
-                return;
-              }
-              const uint32_t* words = v.leaf(p);
-              uint32_t any = 0;
               for (uint32_t i = 0; i < wordsPerLeaf; ++i)
               {
-                any |= words[i];
+                any |= v.leaf(p)[i] & hdt::kSurfacePlaneBits;
               }
-              ctx.elementSurface[e] = (any & hdt::kSurfacePlaneBits) ? 1 : 0;
               break;
-            }
             case hdt::ElementState::Branch:
-            {
-              if (level == g.height || p < childBegin || p + 8 > childEnd)
-              {
-                fail("element " + std::to_string(e) + " has a bad child reference");
-                return;
-              }
-              uint8_t any = 0;
               for (uint64_t c = 0; c < 8; ++c)
               {
                 any |= ctx.elementSurface[p + c];
               }
-              ctx.elementSurface[e] = any;
               break;
-            }
           }
+          ctx.elementSurface[e] = any ? 1 : 0;
         }
       });
-    if (failed)
-    {
-      bad(failure);
-    }
   }
 }
 
@@ -326,73 +248,14 @@ void LeafPyramid::Build(const uint32_t* words, int L, int levels)
 
 //------------------------------------------------------------------------------
 // Writes the tree's codes and returns its shape.
-TreeShape TreeWalker::Walk(uint32_t root, std::vector<uint8_t>& codes)
+TreeShape TreeWalker::Walk(uint64_t root, std::vector<uint8_t>& codes)
 {
-  const hdt::Volume& v = *this->Ctx.volume;
   for (auto& d : this->Depths)
   {
     d.clear();
   }
-  this->Elements.assign(1, root);
-  for (int depth = 0; !this->Elements.empty(); ++depth)
-  {
-    const bool canRefine = depth < this->Ctx.depthCut;
-    std::vector<uint8_t>& out = this->Depths[size_t(depth)];
-    this->NextElements.clear();
-    for (const uint32_t e : this->Elements)
-    {
-      const hdt::ElementWord w = v.elements[e];
-      const uint32_t p = hdt::elementPayload(w);
-      uint8_t state = 0;
-      bool refine = false;
-      switch (hdt::elementState(w))
-      {
-        case hdt::ElementState::Empty:
-          state = 0;
-          break;
-        case hdt::ElementState::Full:
-          state = 1;
-          break;
-        case hdt::ElementState::Branch:
-        {
-          if (this->Ctx.elementSurface[e])
-          {
-            state = 2;
-          }
-          else
-          {
-            const Tally t = this->Ctx.elementTally(e, depth);
-            state = vtkHDTToHyperTreeGrid::AggregateState(t.voxels, t.surface, t.inside);
-          }
-          refine = canRefine;
-          if (refine)
-          {
-            for (uint32_t c = 0; c < 8; ++c)
-            {
-              this->NextElements.push_back(p + c);
-            }
-          }
-          break;
-        }
-        case hdt::ElementState::Boundary:
-        {
-          const int L = this->Ctx.L;
-          const uint32_t* words = v.leaf(p);
-          this->Pyramid.Build(words, L, this->Ctx.leafLevels);
-          const unsigned flags = this->Pyramid.Flags(this->Ctx.leafLevels, 0, 0, 0);
-          state = stateFromFlags(flags, words, L, 0, 0, 0, L);
-          refine = canRefine && mixed(flags);
-          if (refine)
-          {
-            this->WalkLeaf(words, depth);
-          }
-          break;
-        }
-      }
-      out.push_back(this->Code(state, refine));
-    }
-    this->Elements.swap(this->NextElements);
-  }
+  hdt::walkTreeBreadthFirst(*this->Ctx.volume, root, this->Ctx.depthCut,
+    [this](const hdt::WalkedElement& e) { return this->Visit(e); }, this->Level, this->NextLevel);
 
   TreeShape shape;
   for (size_t d = 0; d < this->Depths.size(); ++d)
@@ -412,6 +275,53 @@ TreeShape TreeWalker::Walk(uint32_t root, std::vector<uint8_t>& codes)
     dst = std::copy(d.begin(), d.end(), dst);
   }
   return shape;
+}
+
+//------------------------------------------------------------------------------
+// Writes the code of one element (and, for a refined leaf grid, those of its
+// octants below it) and says whether the walk descends into it.
+bool TreeWalker::Visit(const hdt::WalkedElement& e)
+{
+  const bool canRefine = e.level < this->Ctx.depthCut;
+  uint8_t state = 0;
+  bool refine = false;
+  switch (e.state())
+  {
+    case hdt::ElementState::Empty:
+      state = 0;
+      break;
+    case hdt::ElementState::Full:
+      state = 1;
+      break;
+    case hdt::ElementState::Branch:
+      if (this->Ctx.elementSurface[e.index])
+      {
+        state = 2;
+      }
+      else
+      {
+        const Tally t = this->Ctx.elementTally(e);
+        state = vtkHDTToHyperTreeGrid::AggregateState(t.voxels, t.surface, t.inside);
+      }
+      refine = canRefine;
+      break;
+    case hdt::ElementState::Boundary:
+    {
+      const int L = this->Ctx.L;
+      const uint32_t* words = this->Ctx.volume->leaf(e.payload());
+      this->Pyramid.Build(words, L, this->Ctx.leafLevels);
+      const unsigned flags = this->Pyramid.Flags(this->Ctx.leafLevels, 0, 0, 0);
+      state = stateFromFlags(flags, words, L, 0, 0, 0, L);
+      refine = canRefine && mixed(flags);
+      if (refine)
+      {
+        this->WalkLeaf(words, e.level);
+      }
+      break;
+    }
+  }
+  this->Depths[size_t(e.level)].push_back(this->Code(state, refine));
+  return refine;
 }
 
 //------------------------------------------------------------------------------
@@ -477,8 +387,7 @@ void TreeWalker::WriteVoxels(const uint32_t* words, std::vector<uint8_t>& out)
         const unsigned r = unsigned(leafRow(words, L, py + dy, pz + dz) >> (2 * px));
         for (int dx = 0; dx < 2; ++dx)
         {
-          unsigned state = (r >> (2 * dx)) & 3u;
-          state &= ~((state >> 1) & state & 1u); // an invalid 3 reads as surface
+          const unsigned state = (r >> (2 * dx)) & 3u; // never 3: validateVolume
           const uint8_t code = uint8_t(state | (state == 0 ? maskBit : 0));
           masked += (code & kMasked) ? 1 : 0;
           o[dx + 2 * dy + 4 * dz] = code;

@@ -1,11 +1,14 @@
 // The per-tree walk of vtkHDTToHyperTreeGrid::Convert (internal to HDT::Filters).
 //
 // It turns one root cell of an hdt::Volume into a byte per hyper-tree vertex
-// (VoxelState in bits 0-1, kRefined, kMasked) in VTK's breadth-first order,
-// reading the HDT directly. Nothing here depends on VTK but vtkIdType.
+// (VoxelState in bits 0-1, kRefined, kMasked) in VTK's breadth-first order:
+// the octree through the core's breadth-first walk (hdt/volume_walk.hpp), the
+// octants of each leaf grid from its 2-bit rows. Nothing here depends on VTK
+// but vtkIdType.
 #pragma once
 
 #include "hdt/volume.hpp"
+#include "hdt/volume_walk.hpp"
 
 #include "vtkType.h"
 
@@ -61,11 +64,11 @@ struct Context
 
   // Exact tally of an element's voxels (slow path for Branch elements with no
   // surface voxel below them, which a correct build never has).
-  Tally elementTally(uint64_t index, int level) const;
+  Tally elementTally(const hdt::WalkedElement& e) const;
 };
 
-// Checks the volume's structure (so the walk can trust every index; throws
-// hdt::Error(BadInput) otherwise) and fills the context for the given cut.
+// Checks the volume (hdt::validateVolume, so the walk can trust every index;
+// throws hdt::Error(BadInput) otherwise) and fills the context for the given cut.
 void prepareContext(const hdt::Volume& v, int depthCut, bool mask, Context& ctx);
 
 // What VTK needs to know of a tree besides its descriptor bits.
@@ -170,7 +173,7 @@ public:
   }
 
   // Writes the tree's codes and returns its shape.
-  TreeShape Walk(uint32_t root, std::vector<uint8_t>& codes);
+  TreeShape Walk(uint64_t root, std::vector<uint8_t>& codes);
 
   std::vector<vtkIdType> DepthCounts;
   vtkIdType LeafCells = 0;
@@ -187,6 +190,10 @@ private:
 
   static uint16_t pack(int x, int y, int z) { return uint16_t(x | (y << 5) | (z << 10)); }
 
+  // Writes the code of one element (and, for a refined leaf grid, those of its
+  // octants below it) and says whether the walk descends into it.
+  bool Visit(const hdt::WalkedElement& e);
+
   // The octants below a refined leaf root at depth `depth0`, breadth first.
   void WalkLeaf(const uint32_t* words, int depth0);
 
@@ -197,7 +204,7 @@ private:
 
   const Context& Ctx;
   std::vector<std::vector<uint8_t>> Depths;
-  std::vector<uint32_t> Elements, NextElements;
+  std::vector<hdt::WalkedElement> Level, NextLevel; // the core walk's scratch
   std::vector<uint16_t> Octants, NextOctants;
   LeafPyramid Pyramid;
 };

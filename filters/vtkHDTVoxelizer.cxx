@@ -38,21 +38,13 @@ vtkStandardNewMacro(vtkHDTVoxelizer);
 namespace
 {
 
-// Upper bound of the hyper tree grid the conversion makes from a build of
-// `mesh`, for the memory check before the build: every tree element and, in
-// each expected leaf grid, a full pyramid of L^3 * 8/7 vertices (fewer when
-// MaxDepth cuts it), at about 8 bytes a vertex (state byte, mask and
-// descriptor bits, VTK's 4-byte child index, the walk's byte).
+// The hyper tree grid the conversion will make of `mesh`, for the memory
+// check before the build (vtkHDTToHyperTreeGrid's model).
 uint64_t EstimateHyperTreeGridBytes(const hdt::PreparedMesh& mesh, int maxDepth)
 {
-  const hdt::HostMemoryEstimate e = hdt::estimateHostMemory(mesh);
-  const int L = mesh.grid.leafSize;
-  const int leafDepths = L == 8 ? 3 : L == 16 ? 4 : 5;
-  const int depth = vtkHDTToHyperTreeGrid::DepthCut(mesh.grid, maxDepth); // Auto included
-  const int keptDepths = std::max(0, std::min(leafDepths, depth - mesh.grid.height));
-  const double perLeaf = (std::pow(8.0, keptDepths + 1) - 1) / 7;
-  const double vertices = std::pow(double(mesh.grid.rootGrid), 3) + 2.7 * e.leafGrids + e.leafGrids * perLeaf;
-  return uint64_t(8 * vertices);
+  const double cells =
+    vtkHDTToHyperTreeGrid::EstimatedCells(mesh.grid, hdt::estimateHostMemory(mesh).leafGrids, maxDepth);
+  return vtkHDTToHyperTreeGrid::EstimatedGridBytes(uint64_t(cells));
 }
 // FNV-1a over the mesh's bytes: equal on every rank for the gathered mesh.
 uint64_t MeshHash(const hdt::TriangleMesh& mesh)

@@ -3,10 +3,8 @@
 #include "hdt/error.hpp"
 #include "hdt/geometry.hpp"
 #include "hdt/default_init_allocator.hpp"
+#include "hdt/huge_pages.hpp" // prefaultParallel
 #include "hdt/volume.hpp"
-
-#include <sys/mman.h>
-#include <unistd.h>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -177,18 +175,6 @@ bool isClosed(const std::vector<LatticeTriangle>& tris) {
         return closed;
       },
       [](bool x, bool y) { return x && y; });
-}
-
-void prefaultParallel(void* p, size_t bytes) {
-  const uintptr_t page = uintptr_t(sysconf(_SC_PAGESIZE)), piece = uintptr_t(1) << 20;
-  const uintptr_t begin = (reinterpret_cast<uintptr_t>(p) + page - 1) & ~(page - 1);
-  const uintptr_t end = (reinterpret_cast<uintptr_t>(p) + bytes) & ~(page - 1);
-  if (end <= begin + piece) return;
-#if defined(MADV_POPULATE_WRITE)
-  tbb::parallel_for(begin, end, piece, [&](uintptr_t q) {
-    madvise(reinterpret_cast<void*>(q), std::min(piece, end - q), MADV_POPULATE_WRITE); // a hint: may fail
-  });
-#endif
 }
 
 // `count` value-initialised elements; the pages are faulted in in parallel

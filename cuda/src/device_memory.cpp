@@ -63,9 +63,9 @@ DeviceMemory::~DeviceMemory() {
   // Every buffer is released by now (they are owned by objects that die
   // first); once the stream has run the frees, hand back what the pool holds
   // beyond what the next build will likely want again. Only when it holds
-  // more: cudaMemPoolTrimTo(pool, UINT64_MAX) released everything (measured:
-  // the bench's warm runs then mapped their 3.6 GB of leaf words afresh each
-  // time, 4-5 ms of host time with the GPU idle).
+  // more: cudaMemPoolTrimTo(pool, UINT64_MAX) released everything, and warm
+  // builds then mapped their leaf words afresh each time
+  // (bench/results/gpu-notes.md, the pool trim).
   if (!pool_ || cudaStreamSynchronize(stream_) != cudaSuccess) return;
   uint64_t reserved = 0;
   const uint64_t keep = g_retainedBytes.load();

@@ -22,9 +22,16 @@
 
 #include <gtest/gtest.h>
 
+#include <csignal>
 #include <cstdio>
+#include <fstream>
+#include <iterator>
 #include <string>
 #include <vector>
+
+#include <dirent.h>
+#include <sys/resource.h>
+#include <sys/stat.h>
 
 namespace
 {
@@ -180,4 +187,66 @@ TEST(ToImage, RefusesForeignGridsAndLargeImages)
   toImage->Update();
   ASSERT_EQ(log->Errors.size(), 3u);
   EXPECT_NE(log->Errors[2].find("no longer exists"), std::string::npos) << log->Errors[2];
+}
+
+// Issue 12, defect 2, for ParaView's writer: an overwrite that fails (here a
+// file-size limit) keeps the old file and leaves no temporary file behind.
+namespace
+{
+std::string fileBytes(const std::string& path)
+{
+  std::ifstream in(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+std::vector<std::string> entriesOf(const std::string& dir)
+{
+  std::vector<std::string> names;
+  if (DIR* d = opendir(dir.c_str()))
+  {
+    while (dirent* e = readdir(d))
+    {
+      const std::string n = e->d_name;
+      if (n != "." && n != "..")
+      {
+        names.push_back(n);
+      }
+    }
+    closedir(d);
+  }
+  return names;
+}
+}
+
+TEST(Writer, FailedOverwriteKeepsTheOldFile)
+{
+  const std::string dir = ::testing::TempDir() + "hdt_writer_overwrite";
+  ::mkdir(dir.c_str(), 0755);
+  const std::string path = dir + "/torus.hdt";
+  std::remove(path.c_str());
+  auto small = Voxelized(64);
+  vtkNew<vtkHDTWriter> writer;
+  writer->SetInputData(small->GetOutput());
+  writer->SetFileName(path.c_str());
+  writer->Write();
+  ASSERT_EQ(writer->GetErrorCode(), 0u);
+  const std::string before = fileBytes(path);
+  ASSERT_FALSE(before.empty());
+
+  auto large = Voxelized(256);
+  vtkNew<hdtvtk::MessageLog> log;
+  writer->AddObserver(vtkCommand::ErrorEvent, log);
+  writer->SetInputData(large->GetOutput());
+  rlimit old{};
+  ::getrlimit(RLIMIT_FSIZE, &old);
+  rlimit limited = old;
+  limited.rlim_cur = before.size() + 1000;
+  auto previous = std::signal(SIGXFSZ, SIG_IGN);
+  ::setrlimit(RLIMIT_FSIZE, &limited);
+  writer->Write();
+  ::setrlimit(RLIMIT_FSIZE, &old);
+  std::signal(SIGXFSZ, previous);
+  EXPECT_EQ(log->Errors.size(), 1u);
+  EXPECT_EQ(fileBytes(path), before) << "the old file was lost";
+  EXPECT_EQ(entriesOf(dir), std::vector<std::string>{ "torus.hdt" }) << "a temporary file was left";
+  std::remove(path.c_str());
 }

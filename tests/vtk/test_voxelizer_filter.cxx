@@ -422,3 +422,25 @@ TEST(VoxelizerPipeline, AbortGivesEmptyOutputWithoutError)
 }
 
 } // namespace
+
+// Issue 12, defect 9: a closed mesh with every triangle twice has nothing
+// inside (the copies cancel in the parity); the filter says so, as the CLI
+// does (hdt::buildWarnings), and a single copy gives no warning.
+TEST(VoxelizerWarnings, DoubledClosedMeshIsReported)
+{
+  Harness once;
+  vtkHyperTreeGrid* single = once.Run(hdtvtk::MakeSphere(16));
+  EXPECT_TRUE(once.Log->Errors.empty()) << joined(once.Log->Errors);
+  EXPECT_TRUE(once.Log->Warnings.empty()) << joined(once.Log->Warnings);
+  EXPECT_GT(single->GetNumberOfCells(), 0);
+
+  Harness twice;
+  vtkNew<vtkAppendPolyData> append;
+  append->AddInputData(hdtvtk::MakeSphere(16));
+  append->AddInputData(hdtvtk::MakeSphere(16));
+  append->Update();
+  twice.Run(append->GetOutput());
+  EXPECT_TRUE(twice.Log->Errors.empty()) << joined(twice.Log->Errors);
+  EXPECT_TRUE(anyContains(twice.Log->Warnings, "repeat another triangle's corners")) << joined(twice.Log->Warnings);
+  EXPECT_TRUE(anyContains(twice.Log->Warnings, "no voxel is inside")) << joined(twice.Log->Warnings);
+}

@@ -7,8 +7,9 @@
 // visited elements tile the N^3 grid exactly once. Children are visited in
 // Morton order (bit 0 = +x half), root cells x fastest: the order is fixed.
 //
-// voxelAt, the dense export and the voxel surface use it; the indices it
-// follows are trusted (the file reader checks them when it loads a volume).
+// voxelAt, the dense export, the voxel surface and (breadth first) the hyper
+// tree grid conversion use it; the indices it follows are trusted
+// (validateVolume checks them; the file reader does when it loads a volume).
 #pragma once
 
 #include "hdt/volume.hpp"
@@ -17,6 +18,7 @@
 
 #include <array>
 #include <cstdint>
+#include <vector>
 
 namespace hdt {
 
@@ -89,6 +91,27 @@ void parallelWalkVolume(const Volume& v, int maxLevel, Visit&& visit, int parall
   tbb::parallel_for(uint64_t(0), R * R * R, [&](uint64_t root) {
     walkSubtree(v, rootElement(v, root), maxLevel, visit, parallelFromEdge);
   });
+}
+
+// The tree of root cell `root` level by level (breadth first): each level's
+// elements in the order of their parents, the children of each in Morton
+// order, which is the order of a VTK hyper tree's descriptor. visit(e) is
+// called for every element reached and returns whether to descend into it;
+// only a Branch element above maxLevel can be descended into. `level` and
+// `next` are scratch storage a caller can keep between trees.
+template <class Visit>
+void walkTreeBreadthFirst(const Volume& v, uint64_t root, int maxLevel, Visit&& visit,
+                          std::vector<WalkedElement>& level, std::vector<WalkedElement>& next) {
+  level.assign(1, rootElement(v, root));
+  while (!level.empty()) {
+    next.clear();
+    for (const WalkedElement& e : level) {
+      const bool descend = visit(e);
+      if (descend && e.state() == ElementState::Branch && e.level < maxLevel)
+        for (int c = 0; c < 8; ++c) next.push_back(childElement(v, e, c));
+    }
+    level.swap(next);
+  }
 }
 
 // The element the walk to maxLevel stops at that contains voxel (x, y, z),
