@@ -1,0 +1,69 @@
+"""GUI test of the Abort button, run inside the ParaView application:
+  paraview --script=test_gui_abort.py --exit   (ctest sets HDT_PLUGIN, HDT_CLICKER, HDT_TMP)
+Starts an HDT Voxelizer build that takes several seconds (a sphere at 4096^3,
+CPU backend: about 7 s on one core of the development machine), with the test
+helper armed to click the status bar's Abort button 1.5 s later
+(gui_abort_clicker.cxx: the click is queued to the GUI thread, so it is
+handled only if Qt gets to process input during the build, as a user's click
+needs). Checks that the button was enabled when clicked, that the update then
+returned with an empty output and no error, that showing and rendering the
+aborted filter does not start the build again, and that the next build (a
+changed Resolution) runs to the end: the abort flag was cleared. Prints
+"gui_abort: ok" when all of that held."""
+import ctypes
+import os
+import time
+
+from paraview.simple import *  # noqa: F401,F403
+
+plugin, clicker, tmp = os.environ["HDT_PLUGIN"], os.environ["HDT_CLICKER"], os.environ["HDT_TMP"]
+os.makedirs(tmp, exist_ok=True)
+LoadPlugin(plugin, remote=False, ns=globals())
+helper = ctypes.CDLL(clicker)
+helper.hdt_schedule_abort_click.argtypes = [ctypes.c_int, ctypes.c_char_p]
+
+problems = []
+RESOLUTION = int(os.environ.get("HDT_ABORT_RESOLUTION", "4096"))
+CLICK_MS = 1500
+
+sphere = Sphere(ThetaResolution=64, PhiResolution=64)
+sphere.UpdatePipeline()
+vox = HDTVoxelizer(Input=sphere, Resolution=RESOLUTION, Backend="CPU")
+executions = []
+vox.GetClientSideObject().AddObserver("StartEvent", lambda *args: executions.append(time.time()))
+
+png = os.path.join(tmp, "gui-abort-click.png")
+armed = helper.hdt_schedule_abort_click(CLICK_MS, png.encode())
+if armed != 0:
+    problems.append("no Abort button in the main window (helper returned %d)" % armed)
+start = time.time()
+vox.UpdatePipeline()
+elapsed = time.time() - start
+state = helper.hdt_abort_click_state()
+cells = vox.GetDataInformation().GetNumberOfCells()
+surface_cells = vox.GetDataInformation(1).GetNumberOfCells()
+if state != 2:
+    problems.append("the click at %.1f s %s" % (CLICK_MS / 1000.0, {0: "did not happen during the build", 1: "found the Abort button greyed out"}.get(state, "?")))
+if cells or surface_cells:
+    problems.append("the build ran to the end (%d cells, %d surface cells, %.1f s)" % (cells, surface_cells, elapsed))
+
+# What Apply does next: show the outputs and render. An aborted output must not
+# start the build again.
+before = len(executions)
+view = GetActiveViewOrCreate("RenderView")
+Show(OutputPort(vox, 1), view)
+Render(view)
+if len(executions) != before:
+    problems.append("showing the aborted filter ran it again")
+
+# The next build of the filter runs to the end (the abort flag was cleared).
+vox.Resolution = 256
+vox.UpdatePipeline()
+rebuilt = vox.GetDataInformation().GetNumberOfCells()
+if rebuilt <= 0:
+    problems.append("the build after the abort gave no cells")
+
+if problems:
+    print("gui_abort: FAILED: " + "; ".join(problems))
+else:
+    print("gui_abort: ok (aborted %.2f s after the start, clicked at %.1f s; next build %d cells)" % (elapsed, CLICK_MS / 1000.0, rebuilt))
