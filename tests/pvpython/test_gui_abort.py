@@ -1,33 +1,52 @@
 """GUI test of the Abort button, run inside the ParaView application:
-  paraview --script=test_gui_abort.py --exit   (ctest sets HDT_PLUGIN, HDT_CLICKER, HDT_TMP)
+  paraview --script=test_gui_abort.py --exit   (ctest sets HDT_PLUGIN, HDT_GUI_HELPER, HDT_TMP)
 Starts an HDT Voxelizer build that takes several seconds (a sphere at 4096^3,
 CPU backend: about 7 s on one core of the development machine), with the test
 helper armed to click the status bar's Abort button 1.5 s later
-(gui_abort_clicker.cxx: the click is queued to the GUI thread, so it is
+(gui_test_helper.cxx: the click is queued to the GUI thread, so it is
 handled only if Qt gets to process input during the build, as a user's click
 needs). Checks that the button was enabled when clicked, that the update then
 returned with an empty output and no error, that showing and rendering the
 aborted filter does not start the build again, and that the next build (a
-changed Resolution) runs to the end: the abort flag was cleared. Prints
-"gui_abort: ok" when all of that held."""
+changed Resolution) runs to the end: the abort flag was cleared. Before
+that, reads the Properties panel's Resolution list: the valid values for the
+default Root Grid and Leaf Grid Size (256 .. 65536), and 32 .. 65536 once they
+are 4 and 8. Prints "gui_abort: ok" when all of that held."""
 import ctypes
 import os
 import time
 
 from paraview.simple import *  # noqa: F401,F403
 
-plugin, clicker, tmp = os.environ["HDT_PLUGIN"], os.environ["HDT_CLICKER"], os.environ["HDT_TMP"]
+plugin, clicker, tmp = os.environ["HDT_PLUGIN"], os.environ["HDT_GUI_HELPER"], os.environ["HDT_TMP"]
 os.makedirs(tmp, exist_ok=True)
 LoadPlugin(plugin, remote=False, ns=globals())
 helper = ctypes.CDLL(clicker)
 helper.hdt_schedule_abort_click.argtypes = [ctypes.c_int, ctypes.c_char_p]
 
 problems = []
+helper.hdt_panel_combo_items.argtypes = [ctypes.c_char_p, ctypes.c_char_p, ctypes.c_int]
+
+
+def panel_resolution_list():
+    text = ctypes.create_string_buffer(4096)
+    helper.hdt_panel_combo_items(b"Resolution", text, len(text))
+    return [int(v) for v in text.value.decode().split(",") if v]
 RESOLUTION = int(os.environ.get("HDT_ABORT_RESOLUTION", "4096"))
 CLICK_MS = 1500
 
 sphere = Sphere(ThetaResolution=64, PhiResolution=64)
 sphere.UpdatePipeline()
+
+# The Resolution list of the panel (before Apply, as a user sets them).
+probe = HDTVoxelizer(Input=sphere)
+SetActiveSource(probe)
+default_list = panel_resolution_list()
+probe.RootGridSize, probe.LeafGridSize = 4, 8
+small_list = panel_resolution_list()
+if default_list != [256 * 2 ** h for h in range(9)] or small_list != [32 * 2 ** h for h in range(12)]:
+    problems.append("the panel's Resolution list: %s (R = L = 16), %s (R = 4, L = 8)" % (default_list, small_list))
+Delete(probe)
 vox = HDTVoxelizer(Input=sphere, Resolution=RESOLUTION, Backend="CPU")
 executions = []
 vox.GetClientSideObject().AddObserver("StartEvent", lambda *args: executions.append(time.time()))
@@ -66,4 +85,4 @@ if rebuilt <= 0:
 if problems:
     print("gui_abort: FAILED: " + "; ".join(problems))
 else:
-    print("gui_abort: ok (aborted %.2f s after the start, clicked at %.1f s; next build %d cells)" % (elapsed, CLICK_MS / 1000.0, rebuilt))
+    print("gui_abort: ok (Resolution list %d .. %d, then %d .. %d; aborted %.2f s after the start, clicked at %.1f s; next build %d cells)" % (default_list[0], default_list[-1], small_list[0], small_list[-1], elapsed, CLICK_MS / 1000.0, rebuilt))

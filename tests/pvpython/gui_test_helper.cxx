@@ -1,5 +1,5 @@
 // Test helper for paraview.gui_abort: the user who clicks the status bar's
-// Abort button while a build runs. Loaded with ctypes into the running
+// Abort button while a build runs, and who reads the Resolution list. Loaded with ctypes into the running
 // ParaView GUI by test_gui_abort.py (same process, same QApplication).
 //
 // hdt_schedule_abort_click(ms, png) starts a thread that, ms later, posts to
@@ -13,6 +13,8 @@
 // happened: 0 not yet fired, 1 fired on a greyed-out button, 2 clicked an
 // enabled button.
 #include <QApplication>
+#include <QComboBox>
+#include <QStringList>
 #include <QPixmap>
 #include <QString>
 #include <QMetaObject>
@@ -22,6 +24,7 @@
 #include <QtTest/QTest>
 
 #include <chrono>
+#include <cstdio>
 #include <thread>
 
 namespace
@@ -85,5 +88,36 @@ extern "C"
   __attribute__((visibility("default"))) int hdt_abort_click_state()
   {
     return clickState;
+  }
+
+  // The items of the combo box in the Properties panel's widget for the named
+  // property (pqProxyWidget names each property widget after its property),
+  // comma-separated into out; the number of items, or -1 when not found.
+  __attribute__((visibility("default"))) int hdt_panel_combo_items(
+    const char* property, char* out, int size)
+  {
+    for (QWidget* widget : QApplication::allWidgets())
+    {
+      auto* combo = qobject_cast<QComboBox*>(widget);
+      if (!combo || !combo->isVisible())
+      {
+        continue;
+      }
+      for (QWidget* up = combo->parentWidget(); up; up = up->parentWidget())
+      {
+        if (up->objectName() == QLatin1String(property))
+        {
+          QStringList items;
+          for (int i = 0; i < combo->count(); ++i)
+          {
+            items << combo->itemText(i);
+          }
+          const QByteArray text = items.join(',').toUtf8();
+          std::snprintf(out, size_t(size), "%s", text.constData());
+          return combo->count();
+        }
+      }
+    }
+    return -1;
   }
 }
