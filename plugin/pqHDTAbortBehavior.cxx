@@ -14,6 +14,8 @@
 #include "vtkSMProxy.h"
 
 #include <QEventLoop>
+#include <QWidget>
+#include <QWindow>
 #include <QThread>
 
 #include <cstring>
@@ -145,8 +147,28 @@ void pqHDTAbortBehavior::onAlgorithmProgress(vtkObject* caller, unsigned long, v
     this->Running = algorithm;
     if (pqProgressManager* progress = progressManager())
     {
+      this->letClicksReachTheButton(progress);
       progress->setEnableAbort(true);
     }
+  }
+}
+
+//-----------------------------------------------------------------------------
+// pqProgressManager's event filter lets a mouse press through only when its
+// receiver is on the non-blockable list, and a click from the window system
+// reaches the main window's QWindow before Qt hands it to the widget under
+// the cursor: with the QWindow off the list, no real click ever reached the
+// progress bar's button (a press sent straight to the button did). Listing
+// the QWindow lets the press through to that dispatch, where the filter sees
+// it again with the widget as receiver and still drops it for every widget
+// but the progress bar and its button.
+void pqHDTAbortBehavior::letClicksReachTheButton(pqProgressManager* progress)
+{
+  QWidget* mainWindow = pqCoreUtilities::mainWidget();
+  QWindow* window = mainWindow ? mainWindow->windowHandle() : nullptr;
+  if (window && !progress->nonBlockableObjects().contains(window))
+  {
+    progress->addNonBlockableObject(window);
   }
 }
 

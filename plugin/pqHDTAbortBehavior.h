@@ -11,7 +11,11 @@
 // ParaView 6.1 added all three (commit 8789e8b2d6, "enable abort button
 // functionality"); this class does the same from the plugin, for the HDT
 // algorithms only (the ones known to stop cleanly when asked):
-//  - an HDT algorithm reporting progress enables the button;
+//  - an HDT algorithm reporting progress enables the button, and puts the
+//    main window's QWindow on pqProgressManager's non-blockable list: a click
+//    from the X server reaches that QWindow first, and the filter would drop
+//    it there (a click sent straight to the button widget, as QTest does,
+//    passes without it; a real one did not);
 //  - each progress report of such a build lets Qt process pending events
 //    (at most every 0.1 s, the progress handler's rate). pqProgressManager's
 //    event filter still swallows key presses and mouse presses on everything
@@ -36,6 +40,7 @@
 #include "vtkWeakPointer.h"
 
 class pqPipelineSource;
+class pqProgressManager;
 class vtkAlgorithm;
 class vtkObject;
 
@@ -64,6 +69,7 @@ private Q_SLOTS:
 private:
   void onAlgorithmProgress(vtkObject* caller, unsigned long event, void* data);
   void onAlgorithmEnd(vtkObject* caller, unsigned long event, void* data);
+  static void letClicksReachTheButton(pqProgressManager* progress);
 
   // Observer ids (progress, end) on the algorithms of watched sources.
   QMap<pqPipelineSource*, QVector<unsigned long>> Observers;

@@ -1,36 +1,18 @@
-// Test helper for paraview.gui_abort: the user who clicks the status bar's
-// Abort button while a build runs, and who reads the Resolution list. Loaded with ctypes into the running
-// ParaView GUI by test_gui_abort.py (same process, same QApplication).
-//
-// hdt_schedule_abort_click(ms, png) starts a thread that, ms later, posts to
-// the GUI thread's event queue (as the X server's click arrives there): grab
-// the main window into png, then click the button "AbortButton" with QTest (a
-// press and a release through QApplication::notify, so through ParaView's
-// event filter as a real click). Posted events are handled only when Qt
-// processes events: if nothing lets Qt run during the build, the click comes
-// after the build, too late, and the test sees a finished build. (Not a Qt
-// timer: the plugin lets Qt handle input during a build, not timers.) hdt_abort_click_state() tells what
-// happened: 0 not yet fired, 1 fired on a greyed-out button, 2 clicked an
-// enabled button.
+// Test helper for paraview.gui_abort, loaded with ctypes into the running
+// ParaView GUI by test_gui_abort.py (same process, same QApplication): where
+// the status bar's Abort button is on the screen (x_click.py then clicks
+// there through the X server), and what the Properties panel's Resolution
+// list offers. Python in ParaView 5.11 has no Qt bindings of its own.
 #include <QApplication>
 #include <QComboBox>
 #include <QStringList>
-#include <QPixmap>
-#include <QString>
-#include <QMetaObject>
-#include <QPointer>
 #include <QToolButton>
 #include <QWidget>
-#include <QtTest/QTest>
 
-#include <chrono>
 #include <cstdio>
-#include <thread>
 
 namespace
 {
-int clickState = 0;
-
 QToolButton* findAbortButton()
 {
   for (QWidget* widget : QApplication::allWidgets())
@@ -49,45 +31,19 @@ QToolButton* findAbortButton()
 
 extern "C"
 {
-  __attribute__((visibility("default"))) int hdt_schedule_abort_click(int delayMs, const char* png)
+  // The Abort button's centre in screen coordinates (for a click sent through
+  // the X server); 0 when found.
+  __attribute__((visibility("default"))) int hdt_abort_button_center(int* x, int* y)
   {
-    if (!qobject_cast<QApplication*>(QCoreApplication::instance()))
-    {
-      return -1;
-    }
     QToolButton* button = findAbortButton();
     if (!button)
     {
-      return -2;
+      return -1;
     }
-    clickState = 0;
-    const QString pngPath = QString::fromUtf8(png ? png : "");
-    QPointer<QToolButton> target(button);
-    std::thread([delayMs, target, pngPath]() {
-      std::this_thread::sleep_for(std::chrono::milliseconds(delayMs));
-      QToolButton* b = target.data();
-      if (!b)
-      {
-        return;
-      }
-      QMetaObject::invokeMethod(
-        b,
-        [b, pngPath]() {
-          if (!pngPath.isEmpty())
-          {
-            b->window()->grab().save(pngPath);
-          }
-          clickState = b->isEnabled() ? 2 : 1;
-          QTest::mouseClick(b, Qt::LeftButton);
-        },
-        Qt::QueuedConnection);
-    }).detach();
+    const QPoint centre = button->mapToGlobal(button->rect().center());
+    *x = centre.x();
+    *y = centre.y();
     return 0;
-  }
-
-  __attribute__((visibility("default"))) int hdt_abort_click_state()
-  {
-    return clickState;
   }
 
   // The items of the combo box in the Properties panel's widget for the named
