@@ -51,8 +51,12 @@ pqHDTAbortBehavior::~pqHDTAbortBehavior()
 //-----------------------------------------------------------------------------
 bool pqHDTAbortBehavior::isHDTAlgorithm(vtkObject* object)
 {
+  // vtkHDTVoxelizer and its subclasses: the HDT algorithms that check
+  // CheckAbort while they work. The reader and HDT To Image do not (one read,
+  // one bounded copy); for them the button stays grey rather than promise.
+  static const char prefix[] = "vtkHDTVoxelizer";
   return vtkAlgorithm::SafeDownCast(object) &&
-    std::strncmp(object->GetClassName(), "vtkHDT", 6) == 0;
+    std::strncmp(object->GetClassName(), prefix, sizeof(prefix) - 1) == 0;
 }
 
 //-----------------------------------------------------------------------------
@@ -86,11 +90,10 @@ void pqHDTAbortBehavior::shutdown()
     return;
   }
   this->Started = false;
-  for (pqPipelineSource* source : this->Observers.keys())
+  for (pqPipelineSource* source : this->Watches.keys())
   {
     this->unwatchSource(source);
   }
-  QObject::disconnect(this);
   if (pqApplicationCore* core = pqApplicationCore::instance())
   {
     core->getServerManagerModel()->disconnect(this);
@@ -102,33 +105,35 @@ void pqHDTAbortBehavior::shutdown()
 void pqHDTAbortBehavior::watchSource(pqPipelineSource* source)
 {
   vtkAlgorithm* algorithm = clientSideAlgorithm(source);
-  if (!isHDTAlgorithm(algorithm) || this->Observers.contains(source))
+  if (!isHDTAlgorithm(algorithm) || this->Watches.contains(source))
   {
     return;
   }
-  this->Observers[source] = { algorithm->AddObserver(vtkCommand::ProgressEvent, this,
-                                &pqHDTAbortBehavior::onAlgorithmProgress),
-    algorithm->AddObserver(vtkCommand::EndEvent, this, &pqHDTAbortBehavior::onAlgorithmEnd) };
+  Watch& watch = this->Watches[source];
+  watch.Algorithm = algorithm;
+  watch.ProgressObserver = algorithm->AddObserver(
+    vtkCommand::ProgressEvent, this, &pqHDTAbortBehavior::onAlgorithmProgress);
+  watch.EndObserver =
+    algorithm->AddObserver(vtkCommand::EndEvent, this, &pqHDTAbortBehavior::onAlgorithmEnd);
 }
 
 //-----------------------------------------------------------------------------
+// Uses only what watchSource stored: the source may be half destroyed.
 void pqHDTAbortBehavior::unwatchSource(pqPipelineSource* source)
 {
-  if (!this->Observers.contains(source))
+  if (!this->Watches.contains(source))
   {
     return;
   }
-  const QVector<unsigned long> ids = this->Observers.take(source);
-  if (vtkAlgorithm* algorithm = clientSideAlgorithm(source))
+  const Watch watch = this->Watches.take(source);
+  if (vtkAlgorithm* algorithm = watch.Algorithm)
   {
     if (algorithm == this->Running)
     {
       this->Running = nullptr;
     }
-    for (unsigned long id : ids)
-    {
-      algorithm->RemoveObserver(id);
-    }
+    algorithm->RemoveObserver(watch.ProgressObserver);
+    algorithm->RemoveObserver(watch.EndObserver);
   }
 }
 

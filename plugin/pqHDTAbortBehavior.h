@@ -10,7 +10,8 @@
 // the GUI thread no click is delivered at all until it has finished.
 // ParaView 6.1 added all three (commit 8789e8b2d6, "enable abort button
 // functionality"); this class does the same from the plugin, for the HDT
-// algorithms only (the ones known to stop cleanly when asked):
+// Voxelizer only (it stops cleanly when asked, within 50 ms inside its long
+// loops; the HDT Reader and HDT To Image do not check):
 //  - an HDT algorithm reporting progress enables the button, and puts the
 //    main window's QWindow on pqProgressManager's non-blockable list: a click
 //    from the X server reaches that QWindow first, and the filter would drop
@@ -35,7 +36,6 @@
 #include <QObject>
 #include <QPointer>
 #include <QString>
-#include <QVector>
 
 #include "vtkWeakPointer.h"
 
@@ -56,8 +56,8 @@ public:
   void startup();
   void shutdown();
 
-  // True for the plugin's algorithms (vtkHDTVoxelizer, vtkHDTReader,
-  // vtkHDTToImage, ...): the ones whose abort the button offers.
+  // True for the algorithms whose abort the button offers: vtkHDTVoxelizer
+  // and its subclasses, which check CheckAbort while they build.
   static bool isHDTAlgorithm(vtkObject* object);
 
 private Q_SLOTS:
@@ -71,8 +71,14 @@ private:
   void onAlgorithmEnd(vtkObject* caller, unsigned long event, void* data);
   static void letClicksReachTheButton(pqProgressManager* progress);
 
-  // Observer ids (progress, end) on the algorithms of watched sources.
-  QMap<pqPipelineSource*, QVector<unsigned long>> Observers;
+  // The algorithm of each watched source and the ids of our observers on it.
+  struct Watch
+  {
+    vtkWeakPointer<vtkAlgorithm> Algorithm;
+    unsigned long ProgressObserver = 0;
+    unsigned long EndObserver = 0;
+  };
+  QMap<pqPipelineSource*, Watch> Watches;
   // The HDT algorithm that reported progress in the update under way.
   vtkWeakPointer<vtkAlgorithm> Running;
   // The one the user aborted: its flag is cleared when the update ends.
