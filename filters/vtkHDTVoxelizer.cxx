@@ -470,10 +470,15 @@ int vtkHDTVoxelizer::RequestData(
   {
     if (e.kind() == hdt::ErrorKind::Aborted)
     {
-      // The user stopped it: no error, no output.
+      // The user stopped it: no error, empty outputs. They stand as this
+      // run's result (AbortOutput cleared): VTK would otherwise flag them
+      // ABORTED and run the filter again at the next request (the next output
+      // port ParaView updates, the next render), the whole build over.
       this->Internal->Volume.reset();
       this->Internal->Key = BuildKey();
       output->Initialize();
+      this->SetAbortOutput(false);
+      vtkWarningMacro(<< "build aborted: the outputs stay empty until a property changes");
       return 1;
     }
     this->Fail(output,

@@ -10,12 +10,14 @@
 #include "hdt/volume.hpp"
 
 #include "vtkAppendPolyData.h"
+#include "vtkCallbackCommand.h"
 #include "vtkCellArray.h"
 #include "vtkCellData.h"
 #include "vtkCubeSource.h"
 #include "vtkFieldData.h"
 #include "vtkHyperTreeGrid.h"
 #include "vtkImageData.h"
+#include "vtkInformation.h"
 #include "vtkMultiBlockDataSet.h"
 #include "vtkNew.h"
 #include "vtkPoints.h"
@@ -419,6 +421,55 @@ TEST(VoxelizerPipeline, AbortGivesEmptyOutputWithoutError)
   EXPECT_TRUE(h.Log->Errors.empty()) << joined(h.Log->Errors);
   EXPECT_EQ(out->GetNumberOfCells(), 0);
   EXPECT_FALSE(h.Filter->GetVolume());
+}
+
+// The aborted run's empty outputs stand until the filter changes: the next
+// requests (ParaView updates each output port in turn, then renders) must not
+// start the build again; a changed property builds again once the flag is
+// cleared (the plugin's Abort button clears it when the run ends).
+TEST(VoxelizerPipeline, AbortedOutputsStandUntilAChange)
+{
+  Harness h;
+  int runs = 0;
+  vtkNew<vtkCallbackCommand> countRuns;
+  countRuns->SetClientData(&runs);
+  countRuns->SetCallback([](vtkObject*, unsigned long, void* n, void*) { ++*static_cast<int*>(n); });
+  h.Filter->AddObserver(vtkCommand::StartEvent, countRuns);
+  h.Filter->SetInputData(hdtvtk::MakeSphere(16));
+  auto updateEachPort = [&h]() {
+    h.Filter->Update(0);
+    h.Filter->Update(1);
+  };
+  auto cells = [&h](int port) {
+    return vtkDataSet::SafeDownCast(h.Filter->GetOutputDataObject(port))
+      ? vtkDataSet::SafeDownCast(h.Filter->GetOutputDataObject(port))->GetNumberOfCells()
+      : vtkHyperTreeGrid::SafeDownCast(h.Filter->GetOutputDataObject(port))->GetNumberOfCells();
+  };
+  // As the plugin's Abort button does: the flag is set during the run and
+  // cleared when the run ends (EndEvent; SetAbortExecute also marks the
+  // algorithm modified, which is already older than the outputs then).
+  vtkNew<AbortOnProgress> abort;
+  const unsigned long abortId = h.Filter->AddObserver(vtkCommand::ProgressEvent, abort);
+  vtkNew<vtkCallbackCommand> clearOnEnd;
+  clearOnEnd->SetCallback(
+    [](vtkObject* caller, unsigned long, void*, void*) { static_cast<vtkAlgorithm*>(caller)->SetAbortExecute(0); });
+  const unsigned long clearId = h.Filter->AddObserver(vtkCommand::EndEvent, clearOnEnd);
+  updateEachPort();
+  h.Filter->RemoveObserver(abortId);
+  h.Filter->RemoveObserver(clearId);
+  ASSERT_FALSE(h.Filter->GetAbortExecute());
+  updateEachPort();
+  EXPECT_EQ(runs, 1);
+  EXPECT_EQ(cells(0), 0);
+  EXPECT_EQ(cells(1), 0);
+  EXPECT_TRUE(h.Log->Errors.empty()) << joined(h.Log->Errors);
+
+  h.Filter->SetResolution(h.Filter->GetResolution() * 2);
+  updateEachPort();
+  updateEachPort();
+  EXPECT_EQ(runs, 2);
+  EXPECT_GT(cells(0), 0);
+  EXPECT_GT(cells(1), 0);
 }
 
 } // namespace
