@@ -44,16 +44,24 @@ namespace {
 // ---- the format's constants (docs/hdt-format.md) ----------------------------------
 
 constexpr uint8_t kMagic[4] = {'H', 'D', 'T', 0};
-constexpr uint32_t kVersion = 1;
+constexpr uint32_t kVersion = 2;       // what the writer writes
+constexpr uint32_t kOldestVersion = 1; // the oldest the reader still reads
 constexpr uint32_t kFlagLeafZstd = 1u; // flags bit 0
 constexpr size_t kFileHeaderBytes = 12;
 constexpr size_t kSectionHeaderBytes = 28;
-constexpr size_t kGridBytes = 56;
+constexpr size_t kGridBytesV1 = 56;
+constexpr size_t kGridBytes = 60; // version 2: + the inside test
+// Version 2: ids of optional sections start here; an unknown one with the
+// critical bit set must be refused, one without it may be skipped.
+constexpr uint32_t kFirstOptionalSection = 16;
+constexpr uint32_t kCriticalSectionBit = 0x80000000u;
+// Bytes of a skipped section checksummed at a time: the skip allocates no more.
+constexpr size_t kSkipChunkBytes = size_t(1) << 20;
 constexpr size_t kStatsFixedBytes = 144;
 constexpr size_t kMaxBackendLength = 64;
 constexpr int64_t kMaxHeight = 16; // keeps R * 2^h * L far from overflow
 
-enum class Section : uint32_t { Grid = 1, Statistics = 2, LevelTable = 3, Elements = 4, LeafData = 5 };
+enum class Section : uint32_t { Grid = 1, Statistics = 2, LevelTable = 3, Elements = 4, LeafData = 5, End = 6 };
 enum class Encoding : uint32_t { Raw = 0, Zstd = 1 };
 
 const char* sectionName(Section s) {
@@ -63,6 +71,7 @@ const char* sectionName(Section s) {
   case Section::LevelTable: return "level table";
   case Section::Elements: return "elements";
   case Section::LeafData: return "leaf data";
+  case Section::End: return "end";
   }
   return "?";
 }
@@ -221,6 +230,13 @@ void checkGrid(int64_t N, int64_t R, int64_t L, int64_t h, const std::array<doub
   if (!std::isfinite(voxelSize) || !(voxelSize > 0)) invalid("grid: voxel size is not finite and positive");
 }
 
+// Version 2's grid field: the inside test that classified the volume.
+void checkInsideTest(uint32_t test) {
+  if (test != uint32_t(InsideTest::Parity) && test != uint32_t(InsideTest::WindingNumber)) {
+    invalid("grid: inside test " + str(test) + " is neither 1 (parity) nor 2 (winding number)");
+  }
+}
+
 // The fields that are not derived from the contents (those: checkStructure).
 void checkStatisticsFields(const Statistics& s) {
   if (s.backend.size() > kMaxBackendLength) invalid("statistics: backend name longer than 64 bytes");
@@ -370,6 +386,7 @@ void checkStructure(const Statistics& s, const Volume& v, const TreeCounts& tree
 void checkVolume(const Volume& v) {
   const GridSpec& g = v.grid;
   checkGrid(g.resolution, g.rootGrid, g.leafSize, g.height, g.origin, g.voxelSize);
+  checkInsideTest(uint32_t(v.insideTest));
   checkStatisticsFields(v.stats);
   checkLevelTable(v.levelStart, g);
   if (v.elements.size() != v.levelStart.back()) {
@@ -533,6 +550,7 @@ EncodedVolume encode(const Volume& v, const HdtWriteOptions& options) {
     w.f64(g.voxelSize);
     w.u32(v.surfaceOnly ? 1 : 0);
     w.u32(v.closedMesh ? 1 : 0);
+    w.u32(uint32_t(v.insideTest));
     e.grid = w.bytes();
   }
   {
@@ -592,7 +610,7 @@ void writeSmallSection(Sink& out, Section id, const std::vector<uint8_t>& payloa
 }
 
 uint64_t encodedSize(const EncodedVolume& e, const Volume& v) {
-  return kFileHeaderBytes + 5 * kSectionHeaderBytes + e.grid.size() + e.stats.size() + e.levels.size() +
+  return kFileHeaderBytes + 6 * kSectionHeaderBytes + e.grid.size() + e.stats.size() + e.levels.size() +
          uint64_t(v.elements.size()) * 4 + e.leafStoredBytes();
 }
 
@@ -613,14 +631,19 @@ void emit(const EncodedVolume& e, const Volume& v, Sink& out) {
                            [&](const uint8_t* p, size_t n) { out.write(p, n); });
 
   writeSectionHeader(out, Section::LeafData, e.leafEncoding, e.leafStoredBytes(), e.leafRawBytes, e.leafCrc);
+  bool leavesWritten = false;
 #if defined(HDT_HAVE_ZSTD)
   if (e.leafEncoding == Encoding::Zstd) {
     out.write(e.compressed.data.get(), e.compressed.size);
-    return;
+    leavesWritten = true;
   }
 #endif
-  forEachLittleEndianChunk(v.leafWords.data(), v.leafWords.size(),
-                           [&](const uint8_t* p, size_t n) { out.write(p, n); });
+  if (!leavesWritten) {
+    forEachLittleEndianChunk(v.leafWords.data(), v.leafWords.size(),
+                             [&](const uint8_t* p, size_t n) { out.write(p, n); });
+  }
+
+  writeSectionHeader(out, Section::End, Encoding::Raw, 0, 0, 0);
 }
 
 // Checks the volume and the options, then encodes; throws hdt::Error.
@@ -733,27 +756,42 @@ struct SectionHeader {
   uint32_t crc;
 };
 
-// Rule 4: the header is complete, expected, and its payload is in the file.
-SectionHeader readSectionHeader(Source& in, Section expected) {
-  const std::string name = sectionName(expected);
-  const uint64_t at = in.position();
+// The 28 bytes of a section header, not yet checked; `before` names the
+// section expected there, for the message when the file ends first.
+struct RawSectionHeader {
+  uint64_t at = 0; // file offset of the header
+  uint32_t id = 0, encoding = 0;
+  uint64_t stored = 0, raw = 0;
+  uint32_t crc = 0;
+};
+
+RawSectionHeader readRawSectionHeader(Source& in, const std::string& before) {
+  RawSectionHeader h;
+  h.at = in.position();
   if (in.remaining() < kSectionHeaderBytes) {
-    invalid("the file ends at byte " + str(at + in.remaining()) + ", before the " + name +
+    invalid("the file ends at byte " + str(h.at + in.remaining()) + ", before the " + before +
             " section header is complete");
   }
   uint8_t bytes[kSectionHeaderBytes];
   in.read(bytes, kSectionHeaderBytes);
   ByteReader r(bytes, kSectionHeaderBytes);
-  const uint32_t id = r.u32(), encoding = r.u32();
-  SectionHeader h{expected, Encoding::Raw, r.u64(), r.u64(), r.u32()};
-  if (id != uint32_t(expected)) {
-    invalid("expected the " + name + " section (id " + str(uint32_t(expected)) + ") at byte " + str(at) +
-            ", found id " + str(id));
-  }
-  if (encoding == uint32_t(Encoding::Zstd) && expected == Section::LeafData) {
+  h.id = r.u32();
+  h.encoding = r.u32();
+  h.stored = r.u64();
+  h.raw = r.u64();
+  h.crc = r.u32();
+  return h;
+}
+
+// Rule 4 for a header whose id is known: an allowed encoding, the payload in
+// the file, raw == stored when raw.
+SectionHeader checkSectionHeader(const RawSectionHeader& raw, Section id, const std::string& name,
+                                 bool zstdAllowed, const Source& in) {
+  SectionHeader h{id, Encoding::Raw, raw.stored, raw.raw, raw.crc};
+  if (raw.encoding == uint32_t(Encoding::Zstd) && zstdAllowed) {
     h.encoding = Encoding::Zstd;
-  } else if (encoding != uint32_t(Encoding::Raw)) {
-    invalid(name + " section: invalid encoding " + str(encoding));
+  } else if (raw.encoding != uint32_t(Encoding::Raw)) {
+    invalid(name + " section: invalid encoding " + str(raw.encoding));
   }
   if (h.stored > in.remaining()) {
     invalid(name + " section: " + str(h.stored) + " bytes stored but only " + str(in.remaining()) +
@@ -764,6 +802,17 @@ SectionHeader readSectionHeader(Source& in, Section expected) {
             " decoded");
   }
   return h;
+}
+
+// Rule 4: the header is complete, expected, and its payload is in the file.
+SectionHeader readSectionHeader(Source& in, Section expected) {
+  const std::string name = sectionName(expected);
+  const RawSectionHeader raw = readRawSectionHeader(in, name);
+  if (raw.id != uint32_t(expected)) {
+    invalid("expected the " + name + " section (id " + str(uint32_t(expected)) + ") at byte " + str(raw.at) +
+            ", found id " + str(raw.id));
+  }
+  return checkSectionHeader(raw, expected, name, expected == Section::LeafData, in);
 }
 
 // Rule 5: checked before the payload is read.
@@ -797,6 +846,73 @@ template <class Words> void readWordSection(Source& in, const SectionHeader& h, 
   littleEndianToHost(words.data(), words.size());
 }
 
+// Optional sections' CRC covers the first 24 bytes of their header too (id,
+// encoding, lengths), so that no flipped bit of a section a reader may skip
+// goes unnoticed; this is the CRC of those 24 bytes, to continue over the payload.
+uint32_t optionalSectionCrcSeed(uint32_t id, uint32_t encoding, uint64_t stored, uint64_t raw) {
+  ByteWriter w;
+  w.u32(id);
+  w.u32(encoding);
+  w.u64(stored);
+  w.u64(raw);
+  return crc32Update(0, w.bytes().data(), w.bytes().size());
+}
+
+// An optional section this reader does not know and may skip: its payload is
+// checksummed in bounded chunks and dropped.
+void skipSection(Source& in, const RawSectionHeader& raw) {
+  const std::string name = "optional section " + str(raw.id);
+  if (raw.encoding != uint32_t(Encoding::Raw) && raw.encoding != uint32_t(Encoding::Zstd)) {
+    invalid(name + ": invalid encoding " + str(raw.encoding));
+  }
+  if (raw.stored > in.remaining()) {
+    invalid(name + ": " + str(raw.stored) + " bytes stored but only " + str(in.remaining()) +
+            " remain in the file (truncated?)");
+  }
+  if (raw.encoding == uint32_t(Encoding::Raw) && raw.raw != raw.stored) {
+    invalid(name + ": raw section with " + str(raw.stored) + " bytes stored but " + str(raw.raw) + " decoded");
+  }
+  std::vector<uint8_t> scratch;
+  uint32_t crc = optionalSectionCrcSeed(raw.id, raw.encoding, raw.stored, raw.raw);
+  for (uint64_t left = raw.stored; left > 0;) {
+    const size_t n = size_t(std::min<uint64_t>(left, kSkipChunkBytes));
+    crc = crc32Update(crc, in.view(n, scratch), n);
+    left -= n;
+  }
+  if (crc != raw.crc) invalid(name + ": CRC-32 mismatch");
+}
+
+// Version 2, after the leaf data: optional sections in increasing id order,
+// then the end section (docs/hdt-format.md, "Optional sections").
+void readOptionalSections(Source& in, Volume& v) {
+  (void)v;
+  uint32_t previous = 0;
+  for (;;) {
+    const RawSectionHeader raw = readRawSectionHeader(in, "next optional or the end");
+    if (raw.id == uint32_t(Section::End)) {
+      if (raw.encoding != 0 || raw.stored != 0 || raw.raw != 0 || raw.crc != 0) {
+        invalid("end section at byte " + str(raw.at) + ": encoding, lengths and CRC must be 0");
+      }
+      break;
+    }
+    if (raw.id < kFirstOptionalSection) {
+      invalid("section id " + str(raw.id) + " at byte " + str(raw.at) +
+              ": expected an optional section (id 16 or more) or the end section (id 6)");
+    }
+    if (raw.id <= previous) {
+      invalid("optional section " + str(raw.id) + " at byte " + str(raw.at) + " follows section " +
+              str(previous) + ": optional sections appear once each, in increasing id order");
+    }
+    previous = raw.id;
+    if (raw.id & kCriticalSectionBit) {
+      invalid("optional section " + str(raw.id) + " at byte " + str(raw.at) +
+              " is marked critical and this reader does not know it");
+    }
+    skipSection(in, raw);
+  }
+  if (in.remaining() != 0) invalid(str(in.remaining()) + " bytes after the end section");
+}
+
 size_t toSize(uint64_t bytes) {
   if (bytes > uint64_t(SIZE_MAX)) throw std::bad_alloc();
   return size_t(bytes);
@@ -814,9 +930,9 @@ Volume readVolume(Source& in) {
   if (std::memcmp(header, kMagic, 4) != 0) invalid("not an .hdt file (bad magic)");
   ByteReader hr(header + 4, kFileHeaderBytes - 4);
   const uint32_t version = hr.u32(), flags = hr.u32();
-  if (version != kVersion) {
-    invalid("unsupported .hdt format version " + str(version) + " (this reader supports " + str(kVersion) +
-            ")");
+  if (version < kOldestVersion || version > kVersion) {
+    invalid("unsupported .hdt format version " + str(version) + " (this reader supports " +
+            str(kOldestVersion) + " to " + str(kVersion) + ")");
   }
   if (flags & ~kFlagLeafZstd) invalid("unknown flags " + str(flags) + " in the file header");
 #if !defined(HDT_HAVE_ZSTD)
@@ -829,7 +945,7 @@ Volume readVolume(Source& in) {
   // Grid (rules 8-10).
   {
     const SectionHeader h = readSectionHeader(in, Section::Grid);
-    expectRawBytes(h, kGridBytes);
+    expectRawBytes(h, version == 1 ? kGridBytesV1 : kGridBytes);
     const std::vector<uint8_t> bytes = readSmallSection(in, h);
     ByteReader r(bytes.data(), bytes.size());
     const int64_t N = r.u32(), R = r.u32(), L = r.u32(), height = r.u32();
@@ -837,8 +953,12 @@ Volume readVolume(Source& in) {
     for (double& o : origin) o = r.f64();
     const double voxelSize = r.f64();
     const uint32_t surfaceOnly = r.u32(), closedMesh = r.u32();
+    // Version 1 predates the choice: its volumes were classified by parity.
+    const uint32_t insideTest = version == 1 ? uint32_t(InsideTest::Parity) : r.u32();
     checkGrid(N, R, L, height, origin, voxelSize);
     if (surfaceOnly > 1 || closedMesh > 1) invalid("grid: a boolean flag is neither 0 nor 1");
+    checkInsideTest(insideTest);
+    v.insideTest = InsideTest(insideTest);
     g.resolution = int(N);
     g.rootGrid = int(R);
     g.leafSize = int(L);
@@ -927,7 +1047,11 @@ Volume readVolume(Source& in) {
 #endif
     }
   }
-  if (in.remaining() != 0) invalid(str(in.remaining()) + " bytes after the end of the leaf data section");
+  if (version == 1) {
+    if (in.remaining() != 0) invalid(str(in.remaining()) + " bytes after the end of the leaf data section");
+  } else {
+    readOptionalSections(in, v);
+  }
 
   checkStructure(v.stats, v, tree, checkLeaves(v.leafWords, g.leafSize, v.surfaceOnly));
   return v;

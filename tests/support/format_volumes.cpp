@@ -210,14 +210,20 @@ std::vector<uint8_t> assembleHdtImage(const HdtImage& image) {
     if (!s.keepHeader) {
       stored = s.payload.size();
       if (s.encoding == 0) raw = stored;
-      crc = referenceCrc32(s.payload.data(), s.payload.size());
     }
     putLe32(out, at, s.id);
     putLe32(out, at + 4, s.encoding);
     putLe64(out, at + 8, stored);
     putLe64(out, at + 16, raw);
-    putLe32(out, at + 24, crc);
     out.insert(out.end(), s.payload.begin(), s.payload.end());
+    if (!s.keepHeader) {
+      // Optional sections (id >= 16): the CRC covers the header's first 24 bytes, then the payload.
+      std::vector<uint8_t> covered;
+      if (s.id >= 16) covered.assign(out.begin() + at, out.begin() + at + 24);
+      covered.insert(covered.end(), s.payload.begin(), s.payload.end());
+      crc = referenceCrc32(covered.data(), covered.size());
+    }
+    putLe32(out, at + 24, crc);
   }
   return out;
 }
