@@ -4,6 +4,7 @@
 #include "hdt/builder.hpp"
 #include "hdt/error.hpp"
 #include "hdt/hdt_file.hpp"
+#include "hdt/labels.hpp"
 #include "hdt/mesh.hpp"
 #include "support/format_volumes.hpp"
 #include "support/shapes.hpp"
@@ -922,6 +923,160 @@ TEST(HdtFileV2, CorruptionOfOptionalSectionsIsCaught) {
     }
   }
   for (size_t n = 0; n < valid.size(); ++n) ASSERT_TRUE(refusedProperly(refusal(valid.data(), n))) << n;
+}
+
+
+// ---- part labels (optional sections 16, 17, 18) ----------------------------------------
+
+Volume labelledVolume(uint32_t seed = 7) {
+  Volume v = smallVolume();
+  labelRandomly(v, seed);
+  return v;
+}
+
+Volume tinyLabelledVolume() {
+  Volume v = tinyVolume();
+  labelRandomly(v, 5, 3);
+  return v;
+}
+
+TEST(HdtFileLabels, RoundTripBitExact) {
+  for (const HdtWriteOptions& o : {raw(), compressed()}) {
+    for (uint32_t seed : {1u, 2u, 3u}) {
+      Volume v = randomVolume(seed, RandomVolumeSpec{3, 8, 2, false, 0.5, 0.7, 0.3});
+      labelRandomly(v, seed);
+      ASSERT_FALSE(v.labels.voxelLabels.empty());
+      const std::vector<uint8_t> b = bytesOf(v, o);
+      expectSameVolume(v, deserializeHdt(b.data(), b.size()), "labelled seed " + std::to_string(seed));
+    }
+    Volume noNames = labelledVolume();
+    noNames.labels.names.clear();
+    const std::vector<uint8_t> b = bytesOf(noNames, o);
+    EXPECT_EQ(parseHdtImage(b).sections.size(), 8u); // 5 required, labels 16 and 17, end
+    expectSameVolume(noNames, deserializeHdt(b.data(), b.size()), "no names");
+  }
+}
+
+TEST(HdtFileLabels, LayoutFollowsTheSpec) {
+  const Volume v = labelledVolume();
+  const HdtImage im = parseHdtImage(bytesOf(v));
+  ASSERT_EQ(im.sections.size(), 9u);
+  EXPECT_EQ(im.sections[5].id, 16u);
+  EXPECT_EQ(im.sections[6].id, 17u);
+  EXPECT_EQ(im.sections[7].id, 18u);
+  EXPECT_EQ(im.sections[8].id, 6u);
+  const std::vector<uint8_t>& elements = im.sections[5].payload;
+  ASSERT_EQ(elements.size(), 2 * v.elements.size());
+  for (size_t i = 0; i < v.elements.size(); ++i)
+    ASSERT_EQ(uint32_t(elements[2 * i] | elements[2 * i + 1] << 8), v.labels.elementLabels[i]);
+  const std::vector<uint8_t>& voxels = im.sections[6].payload;
+  ASSERT_EQ(voxels.size(), 2 * v.labels.voxelLabels.size());
+  EXPECT_EQ(uint32_t(voxels[0] | voxels[1] << 8), v.labels.voxelLabels[0]);
+  const std::vector<uint8_t>& names = im.sections[7].payload;
+  EXPECT_EQ(getLe32(names, 0), 3u);
+  EXPECT_EQ(getLe32(names, 4), 1u | (10u << 16));
+  EXPECT_EQ(std::string(names.begin() + 8, names.begin() + 18), "first part");
+  // The CRC covers the header's first 24 bytes, then the payload.
+  const std::vector<uint8_t> b = bytesOf(v);
+  const size_t at = hdtSectionBoundaries(b)[6]; // header of section 16
+  std::vector<uint8_t> covered(b.begin() + long(at), b.begin() + long(at) + 24);
+  covered.insert(covered.end(), elements.begin(), elements.end());
+  EXPECT_EQ(im.sections[5].crc, referenceCrc32(covered.data(), covered.size()));
+}
+
+TEST(HdtFileLabels, EveryByteFlippedAndTruncated) {
+  for (const HdtWriteOptions& o : {raw(), compressed()}) {
+    const Volume v = tinyLabelledVolume();
+    ASSERT_FALSE(v.labels.voxelLabels.empty());
+    const std::vector<uint8_t> valid = bytesOf(v, o);
+    ASSERT_EQ(refusal(valid), "ACCEPTED");
+    std::vector<uint8_t> b = valid;
+    for (size_t i = 0; i < b.size(); ++i) {
+      for (uint8_t mask : {0x01, 0x80}) {
+        b[i] ^= mask;
+        const std::string m = refusal(b);
+        b[i] ^= mask;
+        ASSERT_TRUE(refusedProperly(m)) << "byte " << i << " ^ " << int(mask) << ": " << m;
+      }
+    }
+    for (size_t n = 0; n < valid.size(); ++n) ASSERT_TRUE(refusedProperly(refusal(valid.data(), n))) << n;
+  }
+}
+
+TEST(HdtFileLabels, InconsistentLabelsAreRefused) {
+  const Volume v = labelledVolume();
+  const std::vector<uint8_t> valid = bytesOf(v);
+  // Edit the volume, write its label sections unchecked into the valid file.
+  auto withLabels = [&](const std::function<void(LabelField&)>& edit) {
+    Volume bad = v;
+    edit(bad.labels);
+    LabelField& f = bad.labels;
+    return forge(valid, [&](HdtImage& im) {
+      std::vector<uint8_t> e, x;
+      for (Label l : f.elementLabels) e.insert(e.end(), {uint8_t(l), uint8_t(l >> 8)});
+      for (Label l : f.voxelLabels) x.insert(x.end(), {uint8_t(l), uint8_t(l >> 8)});
+      im.sections[5].payload = e;
+      im.sections[6].payload = x;
+    });
+  };
+  const uint64_t full = findElement(v, ElementState::Full, -1);
+  const uint64_t empty = findElement(v, ElementState::Empty, -1);
+  const uint64_t branch = findElement(v, ElementState::Branch, -1);
+  EXPECT_REFUSED(withLabels([&](LabelField& f) { f.elementLabels[full] = 0; }), "Full element");
+  EXPECT_REFUSED(withLabels([&](LabelField& f) { f.elementLabels[empty] = 3; }), "is Empty or Branch");
+  EXPECT_REFUSED(withLabels([&](LabelField& f) { f.elementLabels[branch] = 3; }), "is Empty or Branch");
+  EXPECT_REFUSED(withLabels([&](LabelField& f) { f.elementLabels.pop_back(); }), "label elements section");
+  EXPECT_REFUSED(withLabels([&](LabelField& f) { f.voxelLabels.pop_back(); }), "label voxels section");
+  // A mixed leaf: a label on an Outside voxel, or just one label.
+  const int L = v.grid.leafSize;
+  EXPECT_REFUSED(withLabels([&](LabelField& f) {
+                   for (Label& l : f.voxelLabels) l = l ? 1 : 0;
+                 }),
+                 "only one label");
+  EXPECT_REFUSED(withLabels([&](LabelField& f) {
+                   for (size_t j = 0; j < size_t(L * L * L); ++j) f.voxelLabels[j] = Label(1 + j % 2);
+                 }),
+                 "label voxels: mixed leaf");
+
+  // Sections: 17 and 18 need 16; 16 needs 17.
+  EXPECT_REFUSED(forge(valid, [](HdtImage& im) { im.sections.erase(im.sections.begin() + 5); }),
+                 "without the label elements section");
+  EXPECT_REFUSED(forge(valid, [](HdtImage& im) { im.sections.erase(im.sections.begin() + 6); }),
+                 "without the label voxels section");
+  EXPECT_REFUSED(forge(valid, [](HdtImage& im) { std::swap(im.sections[5], im.sections[6]); }),
+                 "label voxels section without the label elements section");
+  EXPECT_REFUSED(forge(valid, [](HdtImage& im) { std::swap(im.sections[6], im.sections[7]); }),
+                 "increasing id order");
+  EXPECT_REFUSED(forge(valid, [](HdtImage& im) { im.sections[5].encoding = 1; }),
+                 "label elements section: invalid encoding 1");
+  // Names.
+  auto names = [&](const std::function<void(std::vector<uint8_t>&)>& edit) {
+    return forge(valid, [&](HdtImage& im) { edit(im.sections[7].payload); });
+  };
+  EXPECT_REFUSED(names([](std::vector<uint8_t>& p) { p.push_back(0); }), "bytes after the last name");
+  EXPECT_REFUSED(names([](std::vector<uint8_t>& p) { putLe32(p, 0, 4); }), "ends inside");
+  EXPECT_REFUSED(names([](std::vector<uint8_t>& p) { putLe32(p, 4, 0u | (10u << 16)); }), "not increasing");
+  EXPECT_REFUSED(names([](std::vector<uint8_t>& p) { p[8] = '\n'; }), "control character");
+  EXPECT_REFUSED(names([](std::vector<uint8_t>& p) { putLe32(p, 4, 1u | (300u << 16)); }), "longer than 255");
+
+  // The writer refuses what the reader would.
+  Volume bad = v;
+  bad.labels.elementLabels[full] = 0;
+  EXPECT_THROW(bytesOf(bad), Error);
+  bad = v;
+  bad.labels.names[0] = "outside";
+  EXPECT_THROW(bytesOf(bad), Error);
+}
+
+TEST(HdtFileLabels, UnlabelledReaderViewSkipsNothingItNeeds) {
+  // A labelled file read as a version-2 file gives the same voxel states as the
+  // unlabelled volume: labels only add.
+  Volume v = labelledVolume();
+  const std::vector<uint8_t> b = bytesOf(v);
+  Volume back = deserializeHdt(b.data(), b.size());
+  back.labels = LabelField{};
+  v.labels = LabelField{};
+  expectSameVolume(v, back, "states");
 }
 
 } // namespace

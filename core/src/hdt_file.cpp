@@ -15,6 +15,7 @@
 #include "hdt/atomic_file.hpp"
 
 #include "hdt/error.hpp"
+#include "hdt/labels.hpp"
 #include "hdt/lattice.hpp"
 
 #include <tbb/blocked_range.h>
@@ -61,7 +62,12 @@ constexpr size_t kStatsFixedBytes = 144;
 constexpr size_t kMaxBackendLength = 64;
 constexpr int64_t kMaxHeight = 16; // keeps R * 2^h * L far from overflow
 
-enum class Section : uint32_t { Grid = 1, Statistics = 2, LevelTable = 3, Elements = 4, LeafData = 5, End = 6 };
+enum class Section : uint32_t {
+  Grid = 1, Statistics = 2, LevelTable = 3, Elements = 4, LeafData = 5, End = 6,
+  // Optional (version 2)
+  LabelElements = 16, LabelVoxels = 17, LabelNames = 18,
+};
+constexpr size_t kMaxLabelNameLength = 255;
 enum class Encoding : uint32_t { Raw = 0, Zstd = 1 };
 
 const char* sectionName(Section s) {
@@ -72,6 +78,9 @@ const char* sectionName(Section s) {
   case Section::Elements: return "elements";
   case Section::LeafData: return "leaf data";
   case Section::End: return "end";
+  case Section::LabelElements: return "label elements";
+  case Section::LabelVoxels: return "label voxels";
+  case Section::LabelNames: return "label names";
   }
   return "?";
 }
@@ -120,23 +129,26 @@ uint32_t crc32Of(const void* data, size_t size) {
 
 // Calls fn(bytes, size) over the little-endian encoding of `words`, in order.
 // On little-endian hosts that is the array itself, in one call and no copy.
-template <class Fn> void forEachLittleEndianChunk(const uint32_t* words, size_t count, Fn&& fn) {
+inline uint32_t byteSwap(uint32_t v) { return __builtin_bswap32(v); }
+inline uint16_t byteSwap(uint16_t v) { return __builtin_bswap16(v); }
+
+template <class T, class Fn> void forEachLittleEndianChunk(const T* words, size_t count, Fn&& fn) {
   if (count == 0) return;
   if (kLittleEndianHost) {
-    fn(reinterpret_cast<const uint8_t*>(words), count * 4);
+    fn(reinterpret_cast<const uint8_t*>(words), count * sizeof(T));
     return;
   }
-  std::vector<uint32_t> chunk(std::min<size_t>(count, 1 << 16));
+  std::vector<T> chunk(std::min<size_t>(count, 1 << 16));
   for (size_t i = 0; i < count; i += chunk.size()) {
     const size_t n = std::min(chunk.size(), count - i);
-    for (size_t j = 0; j < n; ++j) chunk[j] = __builtin_bswap32(words[i + j]);
-    fn(reinterpret_cast<const uint8_t*>(chunk.data()), n * 4);
+    for (size_t j = 0; j < n; ++j) chunk[j] = byteSwap(words[i + j]);
+    fn(reinterpret_cast<const uint8_t*>(chunk.data()), n * sizeof(T));
   }
 }
 
 // CRC-32 of the little-endian encoding of `words`.
 template <class Words> uint32_t crcOfWords(const Words& words) {
-  if (kLittleEndianHost) return crc32Of(words.data(), words.size() * 4);
+  if (kLittleEndianHost) return crc32Of(words.data(), words.size() * sizeof(words[0]));
   uint32_t crc = 0;
   forEachLittleEndianChunk(words.data(), words.size(),
                            [&](const uint8_t* p, size_t n) { crc = crc32Update(crc, p, n); });
@@ -144,9 +156,9 @@ template <class Words> uint32_t crcOfWords(const Words& words) {
 }
 
 // Words just read in little-endian order -> host order, in place.
-void littleEndianToHost(uint32_t* words, size_t count) {
+template <class T> void littleEndianToHost(T* words, size_t count) {
   if (!kLittleEndianHost)
-    for (size_t i = 0; i < count; ++i) words[i] = __builtin_bswap32(words[i]);
+    for (size_t i = 0; i < count; ++i) words[i] = byteSwap(words[i]);
 }
 
 // Little-endian encoding of the small sections' fields.
@@ -173,6 +185,18 @@ public:
 private:
   std::vector<uint8_t> bytes_;
 };
+
+// Optional sections' CRC covers the first 24 bytes of their header too (id,
+// encoding, lengths), so that no flipped bit of a section a reader may skip
+// goes unnoticed; this is the CRC of those 24 bytes, to continue over the payload.
+uint32_t optionalSectionCrcSeed(uint32_t id, uint32_t encoding, uint64_t stored, uint64_t raw) {
+  ByteWriter w;
+  w.u32(id);
+  w.u32(encoding);
+  w.u64(stored);
+  w.u64(raw);
+  return crc32Update(0, w.bytes().data(), w.bytes().size());
+}
 
 // The matching decoder. Callers check section lengths before decoding, so
 // running past the end is a bug here, but still an error rather than a crash.
@@ -382,6 +406,81 @@ void checkStructure(const Statistics& s, const Volume& v, const TreeCounts& tree
   }
 }
 
+// ---- part labels (docs/hdt-format.md, "Part labels") ------------------------------
+
+// Element labels: 0 on Empty and Branch, >= 1 on Full, any on Boundary (0:
+// a mixed leaf). Returns the leaf indices of the mixed leaves, in order.
+std::vector<uint64_t> checkLabelElements(const std::vector<Label>& labels, const std::vector<ElementWord>& elements) {
+  if (labels.size() != elements.size())
+    invalid("label elements: " + str(labels.size()) + " labels for " + str(elements.size()) + " elements");
+  std::vector<uint64_t> mixed;
+  for (size_t i = 0; i < elements.size(); ++i) {
+    const ElementState s = elementState(elements[i]);
+    if ((s == ElementState::Empty || s == ElementState::Branch) && labels[i] != kOutsideLabel)
+      invalid("label elements: element " + str(i) + " is Empty or Branch but has label " + str(labels[i]));
+    if (s == ElementState::Full && labels[i] == kOutsideLabel)
+      invalid("label elements: Full element " + str(i) + " has label 0");
+    if (s == ElementState::Boundary && labels[i] == kOutsideLabel) mixed.push_back(elementPayload(elements[i]));
+  }
+  return mixed;
+}
+
+// A mixed leaf's voxel labels: 0 exactly on Outside voxels, two labels or more.
+bool mixedLeafIsValid(const uint32_t* words, const Label* labels, int leafSize) {
+  const size_t voxels = size_t(leafSize) * leafSize * leafSize;
+  Label first = kOutsideLabel;
+  bool twoLabels = false;
+  for (size_t j = 0; j < voxels; ++j) {
+    const bool outside = ((words[j / kVoxelsPerWord] >> (2 * (j % kVoxelsPerWord))) & 3u) == 0;
+    if (outside != (labels[j] == kOutsideLabel)) return false;
+    if (labels[j] == kOutsideLabel) continue;
+    if (first == kOutsideLabel) first = labels[j];
+    twoLabels = twoLabels || labels[j] != first;
+  }
+  return twoLabels;
+}
+
+void checkLabelVoxels(const Volume& v, const std::vector<uint64_t>& mixed) {
+  const size_t voxels = size_t(v.grid.leafSize) * v.grid.leafSize * v.grid.leafSize;
+  if (v.labels.voxelLabels.size() != mixed.size() * voxels) {
+    invalid("label voxels: " + str(v.labels.voxelLabels.size()) + " labels for " + str(mixed.size()) +
+            " mixed leaves of " + str(voxels) + " voxels");
+  }
+  const size_t firstBad = tbb::parallel_reduce(
+      tbb::blocked_range<size_t>(0, mixed.size(), 64), mixed.size(),
+      [&](const tbb::blocked_range<size_t>& r, size_t bad) {
+        for (size_t b = r.begin(); b != r.end() && b < bad; ++b)
+          if (!mixedLeafIsValid(v.leaf(mixed[b]), v.labels.voxelLabels.data() + b * voxels, v.grid.leafSize))
+            return b;
+        return bad;
+      },
+      [](size_t a, size_t b) { return std::min(a, b); });
+  if (firstBad != mixed.size()) {
+    invalid("label voxels: mixed leaf " + str(mixed[firstBad]) +
+            " has a label 0 on a voxel that is not Outside (or a label on an Outside voxel), or only one label");
+  }
+}
+
+void checkLabelNames(const std::map<Label, std::string>& names) {
+  for (const auto& [label, name] : names) {
+    if (label == kOutsideLabel) invalid("label names: a name for label 0");
+    if (name.size() > kMaxLabelNameLength)
+      invalid("label names: the name of label " + str(label) + " is longer than 255 bytes");
+    for (char c : name)
+      if (uint8_t(c) < 0x20 || c == 0x7F) invalid("label names: the name of label " + str(label) + " has a control character");
+  }
+}
+
+void checkLabels(const Volume& v) {
+  if (v.labels.empty()) {
+    if (!v.labels.voxelLabels.empty() || !v.labels.names.empty())
+      invalid("voxel labels or label names in a volume without element labels");
+    return;
+  }
+  checkLabelVoxels(v, checkLabelElements(v.labels.elementLabels, v.elements));
+  checkLabelNames(v.labels.names);
+}
+
 // Everything at once, for the writer.
 void checkVolume(const Volume& v) {
   const GridSpec& g = v.grid;
@@ -397,6 +496,7 @@ void checkVolume(const Volume& v) {
     invalid(str(v.leafWords.size()) + " leaf words for " + str(tree.leaves) + " Boundary elements");
   }
   checkStructure(v.stats, v, tree, checkLeaves(v.leafWords, g.leafSize, v.surfaceOnly));
+  checkLabels(v);
 }
 
 // ---- zstd ---------------------------------------------------------------------------
@@ -422,8 +522,8 @@ struct Compressed {
   size_t size = 0;
 };
 
-Compressed compressLeaves(const LeafWordVector& words, int level) {
-  const size_t rawBytes = words.size() * 4;
+template <class Words> Compressed compressWords(const Words& words, int level) {
+  const size_t rawBytes = words.size() * sizeof(words[0]);
   std::unique_ptr<ZSTD_CCtx, CCtxFree> cctx(ZSTD_createCCtx());
   if (!cctx) throw std::bad_alloc();
   zstdCheck(ZSTD_CCtx_setParameter(cctx.get(), ZSTD_c_compressionLevel, level), "level");
@@ -457,28 +557,28 @@ Compressed compressLeaves(const LeafWordVector& words, int level) {
 // Checks that `srcSize` bytes are exactly one zstd frame stating a content
 // size of `dstSize`. Reads only the frame's headers, so it runs before the
 // destination is allocated (docs/hdt-format.md: nothing allocated on trust).
-void checkLeafFrame(const uint8_t* src, size_t srcSize, size_t dstSize) {
+void checkLeafFrame(const uint8_t* src, size_t srcSize, size_t dstSize, const std::string& what = "leaf data") {
   const unsigned long long content = ZSTD_getFrameContentSize(src, srcSize);
-  if (content == ZSTD_CONTENTSIZE_ERROR) invalid("leaf data: not a zstd frame");
-  if (content == ZSTD_CONTENTSIZE_UNKNOWN) invalid("leaf data: the zstd frame does not state its size");
+  if (content == ZSTD_CONTENTSIZE_ERROR) invalid(what + ": not a zstd frame");
+  if (content == ZSTD_CONTENTSIZE_UNKNOWN) invalid(what + ": the zstd frame does not state its size");
   if (content != dstSize) {
-    invalid("leaf data: the zstd frame holds " + str(content) + " bytes, expected " + str(dstSize));
+    invalid(what + ": the zstd frame holds " + str(content) + " bytes, expected " + str(dstSize));
   }
   const size_t frame = ZSTD_findFrameCompressedSize(src, srcSize);
-  if (ZSTD_isError(frame) || frame != srcSize) invalid("leaf data: not exactly one zstd frame");
+  if (ZSTD_isError(frame) || frame != srcSize) invalid(what + ": not exactly one zstd frame");
 }
 
 // Decodes exactly `dstSize` bytes from a frame checkLeafFrame accepted.
-void decompressLeaves(const uint8_t* src, size_t srcSize, uint8_t* dst, size_t dstSize) {
+void decompressLeaves(const uint8_t* src, size_t srcSize, uint8_t* dst, size_t dstSize,
+                      const std::string& what = "leaf data") {
   std::unique_ptr<ZSTD_DCtx, DCtxFree> dctx(ZSTD_createDCtx());
   if (!dctx) throw std::bad_alloc();
   uint8_t none;
   // One-shot into the caller's buffer: zstd never writes beyond dstSize and
   // needs no window buffer of its own, whatever the frame header claims.
   const size_t n = ZSTD_decompressDCtx(dctx.get(), dstSize ? dst : &none, dstSize, src, srcSize);
-  if (ZSTD_isError(n)) invalid(std::string("leaf data: zstd: ") + ZSTD_getErrorName(n));
-  if (n != dstSize)
-    invalid("leaf data: the zstd frame decoded to " + str(n) + " bytes, expected " + str(dstSize));
+  if (ZSTD_isError(n)) invalid(what + ": zstd: " + ZSTD_getErrorName(n));
+  if (n != dstSize) invalid(what + ": the zstd frame decoded to " + str(n) + " bytes, expected " + str(dstSize));
 }
 #endif
 
@@ -529,15 +629,83 @@ struct EncodedVolume {
 #endif
   uint32_t leafCrc = 0;
 
+  // Part labels (optional sections 16-18), when the volume has them.
+  bool labelled = false;
+  uint32_t labelElementsCrc = 0;
+  Encoding labelVoxelEncoding = Encoding::Raw;
+  uint64_t labelVoxelRawBytes = 0;
+#if defined(HDT_HAVE_ZSTD)
+  Compressed labelVoxelsCompressed;
+#endif
+  uint32_t labelVoxelsCrc = 0;
+  std::vector<uint8_t> labelNames; // empty: no names section
+
   uint64_t leafStoredBytes() const {
 #if defined(HDT_HAVE_ZSTD)
     if (leafEncoding == Encoding::Zstd) return compressed.size;
 #endif
     return leafRawBytes;
   }
+  uint64_t labelVoxelStoredBytes() const {
+#if defined(HDT_HAVE_ZSTD)
+    if (labelVoxelEncoding == Encoding::Zstd) return labelVoxelsCompressed.size;
+#endif
+    return labelVoxelRawBytes;
+  }
 };
 
+// An optional section's CRC: its header's first 24 bytes, then the payload
+// (whose own CRC-32 is payloadCrc).
+uint32_t optionalSectionCrc(Section id, Encoding encoding, uint64_t stored, uint64_t raw, uint32_t payloadCrc) {
+  const uint32_t seed = optionalSectionCrcSeed(uint32_t(id), uint32_t(encoding), stored, raw);
+  return static_cast<uint32_t>(crc32_combine(seed, payloadCrc, z_off_t(stored)));
+}
+
+std::vector<uint8_t> encodeLabelNames(const std::map<Label, std::string>& names) {
+  ByteWriter w;
+  w.u32(uint32_t(names.size()));
+  for (const auto& [label, name] : names) {
+    w.u32(uint32_t(label) | (uint32_t(name.size()) << 16));
+    w.raw(name.data(), name.size());
+  }
+  return w.bytes();
+}
+
+void encodeLabels(const Volume& v, const HdtWriteOptions& options, EncodedVolume& e) {
+  const LabelField& f = v.labels;
+  if (f.empty()) return;
+  e.labelled = true;
+  const uint64_t elementBytes = f.elementLabels.size() * sizeof(Label);
+  e.labelElementsCrc = optionalSectionCrc(Section::LabelElements, Encoding::Raw, elementBytes, elementBytes,
+                                          crcOfWords(f.elementLabels));
+  e.labelVoxelRawBytes = f.voxelLabels.size() * sizeof(Label);
+#if defined(HDT_HAVE_ZSTD)
+  if (options.compressLeaves && !f.voxelLabels.empty()) {
+    e.labelVoxelEncoding = Encoding::Zstd;
+    e.labelVoxelsCompressed = compressWords(f.voxelLabels, options.zstdLevel);
+    const Compressed& c = e.labelVoxelsCompressed;
+    e.labelVoxelsCrc = optionalSectionCrc(Section::LabelVoxels, Encoding::Zstd, c.size, e.labelVoxelRawBytes,
+                                          crc32Of(c.data.get(), c.size));
+  }
+#else
+  (void)options;
+#endif
+  if (e.labelVoxelEncoding == Encoding::Raw) {
+    e.labelVoxelsCrc = optionalSectionCrc(Section::LabelVoxels, Encoding::Raw, e.labelVoxelRawBytes,
+                                          e.labelVoxelRawBytes, crcOfWords(f.voxelLabels));
+  }
+  if (!f.names.empty()) e.labelNames = encodeLabelNames(f.names);
+}
+
+EncodedVolume encodeRequired(const Volume& v, const HdtWriteOptions& options);
+
 EncodedVolume encode(const Volume& v, const HdtWriteOptions& options) {
+  EncodedVolume e = encodeRequired(v, options);
+  encodeLabels(v, options, e);
+  return e;
+}
+
+EncodedVolume encodeRequired(const Volume& v, const HdtWriteOptions& options) {
   EncodedVolume e;
   const GridSpec& g = v.grid;
   {
@@ -581,7 +749,7 @@ EncodedVolume encode(const Volume& v, const HdtWriteOptions& options) {
 #if defined(HDT_HAVE_ZSTD)
   if (options.compressLeaves && !v.leafWords.empty()) {
     e.leafEncoding = Encoding::Zstd;
-    e.compressed = compressLeaves(v.leafWords, options.zstdLevel);
+    e.compressed = compressWords(v.leafWords, options.zstdLevel);
     e.leafCrc = crc32Of(e.compressed.data.get(), e.compressed.size);
     return e;
   }
@@ -610,8 +778,37 @@ void writeSmallSection(Sink& out, Section id, const std::vector<uint8_t>& payloa
 }
 
 uint64_t encodedSize(const EncodedVolume& e, const Volume& v) {
-  return kFileHeaderBytes + 6 * kSectionHeaderBytes + e.grid.size() + e.stats.size() + e.levels.size() +
-         uint64_t(v.elements.size()) * 4 + e.leafStoredBytes();
+  uint64_t size = kFileHeaderBytes + 6 * kSectionHeaderBytes + e.grid.size() + e.stats.size() + e.levels.size() +
+                  uint64_t(v.elements.size()) * 4 + e.leafStoredBytes();
+  if (e.labelled) {
+    size += 2 * kSectionHeaderBytes + v.labels.elementLabels.size() * sizeof(Label) + e.labelVoxelStoredBytes();
+    if (!e.labelNames.empty()) size += kSectionHeaderBytes + e.labelNames.size();
+  }
+  return size;
+}
+
+void emitLabels(const EncodedVolume& e, const Volume& v, Sink& out) {
+  if (!e.labelled) return;
+  const LabelField& f = v.labels;
+  const uint64_t elementBytes = f.elementLabels.size() * sizeof(Label);
+  writeSectionHeader(out, Section::LabelElements, Encoding::Raw, elementBytes, elementBytes, e.labelElementsCrc);
+  forEachLittleEndianChunk(f.elementLabels.data(), f.elementLabels.size(),
+                           [&](const uint8_t* p, size_t n) { out.write(p, n); });
+  writeSectionHeader(out, Section::LabelVoxels, e.labelVoxelEncoding, e.labelVoxelStoredBytes(),
+                     e.labelVoxelRawBytes, e.labelVoxelsCrc);
+#if defined(HDT_HAVE_ZSTD)
+  if (e.labelVoxelEncoding == Encoding::Zstd) out.write(e.labelVoxelsCompressed.data.get(), e.labelVoxelsCompressed.size);
+#endif
+  if (e.labelVoxelEncoding == Encoding::Raw) {
+    forEachLittleEndianChunk(f.voxelLabels.data(), f.voxelLabels.size(),
+                             [&](const uint8_t* p, size_t n) { out.write(p, n); });
+  }
+  if (!e.labelNames.empty()) {
+    const uint64_t n = e.labelNames.size();
+    writeSectionHeader(out, Section::LabelNames, Encoding::Raw, n, n,
+                       optionalSectionCrc(Section::LabelNames, Encoding::Raw, n, n, crc32Of(e.labelNames.data(), n)));
+    out.write(e.labelNames.data(), n);
+  }
 }
 
 void emit(const EncodedVolume& e, const Volume& v, Sink& out) {
@@ -643,6 +840,7 @@ void emit(const EncodedVolume& e, const Volume& v, Sink& out) {
                              [&](const uint8_t* p, size_t n) { out.write(p, n); });
   }
 
+  emitLabels(e, v, out);
   writeSectionHeader(out, Section::End, Encoding::Raw, 0, 0, 0);
 }
 
@@ -846,18 +1044,6 @@ template <class Words> void readWordSection(Source& in, const SectionHeader& h, 
   littleEndianToHost(words.data(), words.size());
 }
 
-// Optional sections' CRC covers the first 24 bytes of their header too (id,
-// encoding, lengths), so that no flipped bit of a section a reader may skip
-// goes unnoticed; this is the CRC of those 24 bytes, to continue over the payload.
-uint32_t optionalSectionCrcSeed(uint32_t id, uint32_t encoding, uint64_t stored, uint64_t raw) {
-  ByteWriter w;
-  w.u32(id);
-  w.u32(encoding);
-  w.u64(stored);
-  w.u64(raw);
-  return crc32Update(0, w.bytes().data(), w.bytes().size());
-}
-
 // An optional section this reader does not know and may skip: its payload is
 // checksummed in bounded chunks and dropped.
 void skipSection(Source& in, const RawSectionHeader& raw) {
@@ -882,11 +1068,96 @@ void skipSection(Source& in, const RawSectionHeader& raw) {
   if (crc != raw.crc) invalid(name + ": CRC-32 mismatch");
 }
 
+// Rule 6 for an optional section: the CRC covers the header's first 24 bytes.
+void checkOptionalCrc(const SectionHeader& h, const uint8_t* stored) {
+  const uint32_t seed = optionalSectionCrcSeed(uint32_t(h.id), uint32_t(h.encoding), h.stored, h.raw);
+  checkCrc(h, static_cast<uint32_t>(crc32_combine(seed, crc32Of(stored, size_t(h.stored)), z_off_t(h.stored))));
+}
+
+// An optional section holding an array of T (raw, or zstd when allowed), its
+// raw length already checked; decoded into `out`.
+template <class T> void readOptionalArray(Source& in, const SectionHeader& h, std::vector<T>& out) {
+  const std::string what = sectionName(h.id);
+  std::vector<uint8_t> scratch;
+  const uint8_t* stored = in.view(size_t(h.stored), scratch); // in the file: bounded by its size
+  checkOptionalCrc(h, stored);
+  if (h.encoding == Encoding::Raw) {
+    out.resize(size_t(h.raw) / sizeof(T));
+    if (h.raw) std::memcpy(out.data(), stored, size_t(h.raw));
+  } else {
+#if defined(HDT_HAVE_ZSTD)
+    checkLeafFrame(stored, size_t(h.stored), size_t(h.raw), what);
+    out.resize(size_t(h.raw) / sizeof(T));
+    decompressLeaves(stored, size_t(h.stored), reinterpret_cast<uint8_t*>(out.data()), size_t(h.raw), what);
+#else
+    invalid(what + " section: zstd-compressed but this build of HDT has no zstd support");
+#endif
+  }
+  littleEndianToHost(out.data(), out.size());
+}
+
+std::map<Label, std::string> decodeLabelNames(const uint8_t* bytes, size_t size) {
+  ByteReader r(bytes, size);
+  if (size < 4) invalid("label names section: shorter than its count");
+  const uint32_t count = r.u32();
+  std::map<Label, std::string> names;
+  size_t at = 4;
+  uint32_t previous = 0;
+  for (uint32_t i = 0; i < count; ++i) {
+    if (size - at < 4) invalid("label names section: ends inside entry " + str(i));
+    const uint32_t packed = r.u32();
+    const uint32_t label = packed & 0xFFFFu, length = packed >> 16;
+    at += 4;
+    if (label <= previous) invalid("label names section: labels are not increasing from 1 (label " + str(label) + ")");
+    if (length > kMaxLabelNameLength) invalid("label names section: a name longer than 255 bytes");
+    if (size - at < length) invalid("label names section: ends inside the name of label " + str(label));
+    names[Label(label)].assign(reinterpret_cast<const char*>(r.bytes(length)), length);
+    at += length;
+    previous = label;
+  }
+  if (at != size) invalid("label names section: " + str(size - at) + " bytes after the last name");
+  checkLabelNames(names);
+  return names;
+}
+
+// The part-label sections (16, 17, 18); `mixed` receives the mixed leaves.
+void readLabelSection(Source& in, const RawSectionHeader& raw, Volume& v, std::vector<uint64_t>& mixed) {
+  const Section id = Section(raw.id);
+  const SectionHeader h = checkSectionHeader(raw, id, sectionName(id), id == Section::LabelVoxels, in);
+  LabelField& f = v.labels;
+  if (id != Section::LabelElements && f.empty())
+    invalid(std::string(sectionName(id)) + " section without the label elements section");
+  switch (id) {
+  case Section::LabelElements:
+    expectRawBytes(h, uint64_t(v.elements.size()) * sizeof(Label));
+    readOptionalArray(in, h, f.elementLabels);
+    mixed = checkLabelElements(f.elementLabels, v.elements);
+    break;
+  case Section::LabelVoxels: {
+    const uint64_t L = uint64_t(v.grid.leafSize);
+    expectRawBytes(h, mixed.size() * L * L * L * sizeof(Label)); // at most 8x the leaf data
+    readOptionalArray(in, h, f.voxelLabels);
+    checkLabelVoxels(v, mixed);
+    break;
+  }
+  default: {
+    // 65535 names of 255 bytes at most, each with a 4-byte head.
+    if (h.raw > 4 + 65535 * (4 + kMaxLabelNameLength)) invalid("label names section: too long");
+    std::vector<uint8_t> scratch;
+    const uint8_t* bytes = in.view(size_t(h.stored), scratch);
+    checkOptionalCrc(h, bytes);
+    f.names = decodeLabelNames(bytes, size_t(h.stored));
+    break;
+  }
+  }
+}
+
 // Version 2, after the leaf data: optional sections in increasing id order,
 // then the end section (docs/hdt-format.md, "Optional sections").
 void readOptionalSections(Source& in, Volume& v) {
-  (void)v;
   uint32_t previous = 0;
+  std::vector<uint64_t> mixed;
+  bool labelVoxels = false;
   for (;;) {
     const RawSectionHeader raw = readRawSectionHeader(in, "next optional or the end");
     if (raw.id == uint32_t(Section::End)) {
@@ -904,6 +1175,11 @@ void readOptionalSections(Source& in, Volume& v) {
               str(previous) + ": optional sections appear once each, in increasing id order");
     }
     previous = raw.id;
+    if (raw.id >= uint32_t(Section::LabelElements) && raw.id <= uint32_t(Section::LabelNames)) {
+      readLabelSection(in, raw, v, mixed);
+      labelVoxels = labelVoxels || raw.id == uint32_t(Section::LabelVoxels);
+      continue;
+    }
     if (raw.id & kCriticalSectionBit) {
       invalid("optional section " + str(raw.id) + " at byte " + str(raw.at) +
               " is marked critical and this reader does not know it");
@@ -911,6 +1187,8 @@ void readOptionalSections(Source& in, Volume& v) {
     skipSection(in, raw);
   }
   if (in.remaining() != 0) invalid(str(in.remaining()) + " bytes after the end section");
+  if (!v.labels.empty() && !labelVoxels) invalid("label elements section without the label voxels section");
+  indexMixedLeaves(v);
 }
 
 size_t toSize(uint64_t bytes) {

@@ -1,0 +1,295 @@
+// Part labels (issue 17, hdt/labels.hpp) against a brute-force reference: each
+// part voxelized densely on its own by the test oracle (reference_voxelizer),
+// the union and the overlap policy applied voxel by voxel here.
+#include "hdt/builder.hpp"
+#include "hdt/error.hpp"
+#include "hdt/hdt_file.hpp"
+#include "hdt/labels.hpp"
+#include "hdt/mesh.hpp"
+#include "support/format_volumes.hpp"
+#include "support/reference_voxelizer.hpp"
+#include "support/shapes.hpp"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <map>
+
+namespace hdt {
+namespace test {
+namespace {
+
+constexpr int kN = 64;
+
+struct Part {
+  Label label;
+  TriangleMesh mesh;
+};
+
+TriangleMesh labelledMesh(const std::vector<Part>& parts) {
+  TriangleMesh all;
+  for (const Part& p : parts) {
+    append(all, p.mesh);
+    all.triangleLabels.insert(all.triangleLabels.end(), p.mesh.triangleCount(), p.label);
+  }
+  return all;
+}
+
+// The unit-voxel frame of shapes.hpp: voxel size 1, voxel i spans [i - N/2, i + 1 - N/2].
+BuildConfig unitFrame(int n = kN, int rootGrid = 2, int leafSize = 8) {
+  BuildConfig c;
+  c.resolution = n;
+  c.rootGrid = rootGrid;
+  c.leafSize = leafSize;
+  c.hasBounds = true;
+  const double b = (n - 2) / 2.0;
+  c.boundsMin = {-b, -b, -b};
+  c.boundsMax = {b, b, b};
+  return c;
+}
+
+BuildOptions cpu(int threads = 0) {
+  BuildOptions o;
+  o.backend = Backend::Cpu;
+  o.threads = threads;
+  return o;
+}
+
+Vec3 plane3(int x, int y, int z) { return {voxelPlane(kN, x), voxelPlane(kN, y), voxelPlane(kN, z)}; }
+
+// The reference: states and labels of every voxel, from each part's dense
+// reference volume on the same grid.
+struct ReferenceLabels {
+  std::vector<uint8_t> state;
+  std::vector<Label> label;
+};
+
+ReferenceLabels referenceLabels(const std::vector<Part>& parts, const BuildConfig& config,
+                                const LabelOptions& options) {
+  BuildConfig placed = config;
+  if (!placed.hasBounds) {
+    meshBounds(labelledMesh(parts), placed.boundsMin, placed.boundsMax);
+    placed.hasBounds = true;
+  }
+  const size_t n3 = size_t(config.resolution) * config.resolution * config.resolution;
+  ReferenceLabels ref{std::vector<uint8_t>(n3, 0), std::vector<Label>(n3, 0)};
+  // Rank by the policy, written out here independently of LabelRanking.
+  auto rank = [&](Label l) -> long {
+    if (options.overlap == OverlapPolicy::Highest) return -long(l);
+    if (options.overlap == OverlapPolicy::Priority) {
+      const auto it = std::find(options.priority.begin(), options.priority.end(), l);
+      if (it != options.priority.end()) return long(it - options.priority.begin()) - 100000;
+    }
+    return long(l);
+  };
+  for (const Part& p : parts) {
+    const ReferenceVoxels r = referenceVoxelize(prepareMesh(p.mesh, placed), config.surfaceOnly);
+    for (size_t i = 0; i < n3; ++i) {
+      const uint8_t s = r.state[i];
+      if (s == 0) continue;
+      // Surface (2) beats Inside (1); within a state the policy decides.
+      if (s > ref.state[i] || (s == ref.state[i] && rank(p.label) < rank(ref.label[i]))) {
+        ref.state[i] = s;
+        ref.label[i] = p.label;
+      }
+    }
+  }
+  return ref;
+}
+
+::testing::AssertionResult matchesReference(const Volume& v, const ReferenceLabels& ref) {
+  const int n = v.grid.resolution;
+  size_t wrong = 0;
+  std::string first;
+  for (int z = 0; z < n; ++z)
+    for (int y = 0; y < n; ++y)
+      for (int x = 0; x < n; ++x) {
+        const size_t i = size_t(x) + size_t(n) * (size_t(y) + size_t(n) * size_t(z));
+        const VoxelState s = voxelAt(v, x, y, z);
+        const Label l = labelAt(v, x, y, z);
+        if (uint8_t(s) != ref.state[i] || l != ref.label[i]) {
+          if (wrong++ == 0) {
+            first = "voxel (" + std::to_string(x) + "," + std::to_string(y) + "," + std::to_string(z) +
+                    "): state " + std::to_string(int(s)) + " label " + std::to_string(l) + ", expected " +
+                    std::to_string(int(ref.state[i])) + " / " + std::to_string(ref.label[i]);
+          }
+        }
+      }
+  if (wrong == 0) return ::testing::AssertionSuccess();
+  return ::testing::AssertionFailure() << wrong << " voxels differ; first " << first;
+}
+
+// Per-label counts add up to the volume's counts.
+void expectCountsAddUp(const Volume& v) {
+  uint64_t surface = 0, inside = 0;
+  for (const LabelStatistics& s : labelStatistics(v)) {
+    surface += s.surfaceVoxels;
+    inside += s.insideVoxels;
+  }
+  EXPECT_EQ(surface, v.stats.activeVoxels);
+  EXPECT_EQ(inside, v.stats.insideVoxels);
+}
+
+Volume buildLabelled(const std::vector<Part>& parts, const BuildConfig& config, const LabelOptions& options,
+                     const BuildOptions& build = cpu()) {
+  Volume v = voxelizeLabelled(labelledMesh(parts), config, build, options);
+  validateVolume(v);
+  return v;
+}
+
+LabelOptions policy(OverlapPolicy p, std::vector<Label> priority = {}) {
+  LabelOptions o;
+  o.overlap = p;
+  o.priority = std::move(priority);
+  return o;
+}
+
+std::vector<Part> touchingCubes() {
+  return {{1, box(plane3(16, 20, 20), plane3(32, 40, 40))}, {2, box(plane3(32, 20, 20), plane3(48, 40, 40))}};
+}
+
+TEST(Labels, TouchingCubesShareTheFaceByThePolicy) {
+  const std::vector<Part> parts = touchingCubes();
+  for (OverlapPolicy p : {OverlapPolicy::Lowest, OverlapPolicy::Highest}) {
+    const Volume v = buildLabelled(parts, unitFrame(), policy(p));
+    EXPECT_TRUE(matchesReference(v, referenceLabels(parts, unitFrame(), policy(p))));
+    // The shared face x = plane 32 touches voxels 31 and 32: both are surface of both cubes.
+    const Label winner = p == OverlapPolicy::Lowest ? 1 : 2;
+    EXPECT_EQ(labelAt(v, 31, 30, 30), winner);
+    EXPECT_EQ(labelAt(v, 32, 30, 30), winner);
+    EXPECT_EQ(labelAt(v, 30, 30, 30), 1); // inside the first cube
+    EXPECT_EQ(labelAt(v, 40, 30, 30), 2);
+    EXPECT_EQ(labelAt(v, 50, 30, 30), 0);
+    expectCountsAddUp(v);
+  }
+  // Disjoint interiors: the union is the unlabelled build of the whole mesh, byte for byte.
+  const Volume labelled = buildLabelled(parts, unitFrame(), {});
+  const Volume plain = voxelize(labelledMesh(parts), unitFrame(), cpu());
+  EXPECT_EQ(firstDifference(plain, labelled), "");
+  EXPECT_GT(labelled.labels.voxelLabels.size(), 0u) << "the shared face's leaves hold two labels";
+}
+
+TEST(Labels, NestedPartKeepsItsLabelUnderHighestAndPriority) {
+  const std::vector<Part> parts = {{1, box(plane3(8, 8, 8), plane3(56, 56, 56))},
+                                   {2, box(plane3(24, 24, 24), plane3(40, 40, 40))}};
+  for (const LabelOptions& o : {policy(OverlapPolicy::Lowest), policy(OverlapPolicy::Highest),
+                                policy(OverlapPolicy::Priority, {2})}) {
+    const Volume v = buildLabelled(parts, unitFrame(), o);
+    EXPECT_TRUE(matchesReference(v, referenceLabels(parts, unitFrame(), o)));
+    const bool innerWins = o.overlap != OverlapPolicy::Lowest;
+    EXPECT_EQ(labelAt(v, 32, 32, 32), innerWins ? 2 : 1); // inside both
+    EXPECT_EQ(labelAt(v, 24, 32, 32), 2);                 // the inner surface: only part 2 touches it
+    EXPECT_EQ(voxelAt(v, 32, 32, 32), VoxelState::Inside); // each part is a solid: no parity cancelling
+    EXPECT_EQ(labelAt(v, 12, 32, 32), 1);
+    expectCountsAddUp(v);
+  }
+}
+
+TEST(Labels, OverlappingSpheresUnderEachPolicy) {
+  const std::vector<Part> parts = {{3, icosphere(2, 14, {-6, 0, 0})}, {7, icosphere(2, 14, {6, 0, 0})},
+                                   {5, icosphere(1, 6, {0, 0, 20})}};
+  BuildConfig config = unitFrame();
+  for (const LabelOptions& o :
+       {policy(OverlapPolicy::Lowest), policy(OverlapPolicy::Highest), policy(OverlapPolicy::Priority, {7, 3}),
+        policy(OverlapPolicy::Priority, {5})}) {
+    const Volume v = buildLabelled(parts, config, o);
+    EXPECT_TRUE(matchesReference(v, referenceLabels(parts, config, o)));
+    const Label overlap = labelAt(v, 32, 32, 32); // the centre lies in both big spheres
+    const Label expected = o.overlap == OverlapPolicy::Highest ? 7
+                           : o.overlap == OverlapPolicy::Priority && o.priority[0] == 7 ? 7
+                                                                                        : 3;
+    EXPECT_EQ(overlap, expected);
+    expectCountsAddUp(v);
+  }
+}
+
+TEST(Labels, FreePlacementSurfaceOnlyAndLeafSizes) {
+  const std::vector<Part> parts = {{1, icosphere(2, 1.0, {0, 0, 0})}, {2, torus(1.2, 0.3, 24, 12, {0, 0, 0.2})},
+                                   {9, box({-0.3, -0.3, -1.4}, {0.3, 0.3, 1.4})}};
+  for (bool surfaceOnly : {false, true}) {
+    for (int L : {8, 16}) {
+      BuildConfig c;
+      c.resolution = 64;
+      c.rootGrid = 2;
+      c.leafSize = L;
+      c.surfaceOnly = surfaceOnly;
+      const Volume v = buildLabelled(parts, c, {});
+      EXPECT_TRUE(matchesReference(v, referenceLabels(parts, c, {}))) << "L " << L << " surfaceOnly " << surfaceOnly;
+      expectCountsAddUp(v);
+    }
+  }
+}
+
+TEST(Labels, SameBytesWhateverTheThreadCount) {
+  const std::vector<Part> parts = {{3, icosphere(2, 14, {-6, 0, 0})}, {7, icosphere(2, 14, {6, 0, 0})}};
+  const std::vector<uint8_t> one = serializeHdt(buildLabelled(parts, unitFrame(), {}, cpu(1)));
+  const std::vector<uint8_t> two = serializeHdt(buildLabelled(parts, unitFrame(), {}, cpu(2)));
+  const std::vector<uint8_t> many = serializeHdt(buildLabelled(parts, unitFrame(), {}, cpu(7)));
+  // Times and thread counts differ: compare everything but the statistics section.
+  const auto strip = [](const std::vector<uint8_t>& b) {
+    HdtImage im = parseHdtImage(b);
+    im.sections.erase(im.sections.begin() + 1);
+    return assembleHdtImage(im);
+  };
+  EXPECT_TRUE(strip(one) == strip(two));
+  EXPECT_TRUE(strip(one) == strip(many));
+}
+
+TEST(Labels, StatisticsAndNames) {
+  std::vector<Part> parts = touchingCubes();
+  TriangleMesh mesh = labelledMesh(parts);
+  mesh.labelNames = {{1, "left"}, {2, "right"}, {4, "unused"}};
+  const Volume v = voxelizeLabelled(mesh, unitFrame(), cpu());
+  const std::vector<LabelStatistics> table = labelStatistics(v);
+  ASSERT_EQ(table.size(), 3u);
+  EXPECT_EQ(table[0].name, "left");
+  EXPECT_EQ(table[2].label, 4);
+  EXPECT_EQ(table[2].surfaceVoxels + table[2].insideVoxels, 0u);
+  // Each cube is 16 x 20 x 20 voxels; the face planes' voxels on both sides are surface.
+  const double occupied = double(table[0].surfaceVoxels + table[0].insideVoxels);
+  EXPECT_GE(occupied, 16.0 * 20 * 20);
+  EXPECT_LE(occupied, 18.0 * 22 * 22);
+  EXPECT_DOUBLE_EQ(table[0].volume, occupied); // voxel size 1
+  EXPECT_EQ(labelFieldBytes(v), v.labels.elementLabels.size() * 2 + v.labels.voxelLabels.size() * 2 +
+                                    v.labels.mixedBlock.size() * 4);
+}
+
+TEST(Labels, SurfaceAreaEstimateOfASphere) {
+  const double r = 25;
+  const Volume v = buildLabelled({{1, icosphere(4, r)}}, unitFrame(), {});
+  const std::vector<LabelStatistics> table = labelStatistics(v);
+  ASSERT_EQ(table.size(), 1u);
+  const double area = 4 * 3.14159265358979 * r * r;
+  EXPECT_NEAR(table[0].surfaceArea / area, 1.0, 0.1);
+}
+
+TEST(Labels, BuildsRoundTripThroughTheFile) {
+  TriangleMesh mesh = labelledMesh(touchingCubes());
+  mesh.labelNames = {{1, "left"}, {2, "right"}};
+  const Volume v = voxelizeLabelled(mesh, unitFrame(), cpu());
+  for (bool zstd : {false, true}) {
+    HdtWriteOptions o;
+    o.compressLeaves = zstd;
+    const std::vector<uint8_t> b = serializeHdt(v, o);
+    const Volume back = deserializeHdt(b.data(), b.size());
+    expectSameVolume(v, back, zstd ? "zstd" : "raw");
+    EXPECT_EQ(labelAt(back, 31, 30, 30), 1);
+  }
+}
+
+TEST(Labels, BadLabelsAreRefused) {
+  TriangleMesh mesh = labelledMesh(touchingCubes());
+  mesh.triangleLabels.pop_back();
+  EXPECT_THROW(voxelizeLabelled(mesh, unitFrame(), cpu()), Error);
+  mesh.triangleLabels.push_back(0);
+  try {
+    voxelizeLabelled(mesh, unitFrame(), cpu());
+    ADD_FAILURE() << "label 0 accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("reserved for outside"), std::string::npos) << e.what();
+  }
+}
+
+} // namespace
+} // namespace test
+} // namespace hdt
