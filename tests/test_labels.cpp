@@ -6,6 +6,7 @@
 #include "hdt/hdt_file.hpp"
 #include "hdt/labels.hpp"
 #include "hdt/mesh.hpp"
+#include "hdt/mesh_io.hpp"
 #include "support/format_volumes.hpp"
 #include "support/reference_voxelizer.hpp"
 #include "support/shapes.hpp"
@@ -13,6 +14,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <fstream>
 #include <map>
 
 namespace hdt {
@@ -275,6 +277,82 @@ TEST(Labels, BuildsRoundTripThroughTheFile) {
     expectSameVolume(v, back, zstd ? "zstd" : "raw");
     EXPECT_EQ(labelAt(back, 31, 30, 30), 1);
   }
+}
+
+void writeText(const std::string& path, const std::string& text) {
+  std::ofstream(path, std::ios::binary) << text;
+}
+
+// Two unit boxes as OBJ faces (1-based indices), in groups or materials.
+std::string twoBoxObj(const std::string& firstHead, const std::string& secondHead) {
+  std::string obj;
+  for (int b = 0; b < 2; ++b) {
+    for (int i = 0; i < 8; ++i)
+      obj += "v " + std::to_string((i & 1) + 2 * b) + " " + std::to_string((i >> 1) & 1) + " " +
+             std::to_string((i >> 2) & 1) + "\n";
+  }
+  const int quads[6][4] = {{0, 2, 3, 1}, {4, 5, 7, 6}, {0, 1, 5, 4}, {2, 6, 7, 3}, {0, 4, 6, 2}, {1, 3, 7, 5}};
+  for (int b = 0; b < 2; ++b) {
+    obj += b == 0 ? firstHead : secondHead;
+    for (const auto& q : quads) {
+      obj += "f";
+      for (int k : q) obj += " " + std::to_string(k + 1 + 8 * b);
+      obj += "\n";
+    }
+  }
+  return obj;
+}
+
+TEST(MeshLabels, ObjGroupsAndMaterials) {
+  if (!readsAllMeshFormats()) GTEST_SKIP() << "built without assimp: no OBJ reader";
+  const std::string path = tempPath("labels_groups.obj");
+  writeText(path, twoBoxObj("g wheel\n", "g axle\n"));
+  TriangleMesh m = readMesh(path, {MeshLabelSource::Kind::ObjGroup, ""});
+  ASSERT_EQ(m.triangleCount(), 24u);
+  ASSERT_EQ(m.triangleLabels.size(), 24u);
+  // Each box's triangles carry one label, the two boxes different ones, named after the groups.
+  for (size_t t = 0; t < 24; ++t) {
+    const bool secondBox = m.points[3 * m.triangles[3 * t]] > 1.5; // x of a corner
+    EXPECT_EQ(m.labelNames.at(m.triangleLabels[t]), secondBox ? "axle" : "wheel") << t;
+  }
+  const std::string mtl = tempPath("labels_materials.obj");
+  writeText(mtl, twoBoxObj("usemtl steel\n", "usemtl brass\n"));
+  m = readMesh(mtl, {MeshLabelSource::Kind::ObjMaterial, ""});
+  ASSERT_EQ(m.triangleLabels.size(), 24u);
+  for (size_t t = 0; t < 24; ++t) {
+    const bool secondBox = m.points[3 * m.triangles[3 * t]] > 1.5; // x of a corner
+    EXPECT_EQ(m.labelNames.at(m.triangleLabels[t]), secondBox ? "brass" : "steel") << t;
+  }
+  EXPECT_THROW(readMesh(path, {MeshLabelSource::Kind::PlyFaceProperty, "part"}), Error);
+  std::remove(path.c_str());
+  std::remove(mtl.c_str());
+}
+
+TEST(MeshLabels, PlyFacePropertyAndComponents) {
+  const std::string path = tempPath("labels_faces.ply");
+  // Two triangles and a quad (two triangles) with labels 7, 3, 9.
+  writeText(path, "ply\nformat ascii 1.0\nelement vertex 5\nproperty float x\nproperty float y\n"
+                  "property float z\nelement face 3\nproperty list uchar int vertex_indices\n"
+                  "property ushort part\nend_header\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n1 1 1\n"
+                  "3 0 1 2 7\n3 0 1 3 3\n4 1 2 3 4 9\n");
+  TriangleMesh m = readMesh(path, {MeshLabelSource::Kind::PlyFaceProperty, "part"});
+  EXPECT_EQ(m.triangleLabels, (std::vector<Label>{7, 3, 9, 9}));
+  EXPECT_THROW(readMesh(path, {MeshLabelSource::Kind::PlyFaceProperty, "missing"}), Error);
+  writeText(path, "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                  "property float z\nelement face 1\nproperty list uchar int vertex_indices\n"
+                  "property int part\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2 0\n");
+  try {
+    readMesh(path, {MeshLabelSource::Kind::PlyFaceProperty, "part"});
+    ADD_FAILURE() << "label 0 accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("labels are 1 to 65535"), std::string::npos) << e.what();
+  }
+  std::remove(path.c_str());
+
+  TriangleMesh parts = labelledMesh(touchingCubes()); // two boxes, separate points
+  parts.triangleLabels.clear();
+  labelConnectedComponents(parts);
+  for (size_t t = 0; t < parts.triangleCount(); ++t) EXPECT_EQ(parts.triangleLabels[t], t < 12 ? 1 : 2);
 }
 
 TEST(Labels, BadLabelsAreRefused) {
