@@ -2,6 +2,7 @@
 // part voxelized densely on its own by the test oracle (reference_voxelizer),
 // the union and the overlap policy applied voxel by voxel here.
 #include "hdt/builder.hpp"
+#include "hdt/dense.hpp"
 #include "hdt/error.hpp"
 #include "hdt/hdt_file.hpp"
 #include "hdt/labels.hpp"
@@ -353,6 +354,19 @@ TEST(MeshLabels, PlyFacePropertyAndComponents) {
   parts.triangleLabels.clear();
   labelConnectedComponents(parts);
   for (size_t t = 0; t < parts.triangleCount(); ++t) EXPECT_EQ(parts.triangleLabels[t], t < 12 ? 1 : 2);
+}
+
+TEST(Labels, DenseLabelsEqualTheWalk) {
+  const std::vector<Part> parts = {{3, icosphere(2, 14, {-6, 0, 0})}, {7, icosphere(2, 14, {6, 0, 0})}};
+  const Volume v = buildLabelled(parts, unitFrame(), {});
+  const std::vector<uint16_t> dense = denseLabels(v);
+  ASSERT_EQ(dense.size(), size_t(kN) * kN * kN);
+  size_t wrong = 0;
+  for (int z = 0; z < kN; ++z)
+    for (int y = 0; y < kN; ++y)
+      for (int x = 0; x < kN; ++x) wrong += dense[size_t(x) + kN * (size_t(y) + kN * size_t(z))] != labelAt(v, x, y, z);
+  EXPECT_EQ(wrong, 0u);
+  EXPECT_THROW(denseLabels(voxelize(labelledMesh(parts), unitFrame(), cpu())), Error); // unlabelled
 }
 
 TEST(Labels, BadLabelsAreRefused) {
