@@ -350,10 +350,22 @@ TEST(MeshLabels, PlyFacePropertyAndComponents) {
   }
   std::remove(path.c_str());
 
-  TriangleMesh parts = labelledMesh(touchingCubes()); // two boxes, separate points
+  // Two apart boxes (touching ones would share positions, hence one component).
+  TriangleMesh parts = labelledMesh({{1, box(plane3(8, 8, 8), plane3(16, 16, 16))}, {2, box(plane3(40, 8, 8), plane3(48, 16, 16))}});
   parts.triangleLabels.clear();
   labelConnectedComponents(parts);
   for (size_t t = 0; t < parts.triangleCount(); ++t) EXPECT_EQ(parts.triangleLabels[t], t < 12 ? 1 : 2);
+  // A triangle soup (every triangle its own points, as STL gives) connects by position.
+  TriangleMesh soup;
+  for (size_t t = 0; t < parts.triangleCount(); ++t) {
+    for (int c = 0; c < 3; ++c) {
+      const uint32_t p = parts.triangles[3 * t + size_t(c)];
+      soup.points.insert(soup.points.end(), parts.points.begin() + 3 * p, parts.points.begin() + 3 * p + 3);
+      soup.triangles.push_back(uint32_t(3 * t + size_t(c)));
+    }
+  }
+  labelConnectedComponents(soup);
+  for (size_t t = 0; t < soup.triangleCount(); ++t) EXPECT_EQ(soup.triangleLabels[t], t < 12 ? 1 : 2) << t;
 }
 
 TEST(Labels, DenseLabelsEqualTheWalk) {

@@ -502,9 +502,23 @@ bool readsAllMeshFormats() {
 TriangleMesh readMesh(const std::string& path) { return readMesh(path, MeshLabelSource{}); }
 
 void labelConnectedComponents(TriangleMesh& mesh) {
-  // Union-find over points; a component's label follows its first triangle.
-  std::vector<uint32_t> parent(mesh.pointCount());
+  // Union-find over points; points at the same position (exactly) start
+  // joined, so that triangle soups (STL) connect too. A component's label
+  // follows its first triangle.
+  const size_t np = mesh.pointCount();
+  std::vector<uint32_t> parent(np);
   for (uint32_t i = 0; i < parent.size(); ++i) parent[i] = i;
+  {
+    std::vector<uint32_t> order(np);
+    for (uint32_t i = 0; i < np; ++i) order[i] = i;
+    const double* p = mesh.points.data();
+    auto less = [p](uint32_t a, uint32_t b) {
+      return std::lexicographical_compare(p + 3 * a, p + 3 * a + 3, p + 3 * b, p + 3 * b + 3);
+    };
+    std::sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) { return less(a, b) || (!less(b, a) && a < b); });
+    for (size_t i = 1; i < np; ++i)
+      if (!less(order[i - 1], order[i])) parent[order[i]] = order[i - 1]; // equal: ties sorted by index
+  }
   auto find = [&](uint32_t x) {
     while (parent[x] != x) x = parent[x] = parent[parent[x]];
     return x;

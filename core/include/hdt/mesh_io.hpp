@@ -28,8 +28,9 @@ TriangleMesh readMesh(const std::string& path);
 //     appearance, named after them;
 //   ObjMaterial: OBJ materials (usemtl), label = material index + 1, named
 //     after them;
-//   Components: connected components (triangles sharing a point index), 1, 2,
-//     ... in order of their first triangle; any format.
+//   Components: connected components (triangles sharing a point, by index
+//     or by exact position), 1, 2, ... in order of their first triangle; any
+//     format.
 struct MeshLabelSource {
   enum class Kind { None, PlyFaceProperty, ObjGroup, ObjMaterial, Components } kind = Kind::None;
   std::string property;
@@ -38,7 +39,8 @@ struct MeshLabelSource {
 // readMesh, with labels from `labels` (Error(BadInput) when the file lacks them).
 TriangleMesh readMesh(const std::string& path, const MeshLabelSource& labels);
 
-// Labels each triangle with its connected component (shared point indices),
+// Labels each triangle with its connected component (shared points: the same
+// index or exactly the same coordinates),
 // 1, 2, ... in order of the components' first triangles. Throws
 // Error(BadInput) past 65535 components.
 void labelConnectedComponents(TriangleMesh& mesh);
