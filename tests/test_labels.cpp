@@ -277,6 +277,10 @@ TEST(Labels, BuildsRoundTripThroughTheFile) {
     const Volume back = deserializeHdt(b.data(), b.size());
     expectSameVolume(v, back, zstd ? "zstd" : "raw");
     EXPECT_EQ(labelAt(back, 31, 30, 30), 1);
+    const std::string path = tempPath("labels_roundtrip.hdt"); // the file reader's path too
+    writeHdt(v, path, o);
+    expectSameVolume(v, readHdt(path), zstd ? "zstd file" : "raw file");
+    std::remove(path.c_str());
   }
 }
 

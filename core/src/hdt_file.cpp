@@ -1078,13 +1078,14 @@ void checkOptionalCrc(const SectionHeader& h, const uint8_t* stored) {
 // raw length already checked; decoded into `out`.
 template <class T> void readOptionalArray(Source& in, const SectionHeader& h, std::vector<T>& out) {
   const std::string what = sectionName(h.id);
-  std::vector<uint8_t> scratch;
-  const uint8_t* stored = in.view(size_t(h.stored), scratch); // in the file: bounded by its size
-  checkOptionalCrc(h, stored);
   if (h.encoding == Encoding::Raw) {
-    out.resize(size_t(h.raw) / sizeof(T));
-    if (h.raw) std::memcpy(out.data(), stored, size_t(h.raw));
+    out.resize(size_t(h.raw) / sizeof(T)); // the section is in the file: bounded by its size
+    in.read(out.data(), size_t(h.stored));
+    checkOptionalCrc(h, reinterpret_cast<const uint8_t*>(out.data()));
   } else {
+    std::vector<uint8_t> scratch;
+    const uint8_t* stored = in.view(size_t(h.stored), scratch); // in the file: bounded by its size
+    checkOptionalCrc(h, stored);
 #if defined(HDT_HAVE_ZSTD)
     checkLeafFrame(stored, size_t(h.stored), size_t(h.raw), what);
     out.resize(size_t(h.raw) / sizeof(T));
