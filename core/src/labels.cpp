@@ -3,9 +3,11 @@
 #include "hdt/labels.hpp"
 
 #include "hdt/error.hpp"
+#include "hdt/host_memory.hpp"
 #include "hdt/mesh.hpp"
 #include "hdt/volume_walk.hpp"
 
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
@@ -63,61 +65,59 @@ void pushChildClaim(const std::vector<Volume>& parts, const Claim& c, int child,
   if (elementState(parts[c.part].elements[k]) != ElementState::Empty) next.claims.push_back({c.part, k});
 }
 
-// One combined leaf: its words, and its labels (one, or per voxel when mixed).
-struct CombinedLeaf {
-  Label label = 0;             // 0: mixed
-  std::vector<Label> voxels;   // L^3 when mixed
-};
+// One combined leaf's words: the OR of the claims' surface and inside
+// planes, inside only where no claim has surface.
+uint32_t claimWord(const std::vector<Volume>& parts, const Claim& c, uint32_t w) {
+  if (c.element == kInheritedFull) return kInsidePlaneBits; // all Inside
+  return parts[c.part].leaf(elementPayload(parts[c.part].elements[c.element]))[w];
+}
 
-CombinedLeaf combineLeaf(const std::vector<Volume>& parts, const std::vector<Label>& partLabels,
-                         const LabelRanking& ranking, const Claim* claims, size_t count, uint32_t* out) {
-  const int L = parts[0].grid.leafSize;
-  const uint32_t words = leafWordCount(L);
-  auto claimWord = [&](const Claim& c, uint32_t w) -> uint32_t {
-    if (c.element == kInheritedFull) return kInsidePlaneBits; // all Inside
-    return parts[c.part].leaf(elementPayload(parts[c.part].elements[c.element]))[w];
-  };
+void combineLeafWords(const std::vector<Volume>& parts, const Claim* claims, size_t count, uint32_t* out) {
+  const uint32_t words = leafWordCount(parts[0].grid.leafSize);
   for (uint32_t w = 0; w < words; ++w) {
     uint32_t surface = 0, inside = 0;
     for (size_t i = 0; i < count; ++i) {
-      const uint32_t pw = claimWord(claims[i], w);
+      const uint32_t pw = claimWord(parts, claims[i], w);
       surface |= planeOf(pw, kSurfacePlane);
       inside |= planeOf(pw, kInsidePlane);
     }
     inside &= ~surface;
     out[w] = inside | (surface << 1);
   }
-  CombinedLeaf leaf;
-  if (count == 1) {
-    leaf.label = partLabels[claims[0].part];
-    return leaf;
-  }
-  // Each voxel: the best label among the claims in the voxel's combined state.
-  leaf.voxels.assign(size_t(L) * L * L, kOutsideLabel);
+}
+
+// The labels of a combined leaf (words as combineLeafWords made them): the
+// one label of its non-Outside voxels, or 0 when it holds several; then
+// `voxels` (L^3, written only for several claims) holds every voxel's label:
+// the best, by the policy, of the claims in the voxel's combined state.
+Label combineLeafLabels(const std::vector<Volume>& parts, const std::vector<Label>& partLabels,
+                        const LabelRanking& ranking, const Claim* claims, size_t count, const uint32_t* combined,
+                        Label* voxels) {
+  if (count == 1) return partLabels[claims[0].part];
+  const int L = parts[0].grid.leafSize;
+  const uint32_t words = leafWordCount(L);
+  std::fill(voxels, voxels + size_t(L) * L * L, kOutsideLabel);
   for (size_t i = 0; i < count; ++i) {
     const Label label = partLabels[claims[i].part];
     for (uint32_t w = 0; w < words; ++w) {
-      const uint32_t pw = claimWord(claims[i], w), combined = out[w];
-      uint32_t mine = (planeOf(pw, kSurfacePlane) & planeOf(combined, kSurfacePlane)) |
-                      (planeOf(pw, kInsidePlane) & planeOf(combined, kInsidePlane));
+      const uint32_t pw = claimWord(parts, claims[i], w), c = combined[w];
+      uint32_t mine = (planeOf(pw, kSurfacePlane) & planeOf(c, kSurfacePlane)) |
+                      (planeOf(pw, kInsidePlane) & planeOf(c, kInsidePlane));
       while (mine) {
         const int bit = __builtin_ctz(mine);
         mine &= mine - 1;
-        Label& v = leaf.voxels[size_t(w) * kVoxelsPerWord + size_t(bit / 2)];
+        Label& v = voxels[size_t(w) * kVoxelsPerWord + size_t(bit / 2)];
         v = v == kOutsideLabel ? label : ranking.best(v, label);
       }
     }
   }
   Label only = kOutsideLabel;
-  for (Label v : leaf.voxels) {
-    if (v == kOutsideLabel) continue;
-    if (only == kOutsideLabel) only = v;
-    if (v != only) return leaf; // mixed
+  for (size_t j = 0; j < size_t(L) * L * L; ++j) {
+    if (voxels[j] == kOutsideLabel) continue;
+    if (only == kOutsideLabel) only = voxels[j];
+    if (voxels[j] != only) return kOutsideLabel; // mixed
   }
-  leaf.label = only;
-  leaf.voxels.clear();
-  leaf.voxels.shrink_to_fit();
-  return leaf;
+  return only;
 }
 
 void checkParts(const std::vector<Volume>& parts, const std::vector<Label>& partLabels) {
@@ -210,22 +210,33 @@ Volume combineLabelledParts(const std::vector<Volume>& parts, const std::vector<
   }
   out.levelStart.push_back(out.elements.size());
 
-  // The leaves, in parallel: each writes its own words and result.
+  // The leaves, in parallel, each writing its own words and label; the voxel
+  // labels of mixed leaves are computed again straight into their place once
+  // the mixed leaves are counted (cheaper than holding them all twice).
   const uint32_t words = leafWordCount(g.leafSize);
-  out.leafWords.resize(leafElement.size() * words);
-  std::vector<CombinedLeaf> leaves(leafElement.size());
-  tbb::parallel_for(size_t(0), leafElement.size(), [&](size_t i) {
-    leaves[i] = combineLeaf(parts, partLabels, ranking, leafClaims.claims.data() + leafClaims.start[i],
-                            size_t(leafClaims.start[i + 1] - leafClaims.start[i]), out.leafWords.data() + i * words);
-  });
-  size_t mixed = 0;
-  for (const CombinedLeaf& l : leaves) mixed += l.label == kOutsideLabel;
   const size_t voxels = size_t(g.leafSize) * g.leafSize * g.leafSize;
-  out.labels.voxelLabels.reserve(mixed * voxels);
-  for (size_t i = 0; i < leaves.size(); ++i) {
-    elementLabels[leafElement[i]] = leaves[i].label;
-    out.labels.voxelLabels.insert(out.labels.voxelLabels.end(), leaves[i].voxels.begin(), leaves[i].voxels.end());
+  const size_t leafCount = leafElement.size();
+  out.leafWords.resize(leafCount * words);
+  std::vector<Label> leafLabels(leafCount);
+  auto claimsOf = [&](size_t i) { return leafClaims.claims.data() + leafClaims.start[i]; };
+  auto countOf = [&](size_t i) { return size_t(leafClaims.start[i + 1] - leafClaims.start[i]); };
+  tbb::enumerable_thread_specific<std::vector<Label>> scratch([&] { return std::vector<Label>(voxels); });
+  tbb::parallel_for(size_t(0), leafCount, [&](size_t i) {
+    uint32_t* w = out.leafWords.data() + i * words;
+    combineLeafWords(parts, claimsOf(i), countOf(i), w);
+    leafLabels[i] = combineLeafLabels(parts, partLabels, ranking, claimsOf(i), countOf(i), w, scratch.local().data());
+  });
+  std::vector<size_t> mixedLeaves;
+  for (size_t i = 0; i < leafCount; ++i) {
+    elementLabels[leafElement[i]] = leafLabels[i];
+    if (leafLabels[i] == kOutsideLabel) mixedLeaves.push_back(i);
   }
+  out.labels.voxelLabels.resize(mixedLeaves.size() * voxels);
+  tbb::parallel_for(size_t(0), mixedLeaves.size(), [&](size_t k) {
+    const size_t i = mixedLeaves[k];
+    combineLeafLabels(parts, partLabels, ranking, claimsOf(i), countOf(i), out.leafWords.data() + i * words,
+                      out.labels.voxelLabels.data() + k * voxels);
+  });
   indexMixedLeaves(out);
 
   computeStructureStatistics(out);
@@ -244,6 +255,8 @@ Volume combineLabelledParts(const std::vector<Volume>& parts, const std::vector<
     s.peakDeviceBytes = std::max(s.peakDeviceBytes, p.stats.peakDeviceBytes);
   }
   s.time.total += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  // The combination holds every part and the result at once: the process's peak so far.
+  s.peakHostBytes = std::max(s.peakHostBytes, peakResidentBytes());
   return out;
 }
 
