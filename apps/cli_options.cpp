@@ -1,5 +1,6 @@
 #include "cli_options.hpp"
 
+#include <algorithm>
 #include <cerrno>
 #include <climits>
 #include <cstdlib>
@@ -53,6 +54,11 @@ std::string usageText() {
          "  -o OUT.hdt       write the volume as an .hdt file (checked before the build,\n"
          "                   replaced atomically; never the input mesh)\n"
          "  --dense OUT.nrrd write a dense N^3 uint8 NRRD (0 outside, 1 inside, 2 surface; N <= 1024)\n"
+         "  --labels SOURCE  label the voxels by part: ply:PROPERTY (an integer face property),\n"
+         "                   obj:group, obj:material, or components (connected components)\n"
+         "  --overlap P      where parts claim one voxel: lowest (default), highest, or a\n"
+         "                   priority list of labels, e.g. 3,1,2 (first wins; others lowest first)\n"
+         "  --dense-labels OUT.nrrd  write the labels as a dense N^3 uint16 NRRD (N <= 1024)\n"
          "  --json           print the statistics as one JSON object on stdout\n"
          "  --quiet          no progress, notes or warnings on stderr (errors still go there)\n"
          "  -h, --help       print this help and exit\n"
@@ -60,6 +66,37 @@ std::string usageText() {
          "exit codes: 0 ok, 2 usage or invalid option, 3 bad input file or mesh,\n"
          "            4 out of memory or device resources, 5 cannot write an output file,\n"
          "            1 anything else\n";
+}
+
+MeshLabelSource parseLabelSource(const std::string& v) {
+  using Kind = MeshLabelSource::Kind;
+  if (v == "obj:group") return {Kind::ObjGroup, ""};
+  if (v == "obj:material") return {Kind::ObjMaterial, ""};
+  if (v == "components") return {Kind::Components, ""};
+  if (v.rfind("ply:", 0) == 0 && v.size() > 4) return {Kind::PlyFaceProperty, v.substr(4)};
+  throw UsageError("--labels expects ply:PROPERTY, obj:group, obj:material or components, got '" + v + "'");
+}
+
+LabelOptions parseOverlap(const std::string& v) {
+  LabelOptions o;
+  if (v == "lowest") return o;
+  if (v == "highest") {
+    o.overlap = OverlapPolicy::Highest;
+    return o;
+  }
+  o.overlap = OverlapPolicy::Priority;
+  size_t at = 0;
+  while (at <= v.size()) {
+    const size_t comma = std::min(v.find(',', at), v.size());
+    const std::string item = v.substr(at, comma - at);
+    char* end = nullptr;
+    const long label = item.empty() ? -1 : std::strtol(item.c_str(), &end, 10);
+    if (label < 1 || label > 65535 || *end != '\0')
+      throw UsageError("--overlap expects lowest, highest or labels 1..65535 separated by commas, got '" + v + "'");
+    o.priority.push_back(Label(label));
+    at = comma + 1;
+  }
+  return o;
 }
 
 Options parseOptions(int argc, const char* const* argv) {
@@ -103,6 +140,9 @@ Options parseOptions(int argc, const char* const* argv) {
     else if (arg == "--surface-only") set(o.config.surfaceOnly);
     else if (arg == "-o" || arg == "--output") o.hdtPath = value();
     else if (arg == "--dense") o.densePath = value();
+    else if (arg == "--labels") o.labels = parseLabelSource(value());
+    else if (arg == "--overlap") o.overlap = parseOverlap(value());
+    else if (arg == "--dense-labels") o.denseLabelsPath = value();
     else if (arg == "--json") set(o.json);
     else if (arg == "--quiet") set(o.quiet);
     else if (arg.size() > 1 && arg[0] == '-') throw UsageError("unknown option '" + arg + "'");
@@ -111,6 +151,11 @@ Options parseOptions(int argc, const char* const* argv) {
   }
   if (!o.help && o.mesh.empty()) throw UsageError("missing MESH (a mesh file or builtin:NAME)");
   if (!o.hdtPath.empty() && o.hdtPath == o.densePath) throw UsageError("-o and --dense name the same file");
+  const std::string outputs[] = {o.hdtPath, o.densePath};
+  for (const std::string& p : outputs)
+    if (!p.empty() && p == o.denseLabelsPath) throw UsageError("--dense-labels names the same file as another output");
+  if (!o.denseLabelsPath.empty() && o.labels.kind == MeshLabelSource::Kind::None)
+    throw UsageError("--dense-labels needs --labels");
   return o;
 }
 

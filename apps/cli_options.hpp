@@ -3,6 +3,8 @@
 
 #include "hdt/builder.hpp"
 #include "hdt/config.hpp"
+#include "hdt/labels.hpp"
+#include "hdt/mesh_io.hpp"
 
 #include <stdexcept>
 #include <string>
@@ -15,6 +17,9 @@ struct Options {
   BuildOptions build;         // backend, device, threads
   std::string hdtPath;        // -o
   std::string densePath;      // --dense
+  MeshLabelSource labels;     // --labels
+  LabelOptions overlap;       // --overlap
+  std::string denseLabelsPath; // --dense-labels
   bool json = false;
   bool quiet = false;
   bool help = false;

@@ -136,6 +136,21 @@ void writeJson(std::ostream& out, const Report& r) {
       .add("duplicate_triangles", number(r.duplicateTriangles))
       .add("warnings", warnings + "]")
       .add("host_bytes_estimate", number(r.hostBytesEstimate));
+  std::string labels = r.labelled ? "[" : "null";
+  for (const LabelStatistics& l : r.labels) {
+    JsonObject row;
+    row.add("label", number(uint64_t(l.label)))
+        .add("name", quoted(l.name))
+        .add("surface_voxels", number(l.surfaceVoxels))
+        .add("inside_voxels", number(l.insideVoxels))
+        .add("volume", number(l.volume, "%.9g"))
+        .add("surface_area", number(l.surfaceArea, "%.9g"));
+    labels += (labels.size() > 1 ? "," : "") + row.str();
+  }
+  if (r.labelled) labels += "]";
+  o.add("labels", labels)
+      .add("label_bytes", number(r.labelBytes))
+      .add("dense_labels_file", orNull(r.denseLabelsPath));
   out << o.str() << '\n';
 }
 
@@ -181,6 +196,13 @@ void writeTable(std::ostream& out, const Report& r) {
   if (s.backend == "cuda") rows.push_back({"peak device memory", bytes(s.peakDeviceBytes), ""});
   if (!r.hdtPath.empty()) rows.push_back({"wrote", r.hdtPath, "", false});
   if (!r.densePath.empty()) rows.push_back({"wrote", r.densePath, "dense uint8 NRRD", false});
+  if (r.labelled) rows.push_back({"labels", bytes(r.labelBytes), std::to_string(r.labels.size()) + " labels"});
+  for (const LabelStatistics& l : r.labels) {
+    rows.push_back({"  label " + std::to_string(l.label), withCommas(l.surfaceVoxels + l.insideVoxels),
+                    withCommas(l.surfaceVoxels) + " surface, volume " + number(l.volume, "%.4g") + ", area " +
+                        number(l.surfaceArea, "%.4g") + (l.name.empty() ? "" : ", " + l.name)});
+  }
+  if (!r.denseLabelsPath.empty()) rows.push_back({"wrote", r.denseLabelsPath, "dense uint16 label NRRD", false});
 
   size_t labelWidth = 0, valueWidth = 0;
   for (const Row& row : rows) {

@@ -1,6 +1,7 @@
 // What hdt-voxelize prints about a build: one JSON object, or an aligned table.
 #pragma once
 
+#include "hdt/labels.hpp"
 #include "hdt/volume.hpp"
 
 #include <ostream>
@@ -25,6 +26,10 @@ struct Report {
   uint64_t duplicateTriangles = 0;
   uint64_t hostBytesEstimate = 0;    // hdt::estimateHostBytes (CPU builds)
   std::vector<std::string> warnings; // hdt::buildWarnings
+  bool labelled = false;             // --labels
+  std::vector<LabelStatistics> labels; // hdt::labelStatistics
+  uint64_t labelBytes = 0;           // hdt::labelFieldBytes
+  std::string denseLabelsPath;       // empty when not written
 };
 
 // Keys, in this order: mesh, triangles, resolution, root_grid, leaf_size,
@@ -34,7 +39,8 @@ struct Report {
 // total}, peak_host_bytes, then degenerate_triangles, closed_mesh,
 // peak_device_bytes, surface_only, io_ms {read, prepare, write}, hdt_file,
 // dense_file, duplicate_triangles, warnings [strings],
-// host_bytes_estimate. README.md says what
+// host_bytes_estimate, labels (null, or [{label, name, surface_voxels,
+// inside_voxels, volume, surface_area}]), label_bytes, dense_labels_file. README.md says what
 // each means.
 void writeJson(std::ostream& out, const Report& report);
 

@@ -16,6 +16,7 @@
 #include "hdt/dense.hpp"
 #include "hdt/error.hpp"
 #include "hdt/hdt_file.hpp"
+#include "hdt/labels.hpp"
 #include "hdt/mesh_io.hpp"
 
 #include <signal.h>
@@ -96,16 +97,20 @@ auto about(const std::string& subject, F&& f) -> decltype(f()) {
   }
 }
 
-TriangleMesh loadMesh(const std::string& spec) {
+TriangleMesh loadMesh(const std::string& spec, const MeshLabelSource& labels) {
   const std::string prefix = "builtin:";
-  if (spec.rfind(prefix, 0) == 0) return builtinMesh(spec.substr(prefix.size()));
-  return readMesh(spec);
+  if (spec.rfind(prefix, 0) != 0) return readMesh(spec, labels);
+  TriangleMesh mesh = builtinMesh(spec.substr(prefix.size()));
+  if (labels.kind == MeshLabelSource::Kind::Components) labelConnectedComponents(mesh);
+  else if (labels.kind != MeshLabelSource::Kind::None)
+    throw Error(ErrorKind::InvalidArgument, "built-in meshes can be labelled by components only");
+  return mesh;
 }
 
 // Before any work: every output can be created, and none is the input mesh.
 // (A missing directory found after a long build wastes the build.)
 void checkOutputs(const Options& options) {
-  for (const std::string* path : {&options.hdtPath, &options.densePath}) {
+  for (const std::string* path : {&options.hdtPath, &options.densePath, &options.denseLabelsPath}) {
     if (path->empty()) continue;
     if (sameExistingFile(*path, options.mesh)) {
       throw Error(ErrorKind::InvalidArgument, *path + ": is the input mesh; refusing to overwrite it");
@@ -117,7 +122,7 @@ void checkOutputs(const Options& options) {
 // Writes -o and --dense to temporary files and renames them into place only
 // when both are complete: a failed --dense leaves no new -o file behind.
 void writeOutputs(const Options& options, const Volume& volume) {
-  std::unique_ptr<AtomicFile> hdt, dense;
+  std::unique_ptr<AtomicFile> hdt, dense, labels;
   if (!options.hdtPath.empty()) {
     hdt = std::make_unique<AtomicFile>(options.hdtPath);
     about(options.hdtPath, [&] { writeHdt(volume, *hdt); });
@@ -126,8 +131,13 @@ void writeOutputs(const Options& options, const Volume& volume) {
     dense = std::make_unique<AtomicFile>(options.densePath);
     about(options.densePath, [&] { writeNrrd(volume, *dense); });
   }
+  if (!options.denseLabelsPath.empty()) {
+    labels = std::make_unique<AtomicFile>(options.denseLabelsPath);
+    about(options.denseLabelsPath, [&] { writeLabelNrrd(volume, *labels); });
+  }
   if (hdt) hdt->commit();
   if (dense) dense->commit();
+  if (labels) labels->commit();
 }
 
 double msSince(Clock::time_point& t) {
@@ -162,7 +172,8 @@ int run(int argc, const char* const* argv, const MpiSession& session) {
   }
   // Refuse bad sizes before any work (the message lists the nearest valid resolutions).
   validateConfig(options.config);
-  if (!options.densePath.empty() && options.config.resolution > kMaxDenseResolution) {
+  if ((!options.densePath.empty() || !options.denseLabelsPath.empty()) &&
+      options.config.resolution > kMaxDenseResolution) {
     throw Error(ErrorKind::InvalidArgument, "--dense needs N^3 bytes and is limited to N <= " +
                                                 std::to_string(kMaxDenseResolution) + " (got N = " +
                                                 std::to_string(options.config.resolution) + ")");
@@ -175,10 +186,11 @@ int run(int argc, const char* const* argv, const MpiSession& session) {
   // is read, so that the build is not a cold one.
   WarmUp warmUp(options);
   Clock::time_point t = Clock::now();
-  TriangleMesh mesh = about(options.mesh, [&] { return loadMesh(options.mesh); });
+  TriangleMesh mesh = about(options.mesh, [&] { return loadMesh(options.mesh, options.labels); });
   report.io.read = msSince(t);
   const PreparedMesh prepared = about(options.mesh, [&] { return prepareMesh(mesh, options.config); });
-  mesh = TriangleMesh(); // the lattice copy is all the build needs
+  const bool labelled = options.labels.kind != MeshLabelSource::Kind::None;
+  if (!labelled) mesh = TriangleMesh(); // the lattice copy is all the build needs; labelled builds split the mesh
   report.io.prepare = msSince(t);
   warmUp.join();
 
@@ -187,6 +199,7 @@ int run(int argc, const char* const* argv, const MpiSession& session) {
   build.progress = [&](double fraction, const char* phase) { return progress.update(fraction, phase); };
   build.log = [&](const std::string& text) { progress.note(text); };
   const Volume volume = about(options.mesh, [&] {
+    if (labelled) return voxelizeLabelled(mesh, options.config, build, options.overlap); // every rank builds it whole
     return session.size() > 1 ? buildAcrossRanks(session, prepared, build) : hdt::build(prepared, build);
   });
   progress.clear();
@@ -201,6 +214,12 @@ int run(int argc, const char* const* argv, const MpiSession& session) {
   writeOutputs(options, volume);
   report.hdtPath = options.hdtPath;
   report.densePath = options.densePath;
+  report.denseLabelsPath = options.denseLabelsPath;
+  report.labelled = labelled;
+  if (labelled) {
+    report.labels = labelStatistics(volume);
+    report.labelBytes = labelFieldBytes(volume);
+  }
   report.duplicateTriangles = prepared.duplicateTriangles;
   report.hostBytesEstimate = estimateHostBytes(prepared);
   report.io.write = msSince(t);

@@ -22,6 +22,7 @@
 // size of the deepest depth, and sizes its child table once instead of
 // growing it bit by bit: about twice as fast, and the default.
 #include "vtkHDTHyperTreeGridConversion.h"
+#include "vtkHDTLabelArrays.h"
 
 #include "vtkHDTTreeWalk.h"
 
@@ -474,6 +475,7 @@ vtkHDTConversionInfo vtkHDTToHyperTreeGrid::Convert(
     setSingle<vtkIntArray>(output->GetFieldData(), "DisplayDepth", depthCut);
     setSingle<vtkIntArray>(output->GetFieldData(), "FullDepth", fullDepth);
   }
+  vtkHDTAddLabelArrays(volume, output); // part labels, when the volume has them
   info.Milliseconds = msSince(t0);
   return info;
 }

@@ -2,6 +2,7 @@
 
 #include "vtkHDTDistributedBuild.h"
 #include "vtkHDTHyperTreeGridConversion.h"
+#include "vtkHDTLabelledMesh.h"
 #include "vtkHDTMeshConversion.h"
 #include "vtkHDTVolumeHandle.h"
 #include "vtkHDTVoxelSurface.h"
@@ -9,6 +10,7 @@
 #include "hdt/builder.hpp"
 #include "hdt/config.hpp"
 #include "hdt/error.hpp"
+#include "hdt/labels.hpp"
 #include "hdt/mesh.hpp"
 #include "hdt/volume.hpp"
 
@@ -94,6 +96,8 @@ struct BuildKey
   vtkMTimeType InputMTime = 0;
   int Resolution = 0, RootGridSize = 0, LeafGridSize = 0, Backend = 0, Threads = 0;
   bool SurfaceOnly = false;
+  int LabelBy = 0, OverlapPolicy = 0;
+  std::string LabelArrayName, LabelPriority;
   // Across MPI ranks: the gathered mesh's contents instead of the input's
   // identity (ParaView re-executes pieces upstream between output ports).
   uint64_t MeshHash = 0;
@@ -101,13 +105,13 @@ struct BuildKey
   {
     return Resolution == o.Resolution && RootGridSize == o.RootGridSize &&
       LeafGridSize == o.LeafGridSize && Backend == o.Backend && Threads == o.Threads &&
-      SurfaceOnly == o.SurfaceOnly;
+      SurfaceOnly == o.SurfaceOnly && LabelBy == o.LabelBy &&
+      OverlapPolicy == o.OverlapPolicy && LabelArrayName == o.LabelArrayName &&
+      LabelPriority == o.LabelPriority;
   }
   bool operator==(const BuildKey& o) const
   {
-    return Input == o.Input && InputMTime == o.InputMTime && Resolution == o.Resolution &&
-      RootGridSize == o.RootGridSize && LeafGridSize == o.LeafGridSize && Backend == o.Backend &&
-      Threads == o.Threads && SurfaceOnly == o.SurfaceOnly;
+    return Input == o.Input && InputMTime == o.InputMTime && SameBuild(o);
   }
 };
 
@@ -121,6 +125,7 @@ struct vtkHDTVoxelizer::Internals
 
   static BuildKey MakeKey(vtkHDTVoxelizer* self, vtkDataObject* input);
   static hdt::BuildOptions MakeBuildOptions(vtkHDTVoxelizer* self);
+  static hdt::LabelOptions MakeLabelOptions(vtkHDTVoxelizer* self);
   static bool ToMesh(vtkHDTVoxelizer* self, vtkDataObject* input, hdt::TriangleMesh& mesh,
     vtkHyperTreeGrid* output, vtkMultiProcessController* ranks);
   static void Convert(vtkHDTVoxelizer* self, const std::shared_ptr<const hdt::Volume>& volume,
@@ -140,6 +145,10 @@ BuildKey vtkHDTVoxelizer::Internals::MakeKey(vtkHDTVoxelizer* self, vtkDataObjec
   key.Backend = self->Backend;
   key.Threads = self->Threads;
   key.SurfaceOnly = self->SurfaceOnly != 0;
+  key.LabelBy = self->LabelBy;
+  key.OverlapPolicy = self->OverlapPolicy;
+  key.LabelArrayName = self->LabelArrayName ? self->LabelArrayName : "";
+  key.LabelPriority = self->LabelPriority ? self->LabelPriority : "";
   return key;
 }
 
@@ -185,6 +194,39 @@ hdt::BuildOptions vtkHDTVoxelizer::Internals::MakeBuildOptions(vtkHDTVoxelizer* 
 }
 
 //------------------------------------------------------------------------------
+// The overlap policy; a priority list, when given, wins over Lowest / Highest.
+hdt::LabelOptions vtkHDTVoxelizer::Internals::MakeLabelOptions(vtkHDTVoxelizer* self)
+{
+  hdt::LabelOptions o;
+  o.overlap = self->OverlapPolicy == OVERLAP_HIGHEST ? hdt::OverlapPolicy::Highest : hdt::OverlapPolicy::Lowest;
+  const std::string list = self->LabelPriority ? self->LabelPriority : "";
+  size_t at = 0;
+  while (at < list.size())
+  {
+    const size_t end = std::min(list.find_first_of(", ", at), list.size());
+    const std::string item = list.substr(at, end - at);
+    at = end + 1;
+    if (item.empty())
+    {
+      continue;
+    }
+    char* stop = nullptr;
+    const long label = std::strtol(item.c_str(), &stop, 10);
+    if (label < 1 || label > 65535 || *stop != '\0')
+    {
+      throw hdt::Error(hdt::ErrorKind::InvalidArgument,
+        "Label Priority: '" + item + "' is not a label from 1 to 65535");
+    }
+    o.priority.push_back(hdt::Label(label));
+  }
+  if (!o.priority.empty())
+  {
+    o.overlap = hdt::OverlapPolicy::Priority;
+  }
+  return o;
+}
+
+//------------------------------------------------------------------------------
 // The input as one triangle mesh; warns about what it ignores. False when
 // there is nothing to voxelize (the output is then set: empty, or an error).
 // Across ranks (`ranks` not null) the mesh is every rank's triangles, and an
@@ -193,7 +235,22 @@ bool vtkHDTVoxelizer::Internals::ToMesh(vtkHDTVoxelizer* self, vtkDataObject* in
   hdt::TriangleMesh& mesh, vtkHyperTreeGrid* output, vtkMultiProcessController* ranks)
 {
   vtkHDTMeshConversionInfo meshInfo;
-  vtkHDTMeshConversion::AppendDataObject(input, mesh, meshInfo);
+  if (ranks && self->LabelBy != LABEL_NONE)
+  {
+    // The same property on every rank, so every rank stops here alike.
+    self->Fail(output, "Label By is not available across MPI ranks yet: set it to None, "
+                       "or run the labelled build in one process");
+    return false;
+  }
+  if (self->LabelBy == LABEL_NONE)
+  {
+    vtkHDTMeshConversion::AppendDataObject(input, mesh, meshInfo);
+  }
+  else
+  {
+    vtkHDTAppendLabelledMesh(input, self->LabelBy == LABEL_BLOCK,
+      self->LabelArrayName ? self->LabelArrayName : "", mesh, meshInfo);
+  }
   if (ranks)
   {
     vtkHDTDistributed::GatherMesh(ranks, mesh);
@@ -286,6 +343,8 @@ vtkHDTVoxelizer::vtkHDTVoxelizer()
 //------------------------------------------------------------------------------
 vtkHDTVoxelizer::~vtkHDTVoxelizer()
 {
+  this->SetLabelArrayName(nullptr);
+  this->SetLabelPriority(nullptr);
   delete this->Internal;
 }
 
@@ -439,7 +498,10 @@ int vtkHDTVoxelizer::RequestData(
       this->SetProgressText("preparing mesh");
       this->UpdateProgress(0.0);
       const hdt::PreparedMesh prepared = hdt::prepareMesh(mesh, config);
-      mesh = hdt::TriangleMesh(); // free the copy before the build
+      if (this->LabelBy == LABEL_NONE)
+      {
+        mesh = hdt::TriangleMesh(); // free the copy before the build
+      }
       hdt::BuildOptions options = Internals::MakeBuildOptions(this);
       options.extraHostBytes = EstimateHyperTreeGridBytes(prepared, this->MaxDepth);
       this->Internal->Distributed = ranks != nullptr;
@@ -451,7 +513,9 @@ int vtkHDTVoxelizer::RequestData(
       }
       else
       {
-        volume = std::make_shared<hdt::Volume>(hdt::build(prepared, options));
+        volume = std::make_shared<hdt::Volume>(this->LabelBy == LABEL_NONE
+            ? hdt::build(prepared, options)
+            : hdt::voxelizeLabelled(mesh, config, options, Internals::MakeLabelOptions(this)));
       }
       for (const std::string& warning : hdt::buildWarnings(prepared, *volume))
       {

@@ -142,6 +142,43 @@ public:
 
   ///@{
   /**
+   * Part labels (hdt/labels.hpp): LABEL_NONE (default); LABEL_BLOCK, one label
+   * per block of a multiblock input (its flat index, named after the block);
+   * LABEL_CELL_ARRAY, the values (1..65535) of the integer cell array
+   * LabelArrayName. The output gains the cell array "Label" and per-label
+   * field data (vtkHDTLabelArrays.h).
+   */
+  enum LabelModes
+  {
+    LABEL_NONE = 0,
+    LABEL_BLOCK = 1,
+    LABEL_CELL_ARRAY = 2
+  };
+  vtkSetClampMacro(LabelBy, int, LABEL_NONE, LABEL_CELL_ARRAY);
+  vtkGetMacro(LabelBy, int);
+  vtkSetStringMacro(LabelArrayName);
+  vtkGetStringMacro(LabelArrayName);
+  ///@}
+
+  ///@{
+  /**
+   * Where several parts claim a voxel: OVERLAP_LOWEST (default) or
+   * OVERLAP_HIGHEST label, or, when LabelPriority is a non-empty list of
+   * labels ("3,1,2"), the first listed (unlisted labels after, lowest first).
+   */
+  enum OverlapPolicies
+  {
+    OVERLAP_LOWEST = 0,
+    OVERLAP_HIGHEST = 1
+  };
+  vtkSetClampMacro(OverlapPolicy, int, OVERLAP_LOWEST, OVERLAP_HIGHEST);
+  vtkGetMacro(OverlapPolicy, int);
+  vtkSetStringMacro(LabelPriority);
+  vtkGetStringMacro(LabelPriority);
+  ///@}
+
+  ///@{
+  /**
    * CPU threads for the build and the conversion; 0 (default) = all cores.
    */
   vtkSetClampMacro(Threads, int, 0, 4096);
@@ -206,6 +243,10 @@ protected:
   int MaxDepth = -2;
   vtkTypeBool MaskOutside = false;
   int Threads = 0;
+  int LabelBy = LABEL_NONE;
+  char* LabelArrayName = nullptr;
+  int OverlapPolicy = OVERLAP_LOWEST;
+  char* LabelPriority = nullptr;
   double LastVoxelizationTime = 0;
   double LastConversionTime = 0;
   double LastSurfaceTime = 0;

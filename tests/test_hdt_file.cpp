@@ -4,6 +4,7 @@
 #include "hdt/builder.hpp"
 #include "hdt/error.hpp"
 #include "hdt/hdt_file.hpp"
+#include "hdt/labels.hpp"
 #include "hdt/mesh.hpp"
 #include "support/format_volumes.hpp"
 #include "support/shapes.hpp"
@@ -59,8 +60,9 @@ size_t largestAllocationDuring(const std::function<void()>& f) {
   return gLargestRequest;
 }
 
-// Section indices in an HdtImage.
-enum { kGrid = 0, kStats = 1, kLevels = 2, kElements = 3, kLeaves = 4 };
+// Section indices in an HdtImage (kEnd: the end section of a file without
+// optional sections).
+enum { kGrid = 0, kStats = 1, kLevels = 2, kElements = 3, kLeaves = 4, kEnd = 5 };
 
 HdtWriteOptions raw() {
   HdtWriteOptions o;
@@ -300,11 +302,17 @@ TEST(HdtFile, LayoutFollowsTheSpec) {
   EXPECT_EQ(b[1], 'D');
   EXPECT_EQ(b[2], 'T');
   EXPECT_EQ(b[3], 0);
-  EXPECT_EQ(getLe32(b, 4), 1u);
+  EXPECT_EQ(getLe32(b, 4), 2u);
   EXPECT_EQ(getLe32(b, 8), 0u);
 
   const HdtImage image = parseHdtImage(b);
-  ASSERT_EQ(image.sections.size(), 5u);
+  ASSERT_EQ(image.sections.size(), 6u);
+  const HdtSectionImage& end = image.sections[kEnd];
+  EXPECT_EQ(end.id, 6u);
+  EXPECT_EQ(end.encoding, 0u);
+  EXPECT_EQ(end.stored, 0u);
+  EXPECT_EQ(end.raw, 0u);
+  EXPECT_EQ(end.crc, 0u);
   for (size_t i = 0; i < 5; ++i) {
     const HdtSectionImage& s = image.sections[i];
     EXPECT_EQ(s.id, i + 1);
@@ -313,7 +321,7 @@ TEST(HdtFile, LayoutFollowsTheSpec) {
     EXPECT_EQ(s.crc, referenceCrc32(s.payload.data(), s.payload.size())) << "section " << s.id;
   }
   const std::vector<uint8_t>& grid = image.sections[kGrid].payload;
-  ASSERT_EQ(grid.size(), 56u);
+  ASSERT_EQ(grid.size(), 60u);
   EXPECT_EQ(getLe32(grid, 0), uint32_t(v.grid.resolution));
   EXPECT_EQ(getLe32(grid, 4), uint32_t(v.grid.rootGrid));
   EXPECT_EQ(getLe32(grid, 8), uint32_t(v.grid.leafSize));
@@ -324,6 +332,7 @@ TEST(HdtFile, LayoutFollowsTheSpec) {
   EXPECT_EQ(origin0, v.grid.origin[0]);
   EXPECT_EQ(getLe32(grid, 48), v.surfaceOnly ? 1u : 0u);
   EXPECT_EQ(getLe32(grid, 52), v.closedMesh ? 1u : 0u);
+  EXPECT_EQ(getLe32(grid, 56), 1u); // parity
 
   const std::vector<uint8_t>& stats = image.sections[kStats].payload;
   ASSERT_EQ(stats.size(), 144u + v.stats.backend.size());
@@ -348,7 +357,7 @@ TEST(HdtFile, LayoutFollowsTheSpec) {
 
   if (haveZstd()) {
     const HdtImage c = parseHdtImage(bytesOf(v, compressed()));
-    ASSERT_EQ(c.sections.size(), 5u);
+    ASSERT_EQ(c.sections.size(), 6u);
     EXPECT_EQ(getLe32(c.fileHeader, 8), 1u);
     EXPECT_EQ(c.sections[kLeaves].encoding, 1u);
     EXPECT_EQ(c.sections[kLeaves].raw, 4 * v.leafWords.size());
@@ -392,7 +401,7 @@ TEST(HdtFileCorrupt, BadMagicVersionAndFlags) {
     b[size_t(i)] ^= 0x20;
     EXPECT_REFUSED(b, "bad magic");
   }
-  for (uint32_t version : {0u, 2u, 3u, 0xFFFFFFFFu}) {
+  for (uint32_t version : {0u, 3u, 0xFFFFFFFFu}) {
     std::vector<uint8_t> b = valid;
     putLe32(b, 4, version);
     EXPECT_REFUSED(b, "unsupported .hdt format version " + std::to_string(version));
@@ -629,14 +638,16 @@ TEST(HdtFileCorrupt, ContainerStructure) {
   const std::vector<uint8_t> valid = bytesOf(smallVolume());
   std::vector<uint8_t> longer = valid;
   longer.push_back(0);
-  EXPECT_REFUSED(longer, "1 bytes after the end of the leaf data section");
+  EXPECT_REFUSED(longer, "1 bytes after the end section");
 
   EXPECT_REFUSED(forge(valid, [](HdtImage& im) { std::swap(im.sections[kGrid], im.sections[kStats]); }),
                  "expected the grid section (id 1) at byte 12, found id 2");
   EXPECT_REFUSED(forge(valid, [](HdtImage& im) { im.sections[kLevels].id = 9; }),
                  "expected the level table section");
   EXPECT_REFUSED(forge(valid, [](HdtImage& im) { im.sections.pop_back(); }),
-                 "before the leaf data section header");
+                 "before the next optional or the end section header");
+  EXPECT_REFUSED(forge(valid, [](HdtImage& im) { im.sections.erase(im.sections.begin() + kLeaves); }),
+                 "expected the leaf data section (id 5)");
   EXPECT_REFUSED(forge(valid, [](HdtImage& im) { im.sections.push_back(im.sections.back()); }),
                  "bytes after the end");
   EXPECT_REFUSED(forge(valid, [](HdtImage& im) { im.sections[kElements].encoding = 1; }),
@@ -657,7 +668,7 @@ TEST(HdtFileCorrupt, ContainerStructure) {
                        }),
                  "elements section: CRC-32 mismatch");
   EXPECT_REFUSED(forge(valid, [](HdtImage& im) { im.sections[kGrid].payload.push_back(0); }),
-                 "grid section: 57 bytes, expected 56");
+                 "grid section: 61 bytes, expected 60");
 }
 
 TEST(HdtFileCorrupt, ZstdFrames) {
@@ -782,10 +793,290 @@ TEST(HdtFileRead, UnreadablePaths) {
   {
     const std::vector<uint8_t> b = bytesOf(smallVolume());
     std::ofstream out(path, std::ios::binary);
-    out.write(reinterpret_cast<const char*>(b.data()), std::streamsize(b.size() - 3));
+    // Cut the end section and 3 bytes of the leaf data.
+    out.write(reinterpret_cast<const char*>(b.data()), std::streamsize(b.size() - 28 - 3));
   }
   expectBadInput(path, "leaf data section");
   std::remove(path.c_str());
+}
+
+
+// ---- version 2: the inside test, optional sections, version 1 files ---------------
+
+// The version-1 file of a volume, as docs/hdt-format.md describes it: version
+// 1, a 56-byte grid section (no inside test), no end section.
+std::vector<uint8_t> versionOneBytes(const Volume& v, const HdtWriteOptions& o = raw()) {
+  return forge(bytesOf(v, o), [](HdtImage& im) {
+    putLe32(im.fileHeader, 4, 1);
+    im.sections[kGrid].payload.resize(56);
+    im.sections.pop_back();
+  });
+}
+
+// An optional section as a writer of a later format revision might add it.
+HdtSectionImage optionalSection(uint32_t id, std::vector<uint8_t> payload) {
+  HdtSectionImage s;
+  s.id = id;
+  s.payload = std::move(payload);
+  return s;
+}
+
+TEST(HdtFileV2, ReadsVersionOneFilesAsParity) {
+  for (const HdtWriteOptions& o : {raw(), compressed()}) {
+    Volume v = smallVolume();
+    v.insideTest = InsideTest::WindingNumber;
+    const Volume back = deserializeHdt(versionOneBytes(v, o).data(), versionOneBytes(v, o).size());
+    EXPECT_EQ(back.insideTest, InsideTest::Parity);
+    v.insideTest = InsideTest::Parity;
+    expectSameVolume(v, back, "version 1");
+  }
+  // Version 1 knows no optional sections and no end section.
+  const std::vector<uint8_t> v1 = versionOneBytes(smallVolume());
+  std::vector<uint8_t> withEnd = v1;
+  withEnd.resize(withEnd.size() + 28, 0);
+  putLe32(withEnd, v1.size(), 6);
+  EXPECT_REFUSED(withEnd, "28 bytes after the end of the leaf data section");
+  EXPECT_REFUSED(forge(v1, [](HdtImage& im) { im.sections[kGrid].payload.resize(60); }),
+                 "grid section: 60 bytes, expected 56");
+}
+
+TEST(HdtFileV2, RecordsTheInsideTest) {
+  for (InsideTest t : {InsideTest::Parity, InsideTest::WindingNumber}) {
+    Volume v = smallVolume();
+    v.insideTest = t;
+    const std::vector<uint8_t> b = bytesOf(v);
+    EXPECT_EQ(getLe32(parseHdtImage(b).sections[kGrid].payload, 56), uint32_t(t));
+    EXPECT_EQ(deserializeHdt(b.data(), b.size()).insideTest, t);
+  }
+  const std::vector<uint8_t> valid = bytesOf(smallVolume());
+  for (uint32_t t : {0u, 3u, 0x100u}) {
+    EXPECT_REFUSED(forge(valid, [&](HdtImage& im) { putLe32(im.sections[kGrid].payload, 56, t); }),
+                   "grid: inside test " + std::to_string(t));
+  }
+  Volume autoTest = smallVolume();
+  autoTest.insideTest = InsideTest::Auto; // a build always records the test that ran
+  EXPECT_THROW(bytesOf(autoTest), Error);
+}
+
+TEST(HdtFileV2, SkipsUnknownOptionalSectionsAndRefusesCriticalOnes) {
+  const Volume v = smallVolume();
+  const std::vector<uint8_t> valid = bytesOf(v);
+  auto withSections = [&](std::vector<HdtSectionImage> extra) {
+    return forge(valid, [&](HdtImage& im) {
+      im.sections.insert(im.sections.begin() + kEnd, extra.begin(), extra.end());
+    });
+  };
+  // Unknown, not critical: skipped (payload checksummed), the volume unchanged.
+  const std::vector<uint8_t> skipped =
+      withSections({optionalSection(1000, {1, 2, 3}), optionalSection(0x7FFFFFFF, {})});
+  expectSameVolume(v, deserializeHdt(skipped.data(), skipped.size()), "unknown optional sections");
+  HdtSectionImage zstdUnknown = optionalSection(1001, {9, 9});
+  zstdUnknown.encoding = 1;
+  zstdUnknown.raw = 12345; // the reader cannot know the decoded size: not checked
+  zstdUnknown.keepHeader = true;
+  zstdUnknown.stored = 2;
+  const std::vector<uint8_t> zstdHeader = {0xE9, 0x03, 0, 0, 1, 0, 0, 0, 2, 0, 0, 0, 0, 0, 0, 0,
+                                           0x39, 0x30, 0, 0, 0, 0, 0, 0, 9, 9}; // 24 header bytes, payload
+  zstdUnknown.crc = referenceCrc32(zstdHeader.data(), zstdHeader.size());
+  const std::vector<uint8_t> skippedZstd = withSections({zstdUnknown});
+  expectSameVolume(v, deserializeHdt(skippedZstd.data(), skippedZstd.size()), "unknown zstd section");
+
+  EXPECT_REFUSED(withSections({optionalSection(0x80000010u, {1})}), "marked critical");
+  EXPECT_REFUSED(withSections({optionalSection(7, {})}), "expected an optional section (id 16 or more)");
+  EXPECT_REFUSED(withSections({optionalSection(1, {})}), "expected an optional section");
+  EXPECT_REFUSED(withSections({optionalSection(2000, {}), optionalSection(1000, {})}), "increasing id order");
+  EXPECT_REFUSED(withSections({optionalSection(1000, {}), optionalSection(1000, {})}), "increasing id order");
+  HdtSectionImage badCrc = optionalSection(1000, {1, 2, 3});
+  badCrc.keepHeader = true;
+  badCrc.stored = badCrc.raw = 3;
+  badCrc.crc = 1;
+  EXPECT_REFUSED(withSections({badCrc}), "optional section 1000: CRC-32 mismatch");
+  HdtSectionImage badEncoding = optionalSection(1000, {});
+  badEncoding.encoding = 2;
+  EXPECT_REFUSED(withSections({badEncoding}), "optional section 1000: invalid encoding 2");
+  HdtSectionImage tooLong = optionalSection(1000, {1});
+  tooLong.keepHeader = true;
+  tooLong.stored = tooLong.raw = 1000;
+  EXPECT_REFUSED(withSections({tooLong}), "remain in the file");
+
+  // The end section: all zero, last.
+  for (size_t field : {4u, 8u, 16u, 24u}) {
+    std::vector<uint8_t> b = valid;
+    b[b.size() - 28 + field] = 1;
+    EXPECT_REFUSED(b, "end section at byte");
+  }
+}
+
+TEST(HdtFileV2, CorruptionOfOptionalSectionsIsCaught) {
+  // Every byte of a file with a skipped optional section is covered by a check too.
+  const std::vector<uint8_t> valid = forge(bytesOf(tinyVolume()), [](HdtImage& im) {
+    im.sections.insert(im.sections.begin() + kEnd, optionalSection(1000, {1, 2, 3, 4, 5}));
+  });
+  ASSERT_EQ(refusal(valid), "ACCEPTED");
+  std::vector<uint8_t> b = valid;
+  for (size_t i = 0; i < b.size(); ++i) {
+    for (uint8_t mask : {0x01, 0x80}) {
+      b[i] ^= mask;
+      const std::string m = refusal(b);
+      b[i] ^= mask;
+      ASSERT_TRUE(refusedProperly(m)) << "byte " << i << " ^ " << int(mask) << ": " << m;
+    }
+  }
+  for (size_t n = 0; n < valid.size(); ++n) ASSERT_TRUE(refusedProperly(refusal(valid.data(), n))) << n;
+}
+
+
+// ---- part labels (optional sections 16, 17, 18) ----------------------------------------
+
+Volume labelledVolume(uint32_t seed = 7) {
+  Volume v = smallVolume();
+  labelRandomly(v, seed);
+  return v;
+}
+
+Volume tinyLabelledVolume() {
+  Volume v = tinyVolume();
+  labelRandomly(v, 5, 3);
+  return v;
+}
+
+TEST(HdtFileLabels, RoundTripBitExact) {
+  for (const HdtWriteOptions& o : {raw(), compressed()}) {
+    for (uint32_t seed : {1u, 2u, 3u}) {
+      Volume v = randomVolume(seed, RandomVolumeSpec{3, 8, 2, false, 0.5, 0.7, 0.3});
+      labelRandomly(v, seed);
+      ASSERT_FALSE(v.labels.voxelLabels.empty());
+      const std::vector<uint8_t> b = bytesOf(v, o);
+      expectSameVolume(v, deserializeHdt(b.data(), b.size()), "labelled seed " + std::to_string(seed));
+    }
+    Volume noNames = labelledVolume();
+    noNames.labels.names.clear();
+    const std::vector<uint8_t> b = bytesOf(noNames, o);
+    EXPECT_EQ(parseHdtImage(b).sections.size(), 8u); // 5 required, labels 16 and 17, end
+    expectSameVolume(noNames, deserializeHdt(b.data(), b.size()), "no names");
+  }
+}
+
+TEST(HdtFileLabels, LayoutFollowsTheSpec) {
+  const Volume v = labelledVolume();
+  const HdtImage im = parseHdtImage(bytesOf(v));
+  ASSERT_EQ(im.sections.size(), 9u);
+  EXPECT_EQ(im.sections[5].id, 16u);
+  EXPECT_EQ(im.sections[6].id, 17u);
+  EXPECT_EQ(im.sections[7].id, 18u);
+  EXPECT_EQ(im.sections[8].id, 6u);
+  const std::vector<uint8_t>& elements = im.sections[5].payload;
+  ASSERT_EQ(elements.size(), 2 * v.elements.size());
+  for (size_t i = 0; i < v.elements.size(); ++i)
+    ASSERT_EQ(uint32_t(elements[2 * i] | elements[2 * i + 1] << 8), v.labels.elementLabels[i]);
+  const std::vector<uint8_t>& voxels = im.sections[6].payload;
+  ASSERT_EQ(voxels.size(), 2 * v.labels.voxelLabels.size());
+  EXPECT_EQ(uint32_t(voxels[0] | voxels[1] << 8), v.labels.voxelLabels[0]);
+  const std::vector<uint8_t>& names = im.sections[7].payload;
+  EXPECT_EQ(getLe32(names, 0), 3u);
+  EXPECT_EQ(getLe32(names, 4), 1u | (10u << 16));
+  EXPECT_EQ(std::string(names.begin() + 8, names.begin() + 18), "first part");
+  // The CRC covers the header's first 24 bytes, then the payload.
+  const std::vector<uint8_t> b = bytesOf(v);
+  const size_t at = hdtSectionBoundaries(b)[6]; // header of section 16
+  std::vector<uint8_t> covered(b.begin() + long(at), b.begin() + long(at) + 24);
+  covered.insert(covered.end(), elements.begin(), elements.end());
+  EXPECT_EQ(im.sections[5].crc, referenceCrc32(covered.data(), covered.size()));
+}
+
+TEST(HdtFileLabels, EveryByteFlippedAndTruncated) {
+  for (const HdtWriteOptions& o : {raw(), compressed()}) {
+    const Volume v = tinyLabelledVolume();
+    ASSERT_FALSE(v.labels.voxelLabels.empty());
+    const std::vector<uint8_t> valid = bytesOf(v, o);
+    ASSERT_EQ(refusal(valid), "ACCEPTED");
+    std::vector<uint8_t> b = valid;
+    for (size_t i = 0; i < b.size(); ++i) {
+      for (uint8_t mask : {0x01, 0x80}) {
+        b[i] ^= mask;
+        const std::string m = refusal(b);
+        b[i] ^= mask;
+        ASSERT_TRUE(refusedProperly(m)) << "byte " << i << " ^ " << int(mask) << ": " << m;
+      }
+    }
+    for (size_t n = 0; n < valid.size(); ++n) ASSERT_TRUE(refusedProperly(refusal(valid.data(), n))) << n;
+  }
+}
+
+TEST(HdtFileLabels, InconsistentLabelsAreRefused) {
+  const Volume v = labelledVolume();
+  const std::vector<uint8_t> valid = bytesOf(v);
+  // Edit the volume, write its label sections unchecked into the valid file.
+  auto withLabels = [&](const std::function<void(LabelField&)>& edit) {
+    Volume bad = v;
+    edit(bad.labels);
+    LabelField& f = bad.labels;
+    return forge(valid, [&](HdtImage& im) {
+      std::vector<uint8_t> e, x;
+      for (Label l : f.elementLabels) e.insert(e.end(), {uint8_t(l), uint8_t(l >> 8)});
+      for (Label l : f.voxelLabels) x.insert(x.end(), {uint8_t(l), uint8_t(l >> 8)});
+      im.sections[5].payload = e;
+      im.sections[6].payload = x;
+    });
+  };
+  const uint64_t full = findElement(v, ElementState::Full, -1);
+  const uint64_t empty = findElement(v, ElementState::Empty, -1);
+  const uint64_t branch = findElement(v, ElementState::Branch, -1);
+  EXPECT_REFUSED(withLabels([&](LabelField& f) { f.elementLabels[full] = 0; }), "Full element");
+  EXPECT_REFUSED(withLabels([&](LabelField& f) { f.elementLabels[empty] = 3; }), "is Empty or Branch");
+  EXPECT_REFUSED(withLabels([&](LabelField& f) { f.elementLabels[branch] = 3; }), "is Empty or Branch");
+  EXPECT_REFUSED(withLabels([&](LabelField& f) { f.elementLabels.pop_back(); }), "label elements section");
+  EXPECT_REFUSED(withLabels([&](LabelField& f) { f.voxelLabels.pop_back(); }), "label voxels section");
+  // A mixed leaf: a label on an Outside voxel, or just one label.
+  const int L = v.grid.leafSize;
+  EXPECT_REFUSED(withLabels([&](LabelField& f) {
+                   for (Label& l : f.voxelLabels) l = l ? 1 : 0;
+                 }),
+                 "only one label");
+  EXPECT_REFUSED(withLabels([&](LabelField& f) {
+                   for (size_t j = 0; j < size_t(L * L * L); ++j) f.voxelLabels[j] = Label(1 + j % 2);
+                 }),
+                 "label voxels: mixed leaf");
+
+  // Sections: 17 and 18 need 16; 16 needs 17.
+  EXPECT_REFUSED(forge(valid, [](HdtImage& im) { im.sections.erase(im.sections.begin() + 5); }),
+                 "without the label elements section");
+  EXPECT_REFUSED(forge(valid, [](HdtImage& im) { im.sections.erase(im.sections.begin() + 6); }),
+                 "without the label voxels section");
+  EXPECT_REFUSED(forge(valid, [](HdtImage& im) { std::swap(im.sections[5], im.sections[6]); }),
+                 "label voxels section without the label elements section");
+  EXPECT_REFUSED(forge(valid, [](HdtImage& im) { std::swap(im.sections[6], im.sections[7]); }),
+                 "increasing id order");
+  EXPECT_REFUSED(forge(valid, [](HdtImage& im) { im.sections[5].encoding = 1; }),
+                 "label elements section: invalid encoding 1");
+  // Names.
+  auto names = [&](const std::function<void(std::vector<uint8_t>&)>& edit) {
+    return forge(valid, [&](HdtImage& im) { edit(im.sections[7].payload); });
+  };
+  EXPECT_REFUSED(names([](std::vector<uint8_t>& p) { p.push_back(0); }), "bytes after the last name");
+  EXPECT_REFUSED(names([](std::vector<uint8_t>& p) { putLe32(p, 0, 4); }), "ends inside");
+  EXPECT_REFUSED(names([](std::vector<uint8_t>& p) { putLe32(p, 4, 0u | (10u << 16)); }), "not increasing");
+  EXPECT_REFUSED(names([](std::vector<uint8_t>& p) { p[8] = '\n'; }), "control character");
+  EXPECT_REFUSED(names([](std::vector<uint8_t>& p) { putLe32(p, 4, 1u | (300u << 16)); }), "longer than 255");
+
+  // The writer refuses what the reader would.
+  Volume bad = v;
+  bad.labels.elementLabels[full] = 0;
+  EXPECT_THROW(bytesOf(bad), Error);
+  bad = v;
+  bad.labels.names[0] = "outside";
+  EXPECT_THROW(bytesOf(bad), Error);
+}
+
+TEST(HdtFileLabels, UnlabelledReaderViewSkipsNothingItNeeds) {
+  // A labelled file read as a version-2 file gives the same voxel states as the
+  // unlabelled volume: labels only add.
+  Volume v = labelledVolume();
+  const std::vector<uint8_t> b = bytesOf(v);
+  Volume back = deserializeHdt(b.data(), b.size());
+  back.labels = LabelField{};
+  v.labels = LabelField{};
+  expectSameVolume(v, back, "states");
 }
 
 } // namespace

@@ -103,8 +103,7 @@ std::vector<uint8_t> denseStates(const Volume& volume) {
   return out;
 }
 
-namespace {
-void writeNrrdTo(const Volume& volume, const std::vector<uint8_t>& states, AtomicFile& out) {
+std::string nrrdHeader(const Volume& volume, const char* type, const char* comment) {
   const GridSpec& g = volume.grid;
   const std::string N = std::to_string(g.resolution), s = number(g.voxelSize);
   // NRRD's "space origin" is the centre of sample (0, 0, 0), not its corner.
@@ -115,9 +114,9 @@ void writeNrrdTo(const Volume& volume, const std::vector<uint8_t>& states, Atomi
   // fields, "space dimension" before "space directions" / "space origin".
   // Values must not contain blanks inside the parentheses (VTK splits there).
   // clang-format off
-  const std::string header = "NRRD0004\n"
-                             "# HDT voxel states: 0 outside, 1 inside, 2 surface\n"
-                             "type: uint8\n"
+  return "NRRD0004\n"
+                             "# " + std::string(comment) + "\n"
+                             "type: " + type + "\n"
                              "dimension: 3\n"
                              "space dimension: 3\n"
                              "sizes: " + N + " " + N + " " + N + "\n"
@@ -128,7 +127,11 @@ void writeNrrdTo(const Volume& volume, const std::vector<uint8_t>& states, Atomi
                              "space origin: (" + origin + ")\n"
                              "\n";
   // clang-format on
+}
 
+namespace {
+void writeNrrdTo(const Volume& volume, const std::vector<uint8_t>& states, AtomicFile& out) {
+  const std::string header = nrrdHeader(volume, "uint8", "HDT voxel states: 0 outside, 1 inside, 2 surface");
   out.write(header.data(), header.size());
   out.write(states.data(), states.size());
 }

@@ -15,6 +15,7 @@
 #include "hdt/atomic_file.hpp"
 
 #include "hdt/error.hpp"
+#include "hdt/labels.hpp"
 #include "hdt/lattice.hpp"
 
 #include <tbb/blocked_range.h>
@@ -44,16 +45,29 @@ namespace {
 // ---- the format's constants (docs/hdt-format.md) ----------------------------------
 
 constexpr uint8_t kMagic[4] = {'H', 'D', 'T', 0};
-constexpr uint32_t kVersion = 1;
+constexpr uint32_t kVersion = 2;       // what the writer writes
+constexpr uint32_t kOldestVersion = 1; // the oldest the reader still reads
 constexpr uint32_t kFlagLeafZstd = 1u; // flags bit 0
 constexpr size_t kFileHeaderBytes = 12;
 constexpr size_t kSectionHeaderBytes = 28;
-constexpr size_t kGridBytes = 56;
+constexpr size_t kGridBytesV1 = 56;
+constexpr size_t kGridBytes = 60; // version 2: + the inside test
+// Version 2: ids of optional sections start here; an unknown one with the
+// critical bit set must be refused, one without it may be skipped.
+constexpr uint32_t kFirstOptionalSection = 16;
+constexpr uint32_t kCriticalSectionBit = 0x80000000u;
+// Bytes of a skipped section checksummed at a time: the skip allocates no more.
+constexpr size_t kSkipChunkBytes = size_t(1) << 20;
 constexpr size_t kStatsFixedBytes = 144;
 constexpr size_t kMaxBackendLength = 64;
 constexpr int64_t kMaxHeight = 16; // keeps R * 2^h * L far from overflow
 
-enum class Section : uint32_t { Grid = 1, Statistics = 2, LevelTable = 3, Elements = 4, LeafData = 5 };
+enum class Section : uint32_t {
+  Grid = 1, Statistics = 2, LevelTable = 3, Elements = 4, LeafData = 5, End = 6,
+  // Optional (version 2)
+  LabelElements = 16, LabelVoxels = 17, LabelNames = 18,
+};
+constexpr size_t kMaxLabelNameLength = 255;
 enum class Encoding : uint32_t { Raw = 0, Zstd = 1 };
 
 const char* sectionName(Section s) {
@@ -63,6 +77,10 @@ const char* sectionName(Section s) {
   case Section::LevelTable: return "level table";
   case Section::Elements: return "elements";
   case Section::LeafData: return "leaf data";
+  case Section::End: return "end";
+  case Section::LabelElements: return "label elements";
+  case Section::LabelVoxels: return "label voxels";
+  case Section::LabelNames: return "label names";
   }
   return "?";
 }
@@ -111,23 +129,26 @@ uint32_t crc32Of(const void* data, size_t size) {
 
 // Calls fn(bytes, size) over the little-endian encoding of `words`, in order.
 // On little-endian hosts that is the array itself, in one call and no copy.
-template <class Fn> void forEachLittleEndianChunk(const uint32_t* words, size_t count, Fn&& fn) {
+inline uint32_t byteSwap(uint32_t v) { return __builtin_bswap32(v); }
+inline uint16_t byteSwap(uint16_t v) { return __builtin_bswap16(v); }
+
+template <class T, class Fn> void forEachLittleEndianChunk(const T* words, size_t count, Fn&& fn) {
   if (count == 0) return;
   if (kLittleEndianHost) {
-    fn(reinterpret_cast<const uint8_t*>(words), count * 4);
+    fn(reinterpret_cast<const uint8_t*>(words), count * sizeof(T));
     return;
   }
-  std::vector<uint32_t> chunk(std::min<size_t>(count, 1 << 16));
+  std::vector<T> chunk(std::min<size_t>(count, 1 << 16));
   for (size_t i = 0; i < count; i += chunk.size()) {
     const size_t n = std::min(chunk.size(), count - i);
-    for (size_t j = 0; j < n; ++j) chunk[j] = __builtin_bswap32(words[i + j]);
-    fn(reinterpret_cast<const uint8_t*>(chunk.data()), n * 4);
+    for (size_t j = 0; j < n; ++j) chunk[j] = byteSwap(words[i + j]);
+    fn(reinterpret_cast<const uint8_t*>(chunk.data()), n * sizeof(T));
   }
 }
 
 // CRC-32 of the little-endian encoding of `words`.
 template <class Words> uint32_t crcOfWords(const Words& words) {
-  if (kLittleEndianHost) return crc32Of(words.data(), words.size() * 4);
+  if (kLittleEndianHost) return crc32Of(words.data(), words.size() * sizeof(words[0]));
   uint32_t crc = 0;
   forEachLittleEndianChunk(words.data(), words.size(),
                            [&](const uint8_t* p, size_t n) { crc = crc32Update(crc, p, n); });
@@ -135,9 +156,9 @@ template <class Words> uint32_t crcOfWords(const Words& words) {
 }
 
 // Words just read in little-endian order -> host order, in place.
-void littleEndianToHost(uint32_t* words, size_t count) {
+template <class T> void littleEndianToHost(T* words, size_t count) {
   if (!kLittleEndianHost)
-    for (size_t i = 0; i < count; ++i) words[i] = __builtin_bswap32(words[i]);
+    for (size_t i = 0; i < count; ++i) words[i] = byteSwap(words[i]);
 }
 
 // Little-endian encoding of the small sections' fields.
@@ -164,6 +185,18 @@ public:
 private:
   std::vector<uint8_t> bytes_;
 };
+
+// Optional sections' CRC covers the first 24 bytes of their header too (id,
+// encoding, lengths), so that no flipped bit of a section a reader may skip
+// goes unnoticed; this is the CRC of those 24 bytes, to continue over the payload.
+uint32_t optionalSectionCrcSeed(uint32_t id, uint32_t encoding, uint64_t stored, uint64_t raw) {
+  ByteWriter w;
+  w.u32(id);
+  w.u32(encoding);
+  w.u64(stored);
+  w.u64(raw);
+  return crc32Update(0, w.bytes().data(), w.bytes().size());
+}
 
 // The matching decoder. Callers check section lengths before decoding, so
 // running past the end is a bug here, but still an error rather than a crash.
@@ -219,6 +252,13 @@ void checkGrid(int64_t N, int64_t R, int64_t L, int64_t h, const std::array<doub
   for (double o : origin)
     if (!std::isfinite(o)) invalid("grid: origin is not finite");
   if (!std::isfinite(voxelSize) || !(voxelSize > 0)) invalid("grid: voxel size is not finite and positive");
+}
+
+// Version 2's grid field: the inside test that classified the volume.
+void checkInsideTest(uint32_t test) {
+  if (test != uint32_t(InsideTest::Parity) && test != uint32_t(InsideTest::WindingNumber)) {
+    invalid("grid: inside test " + str(test) + " is neither 1 (parity) nor 2 (winding number)");
+  }
 }
 
 // The fields that are not derived from the contents (those: checkStructure).
@@ -366,10 +406,86 @@ void checkStructure(const Statistics& s, const Volume& v, const TreeCounts& tree
   }
 }
 
+// ---- part labels (docs/hdt-format.md, "Part labels") ------------------------------
+
+// Element labels: 0 on Empty and Branch, >= 1 on Full, any on Boundary (0:
+// a mixed leaf). Returns the leaf indices of the mixed leaves, in order.
+std::vector<uint64_t> checkLabelElements(const std::vector<Label>& labels, const std::vector<ElementWord>& elements) {
+  if (labels.size() != elements.size())
+    invalid("label elements: " + str(labels.size()) + " labels for " + str(elements.size()) + " elements");
+  std::vector<uint64_t> mixed;
+  for (size_t i = 0; i < elements.size(); ++i) {
+    const ElementState s = elementState(elements[i]);
+    if ((s == ElementState::Empty || s == ElementState::Branch) && labels[i] != kOutsideLabel)
+      invalid("label elements: element " + str(i) + " is Empty or Branch but has label " + str(labels[i]));
+    if (s == ElementState::Full && labels[i] == kOutsideLabel)
+      invalid("label elements: Full element " + str(i) + " has label 0");
+    if (s == ElementState::Boundary && labels[i] == kOutsideLabel) mixed.push_back(elementPayload(elements[i]));
+  }
+  return mixed;
+}
+
+// A mixed leaf's voxel labels: 0 exactly on Outside voxels, two labels or more.
+bool mixedLeafIsValid(const uint32_t* words, const Label* labels, int leafSize) {
+  const size_t voxels = size_t(leafSize) * leafSize * leafSize;
+  Label first = kOutsideLabel;
+  bool twoLabels = false;
+  for (size_t j = 0; j < voxels; ++j) {
+    const bool outside = ((words[j / kVoxelsPerWord] >> (2 * (j % kVoxelsPerWord))) & 3u) == 0;
+    if (outside != (labels[j] == kOutsideLabel)) return false;
+    if (labels[j] == kOutsideLabel) continue;
+    if (first == kOutsideLabel) first = labels[j];
+    twoLabels = twoLabels || labels[j] != first;
+  }
+  return twoLabels;
+}
+
+void checkLabelVoxels(const Volume& v, const std::vector<uint64_t>& mixed) {
+  const size_t voxels = size_t(v.grid.leafSize) * v.grid.leafSize * v.grid.leafSize;
+  if (v.labels.voxelLabels.size() != mixed.size() * voxels) {
+    invalid("label voxels: " + str(v.labels.voxelLabels.size()) + " labels for " + str(mixed.size()) +
+            " mixed leaves of " + str(voxels) + " voxels");
+  }
+  const size_t firstBad = tbb::parallel_reduce(
+      tbb::blocked_range<size_t>(0, mixed.size(), 64), mixed.size(),
+      [&](const tbb::blocked_range<size_t>& r, size_t bad) {
+        for (size_t b = r.begin(); b != r.end() && b < bad; ++b)
+          if (!mixedLeafIsValid(v.leaf(mixed[b]), v.labels.voxelLabels.data() + b * voxels, v.grid.leafSize))
+            return b;
+        return bad;
+      },
+      [](size_t a, size_t b) { return std::min(a, b); });
+  if (firstBad != mixed.size()) {
+    invalid("label voxels: mixed leaf " + str(mixed[firstBad]) +
+            " has a label 0 on a voxel that is not Outside (or a label on an Outside voxel), or only one label");
+  }
+}
+
+void checkLabelNames(const std::map<Label, std::string>& names) {
+  for (const auto& [label, name] : names) {
+    if (label == kOutsideLabel) invalid("label names: a name for label 0");
+    if (name.size() > kMaxLabelNameLength)
+      invalid("label names: the name of label " + str(label) + " is longer than 255 bytes");
+    for (char c : name)
+      if (uint8_t(c) < 0x20 || c == 0x7F) invalid("label names: the name of label " + str(label) + " has a control character");
+  }
+}
+
+void checkLabels(const Volume& v) {
+  if (v.labels.empty()) {
+    if (!v.labels.voxelLabels.empty() || !v.labels.names.empty())
+      invalid("voxel labels or label names in a volume without element labels");
+    return;
+  }
+  checkLabelVoxels(v, checkLabelElements(v.labels.elementLabels, v.elements));
+  checkLabelNames(v.labels.names);
+}
+
 // Everything at once, for the writer.
 void checkVolume(const Volume& v) {
   const GridSpec& g = v.grid;
   checkGrid(g.resolution, g.rootGrid, g.leafSize, g.height, g.origin, g.voxelSize);
+  checkInsideTest(uint32_t(v.insideTest));
   checkStatisticsFields(v.stats);
   checkLevelTable(v.levelStart, g);
   if (v.elements.size() != v.levelStart.back()) {
@@ -380,6 +496,7 @@ void checkVolume(const Volume& v) {
     invalid(str(v.leafWords.size()) + " leaf words for " + str(tree.leaves) + " Boundary elements");
   }
   checkStructure(v.stats, v, tree, checkLeaves(v.leafWords, g.leafSize, v.surfaceOnly));
+  checkLabels(v);
 }
 
 // ---- zstd ---------------------------------------------------------------------------
@@ -405,8 +522,8 @@ struct Compressed {
   size_t size = 0;
 };
 
-Compressed compressLeaves(const LeafWordVector& words, int level) {
-  const size_t rawBytes = words.size() * 4;
+template <class Words> Compressed compressWords(const Words& words, int level) {
+  const size_t rawBytes = words.size() * sizeof(words[0]);
   std::unique_ptr<ZSTD_CCtx, CCtxFree> cctx(ZSTD_createCCtx());
   if (!cctx) throw std::bad_alloc();
   zstdCheck(ZSTD_CCtx_setParameter(cctx.get(), ZSTD_c_compressionLevel, level), "level");
@@ -440,28 +557,28 @@ Compressed compressLeaves(const LeafWordVector& words, int level) {
 // Checks that `srcSize` bytes are exactly one zstd frame stating a content
 // size of `dstSize`. Reads only the frame's headers, so it runs before the
 // destination is allocated (docs/hdt-format.md: nothing allocated on trust).
-void checkLeafFrame(const uint8_t* src, size_t srcSize, size_t dstSize) {
+void checkLeafFrame(const uint8_t* src, size_t srcSize, size_t dstSize, const std::string& what = "leaf data") {
   const unsigned long long content = ZSTD_getFrameContentSize(src, srcSize);
-  if (content == ZSTD_CONTENTSIZE_ERROR) invalid("leaf data: not a zstd frame");
-  if (content == ZSTD_CONTENTSIZE_UNKNOWN) invalid("leaf data: the zstd frame does not state its size");
+  if (content == ZSTD_CONTENTSIZE_ERROR) invalid(what + ": not a zstd frame");
+  if (content == ZSTD_CONTENTSIZE_UNKNOWN) invalid(what + ": the zstd frame does not state its size");
   if (content != dstSize) {
-    invalid("leaf data: the zstd frame holds " + str(content) + " bytes, expected " + str(dstSize));
+    invalid(what + ": the zstd frame holds " + str(content) + " bytes, expected " + str(dstSize));
   }
   const size_t frame = ZSTD_findFrameCompressedSize(src, srcSize);
-  if (ZSTD_isError(frame) || frame != srcSize) invalid("leaf data: not exactly one zstd frame");
+  if (ZSTD_isError(frame) || frame != srcSize) invalid(what + ": not exactly one zstd frame");
 }
 
 // Decodes exactly `dstSize` bytes from a frame checkLeafFrame accepted.
-void decompressLeaves(const uint8_t* src, size_t srcSize, uint8_t* dst, size_t dstSize) {
+void decompressLeaves(const uint8_t* src, size_t srcSize, uint8_t* dst, size_t dstSize,
+                      const std::string& what = "leaf data") {
   std::unique_ptr<ZSTD_DCtx, DCtxFree> dctx(ZSTD_createDCtx());
   if (!dctx) throw std::bad_alloc();
   uint8_t none;
   // One-shot into the caller's buffer: zstd never writes beyond dstSize and
   // needs no window buffer of its own, whatever the frame header claims.
   const size_t n = ZSTD_decompressDCtx(dctx.get(), dstSize ? dst : &none, dstSize, src, srcSize);
-  if (ZSTD_isError(n)) invalid(std::string("leaf data: zstd: ") + ZSTD_getErrorName(n));
-  if (n != dstSize)
-    invalid("leaf data: the zstd frame decoded to " + str(n) + " bytes, expected " + str(dstSize));
+  if (ZSTD_isError(n)) invalid(what + ": zstd: " + ZSTD_getErrorName(n));
+  if (n != dstSize) invalid(what + ": the zstd frame decoded to " + str(n) + " bytes, expected " + str(dstSize));
 }
 #endif
 
@@ -512,15 +629,83 @@ struct EncodedVolume {
 #endif
   uint32_t leafCrc = 0;
 
+  // Part labels (optional sections 16-18), when the volume has them.
+  bool labelled = false;
+  uint32_t labelElementsCrc = 0;
+  Encoding labelVoxelEncoding = Encoding::Raw;
+  uint64_t labelVoxelRawBytes = 0;
+#if defined(HDT_HAVE_ZSTD)
+  Compressed labelVoxelsCompressed;
+#endif
+  uint32_t labelVoxelsCrc = 0;
+  std::vector<uint8_t> labelNames; // empty: no names section
+
   uint64_t leafStoredBytes() const {
 #if defined(HDT_HAVE_ZSTD)
     if (leafEncoding == Encoding::Zstd) return compressed.size;
 #endif
     return leafRawBytes;
   }
+  uint64_t labelVoxelStoredBytes() const {
+#if defined(HDT_HAVE_ZSTD)
+    if (labelVoxelEncoding == Encoding::Zstd) return labelVoxelsCompressed.size;
+#endif
+    return labelVoxelRawBytes;
+  }
 };
 
+// An optional section's CRC: its header's first 24 bytes, then the payload
+// (whose own CRC-32 is payloadCrc).
+uint32_t optionalSectionCrc(Section id, Encoding encoding, uint64_t stored, uint64_t raw, uint32_t payloadCrc) {
+  const uint32_t seed = optionalSectionCrcSeed(uint32_t(id), uint32_t(encoding), stored, raw);
+  return static_cast<uint32_t>(crc32_combine(seed, payloadCrc, z_off_t(stored)));
+}
+
+std::vector<uint8_t> encodeLabelNames(const std::map<Label, std::string>& names) {
+  ByteWriter w;
+  w.u32(uint32_t(names.size()));
+  for (const auto& [label, name] : names) {
+    w.u32(uint32_t(label) | (uint32_t(name.size()) << 16));
+    w.raw(name.data(), name.size());
+  }
+  return w.bytes();
+}
+
+void encodeLabels(const Volume& v, const HdtWriteOptions& options, EncodedVolume& e) {
+  const LabelField& f = v.labels;
+  if (f.empty()) return;
+  e.labelled = true;
+  const uint64_t elementBytes = f.elementLabels.size() * sizeof(Label);
+  e.labelElementsCrc = optionalSectionCrc(Section::LabelElements, Encoding::Raw, elementBytes, elementBytes,
+                                          crcOfWords(f.elementLabels));
+  e.labelVoxelRawBytes = f.voxelLabels.size() * sizeof(Label);
+#if defined(HDT_HAVE_ZSTD)
+  if (options.compressLeaves && !f.voxelLabels.empty()) {
+    e.labelVoxelEncoding = Encoding::Zstd;
+    e.labelVoxelsCompressed = compressWords(f.voxelLabels, options.zstdLevel);
+    const Compressed& c = e.labelVoxelsCompressed;
+    e.labelVoxelsCrc = optionalSectionCrc(Section::LabelVoxels, Encoding::Zstd, c.size, e.labelVoxelRawBytes,
+                                          crc32Of(c.data.get(), c.size));
+  }
+#else
+  (void)options;
+#endif
+  if (e.labelVoxelEncoding == Encoding::Raw) {
+    e.labelVoxelsCrc = optionalSectionCrc(Section::LabelVoxels, Encoding::Raw, e.labelVoxelRawBytes,
+                                          e.labelVoxelRawBytes, crcOfWords(f.voxelLabels));
+  }
+  if (!f.names.empty()) e.labelNames = encodeLabelNames(f.names);
+}
+
+EncodedVolume encodeRequired(const Volume& v, const HdtWriteOptions& options);
+
 EncodedVolume encode(const Volume& v, const HdtWriteOptions& options) {
+  EncodedVolume e = encodeRequired(v, options);
+  encodeLabels(v, options, e);
+  return e;
+}
+
+EncodedVolume encodeRequired(const Volume& v, const HdtWriteOptions& options) {
   EncodedVolume e;
   const GridSpec& g = v.grid;
   {
@@ -533,6 +718,7 @@ EncodedVolume encode(const Volume& v, const HdtWriteOptions& options) {
     w.f64(g.voxelSize);
     w.u32(v.surfaceOnly ? 1 : 0);
     w.u32(v.closedMesh ? 1 : 0);
+    w.u32(uint32_t(v.insideTest));
     e.grid = w.bytes();
   }
   {
@@ -563,7 +749,7 @@ EncodedVolume encode(const Volume& v, const HdtWriteOptions& options) {
 #if defined(HDT_HAVE_ZSTD)
   if (options.compressLeaves && !v.leafWords.empty()) {
     e.leafEncoding = Encoding::Zstd;
-    e.compressed = compressLeaves(v.leafWords, options.zstdLevel);
+    e.compressed = compressWords(v.leafWords, options.zstdLevel);
     e.leafCrc = crc32Of(e.compressed.data.get(), e.compressed.size);
     return e;
   }
@@ -592,8 +778,37 @@ void writeSmallSection(Sink& out, Section id, const std::vector<uint8_t>& payloa
 }
 
 uint64_t encodedSize(const EncodedVolume& e, const Volume& v) {
-  return kFileHeaderBytes + 5 * kSectionHeaderBytes + e.grid.size() + e.stats.size() + e.levels.size() +
-         uint64_t(v.elements.size()) * 4 + e.leafStoredBytes();
+  uint64_t size = kFileHeaderBytes + 6 * kSectionHeaderBytes + e.grid.size() + e.stats.size() + e.levels.size() +
+                  uint64_t(v.elements.size()) * 4 + e.leafStoredBytes();
+  if (e.labelled) {
+    size += 2 * kSectionHeaderBytes + v.labels.elementLabels.size() * sizeof(Label) + e.labelVoxelStoredBytes();
+    if (!e.labelNames.empty()) size += kSectionHeaderBytes + e.labelNames.size();
+  }
+  return size;
+}
+
+void emitLabels(const EncodedVolume& e, const Volume& v, Sink& out) {
+  if (!e.labelled) return;
+  const LabelField& f = v.labels;
+  const uint64_t elementBytes = f.elementLabels.size() * sizeof(Label);
+  writeSectionHeader(out, Section::LabelElements, Encoding::Raw, elementBytes, elementBytes, e.labelElementsCrc);
+  forEachLittleEndianChunk(f.elementLabels.data(), f.elementLabels.size(),
+                           [&](const uint8_t* p, size_t n) { out.write(p, n); });
+  writeSectionHeader(out, Section::LabelVoxels, e.labelVoxelEncoding, e.labelVoxelStoredBytes(),
+                     e.labelVoxelRawBytes, e.labelVoxelsCrc);
+#if defined(HDT_HAVE_ZSTD)
+  if (e.labelVoxelEncoding == Encoding::Zstd) out.write(e.labelVoxelsCompressed.data.get(), e.labelVoxelsCompressed.size);
+#endif
+  if (e.labelVoxelEncoding == Encoding::Raw) {
+    forEachLittleEndianChunk(f.voxelLabels.data(), f.voxelLabels.size(),
+                             [&](const uint8_t* p, size_t n) { out.write(p, n); });
+  }
+  if (!e.labelNames.empty()) {
+    const uint64_t n = e.labelNames.size();
+    writeSectionHeader(out, Section::LabelNames, Encoding::Raw, n, n,
+                       optionalSectionCrc(Section::LabelNames, Encoding::Raw, n, n, crc32Of(e.labelNames.data(), n)));
+    out.write(e.labelNames.data(), n);
+  }
 }
 
 void emit(const EncodedVolume& e, const Volume& v, Sink& out) {
@@ -613,14 +828,20 @@ void emit(const EncodedVolume& e, const Volume& v, Sink& out) {
                            [&](const uint8_t* p, size_t n) { out.write(p, n); });
 
   writeSectionHeader(out, Section::LeafData, e.leafEncoding, e.leafStoredBytes(), e.leafRawBytes, e.leafCrc);
+  bool leavesWritten = false;
 #if defined(HDT_HAVE_ZSTD)
   if (e.leafEncoding == Encoding::Zstd) {
     out.write(e.compressed.data.get(), e.compressed.size);
-    return;
+    leavesWritten = true;
   }
 #endif
-  forEachLittleEndianChunk(v.leafWords.data(), v.leafWords.size(),
-                           [&](const uint8_t* p, size_t n) { out.write(p, n); });
+  if (!leavesWritten) {
+    forEachLittleEndianChunk(v.leafWords.data(), v.leafWords.size(),
+                             [&](const uint8_t* p, size_t n) { out.write(p, n); });
+  }
+
+  emitLabels(e, v, out);
+  writeSectionHeader(out, Section::End, Encoding::Raw, 0, 0, 0);
 }
 
 // Checks the volume and the options, then encodes; throws hdt::Error.
@@ -733,27 +954,42 @@ struct SectionHeader {
   uint32_t crc;
 };
 
-// Rule 4: the header is complete, expected, and its payload is in the file.
-SectionHeader readSectionHeader(Source& in, Section expected) {
-  const std::string name = sectionName(expected);
-  const uint64_t at = in.position();
+// The 28 bytes of a section header, not yet checked; `before` names the
+// section expected there, for the message when the file ends first.
+struct RawSectionHeader {
+  uint64_t at = 0; // file offset of the header
+  uint32_t id = 0, encoding = 0;
+  uint64_t stored = 0, raw = 0;
+  uint32_t crc = 0;
+};
+
+RawSectionHeader readRawSectionHeader(Source& in, const std::string& before) {
+  RawSectionHeader h;
+  h.at = in.position();
   if (in.remaining() < kSectionHeaderBytes) {
-    invalid("the file ends at byte " + str(at + in.remaining()) + ", before the " + name +
+    invalid("the file ends at byte " + str(h.at + in.remaining()) + ", before the " + before +
             " section header is complete");
   }
   uint8_t bytes[kSectionHeaderBytes];
   in.read(bytes, kSectionHeaderBytes);
   ByteReader r(bytes, kSectionHeaderBytes);
-  const uint32_t id = r.u32(), encoding = r.u32();
-  SectionHeader h{expected, Encoding::Raw, r.u64(), r.u64(), r.u32()};
-  if (id != uint32_t(expected)) {
-    invalid("expected the " + name + " section (id " + str(uint32_t(expected)) + ") at byte " + str(at) +
-            ", found id " + str(id));
-  }
-  if (encoding == uint32_t(Encoding::Zstd) && expected == Section::LeafData) {
+  h.id = r.u32();
+  h.encoding = r.u32();
+  h.stored = r.u64();
+  h.raw = r.u64();
+  h.crc = r.u32();
+  return h;
+}
+
+// Rule 4 for a header whose id is known: an allowed encoding, the payload in
+// the file, raw == stored when raw.
+SectionHeader checkSectionHeader(const RawSectionHeader& raw, Section id, const std::string& name,
+                                 bool zstdAllowed, const Source& in) {
+  SectionHeader h{id, Encoding::Raw, raw.stored, raw.raw, raw.crc};
+  if (raw.encoding == uint32_t(Encoding::Zstd) && zstdAllowed) {
     h.encoding = Encoding::Zstd;
-  } else if (encoding != uint32_t(Encoding::Raw)) {
-    invalid(name + " section: invalid encoding " + str(encoding));
+  } else if (raw.encoding != uint32_t(Encoding::Raw)) {
+    invalid(name + " section: invalid encoding " + str(raw.encoding));
   }
   if (h.stored > in.remaining()) {
     invalid(name + " section: " + str(h.stored) + " bytes stored but only " + str(in.remaining()) +
@@ -764,6 +1000,17 @@ SectionHeader readSectionHeader(Source& in, Section expected) {
             " decoded");
   }
   return h;
+}
+
+// Rule 4: the header is complete, expected, and its payload is in the file.
+SectionHeader readSectionHeader(Source& in, Section expected) {
+  const std::string name = sectionName(expected);
+  const RawSectionHeader raw = readRawSectionHeader(in, name);
+  if (raw.id != uint32_t(expected)) {
+    invalid("expected the " + name + " section (id " + str(uint32_t(expected)) + ") at byte " + str(raw.at) +
+            ", found id " + str(raw.id));
+  }
+  return checkSectionHeader(raw, expected, name, expected == Section::LeafData, in);
 }
 
 // Rule 5: checked before the payload is read.
@@ -797,6 +1044,154 @@ template <class Words> void readWordSection(Source& in, const SectionHeader& h, 
   littleEndianToHost(words.data(), words.size());
 }
 
+// An optional section this reader does not know and may skip: its payload is
+// checksummed in bounded chunks and dropped.
+void skipSection(Source& in, const RawSectionHeader& raw) {
+  const std::string name = "optional section " + str(raw.id);
+  if (raw.encoding != uint32_t(Encoding::Raw) && raw.encoding != uint32_t(Encoding::Zstd)) {
+    invalid(name + ": invalid encoding " + str(raw.encoding));
+  }
+  if (raw.stored > in.remaining()) {
+    invalid(name + ": " + str(raw.stored) + " bytes stored but only " + str(in.remaining()) +
+            " remain in the file (truncated?)");
+  }
+  if (raw.encoding == uint32_t(Encoding::Raw) && raw.raw != raw.stored) {
+    invalid(name + ": raw section with " + str(raw.stored) + " bytes stored but " + str(raw.raw) + " decoded");
+  }
+  std::vector<uint8_t> scratch;
+  uint32_t crc = optionalSectionCrcSeed(raw.id, raw.encoding, raw.stored, raw.raw);
+  for (uint64_t left = raw.stored; left > 0;) {
+    const size_t n = size_t(std::min<uint64_t>(left, kSkipChunkBytes));
+    crc = crc32Update(crc, in.view(n, scratch), n);
+    left -= n;
+  }
+  if (crc != raw.crc) invalid(name + ": CRC-32 mismatch");
+}
+
+// Rule 6 for an optional section: the CRC covers the header's first 24 bytes.
+void checkOptionalCrc(const SectionHeader& h, const uint8_t* stored) {
+  const uint32_t seed = optionalSectionCrcSeed(uint32_t(h.id), uint32_t(h.encoding), h.stored, h.raw);
+  checkCrc(h, static_cast<uint32_t>(crc32_combine(seed, crc32Of(stored, size_t(h.stored)), z_off_t(h.stored))));
+}
+
+// An optional section holding an array of T (raw, or zstd when allowed), its
+// raw length already checked; decoded into `out`.
+template <class T> void readOptionalArray(Source& in, const SectionHeader& h, std::vector<T>& out) {
+  const std::string what = sectionName(h.id);
+  if (h.encoding == Encoding::Raw) {
+    out.resize(size_t(h.raw) / sizeof(T)); // the section is in the file: bounded by its size
+    in.read(out.data(), size_t(h.stored));
+    checkOptionalCrc(h, reinterpret_cast<const uint8_t*>(out.data()));
+  } else {
+    std::vector<uint8_t> scratch;
+    const uint8_t* stored = in.view(size_t(h.stored), scratch); // in the file: bounded by its size
+    checkOptionalCrc(h, stored);
+#if defined(HDT_HAVE_ZSTD)
+    checkLeafFrame(stored, size_t(h.stored), size_t(h.raw), what);
+    out.resize(size_t(h.raw) / sizeof(T));
+    decompressLeaves(stored, size_t(h.stored), reinterpret_cast<uint8_t*>(out.data()), size_t(h.raw), what);
+#else
+    invalid(what + " section: zstd-compressed but this build of HDT has no zstd support");
+#endif
+  }
+  littleEndianToHost(out.data(), out.size());
+}
+
+std::map<Label, std::string> decodeLabelNames(const uint8_t* bytes, size_t size) {
+  ByteReader r(bytes, size);
+  if (size < 4) invalid("label names section: shorter than its count");
+  const uint32_t count = r.u32();
+  std::map<Label, std::string> names;
+  size_t at = 4;
+  uint32_t previous = 0;
+  for (uint32_t i = 0; i < count; ++i) {
+    if (size - at < 4) invalid("label names section: ends inside entry " + str(i));
+    const uint32_t packed = r.u32();
+    const uint32_t label = packed & 0xFFFFu, length = packed >> 16;
+    at += 4;
+    if (label <= previous) invalid("label names section: labels are not increasing from 1 (label " + str(label) + ")");
+    if (length > kMaxLabelNameLength) invalid("label names section: a name longer than 255 bytes");
+    if (size - at < length) invalid("label names section: ends inside the name of label " + str(label));
+    names[Label(label)].assign(reinterpret_cast<const char*>(r.bytes(length)), length);
+    at += length;
+    previous = label;
+  }
+  if (at != size) invalid("label names section: " + str(size - at) + " bytes after the last name");
+  checkLabelNames(names);
+  return names;
+}
+
+// The part-label sections (16, 17, 18); `mixed` receives the mixed leaves.
+void readLabelSection(Source& in, const RawSectionHeader& raw, Volume& v, std::vector<uint64_t>& mixed) {
+  const Section id = Section(raw.id);
+  const SectionHeader h = checkSectionHeader(raw, id, sectionName(id), id == Section::LabelVoxels, in);
+  LabelField& f = v.labels;
+  if (id != Section::LabelElements && f.empty())
+    invalid(std::string(sectionName(id)) + " section without the label elements section");
+  switch (id) {
+  case Section::LabelElements:
+    expectRawBytes(h, uint64_t(v.elements.size()) * sizeof(Label));
+    readOptionalArray(in, h, f.elementLabels);
+    mixed = checkLabelElements(f.elementLabels, v.elements);
+    break;
+  case Section::LabelVoxels: {
+    const uint64_t L = uint64_t(v.grid.leafSize);
+    expectRawBytes(h, mixed.size() * L * L * L * sizeof(Label)); // at most 8x the leaf data
+    readOptionalArray(in, h, f.voxelLabels);
+    checkLabelVoxels(v, mixed);
+    break;
+  }
+  default: {
+    // 65535 names of 255 bytes at most, each with a 4-byte head.
+    if (h.raw > 4 + 65535 * (4 + kMaxLabelNameLength)) invalid("label names section: too long");
+    std::vector<uint8_t> scratch;
+    const uint8_t* bytes = in.view(size_t(h.stored), scratch);
+    checkOptionalCrc(h, bytes);
+    f.names = decodeLabelNames(bytes, size_t(h.stored));
+    break;
+  }
+  }
+}
+
+// Version 2, after the leaf data: optional sections in increasing id order,
+// then the end section (docs/hdt-format.md, "Optional sections").
+void readOptionalSections(Source& in, Volume& v) {
+  uint32_t previous = 0;
+  std::vector<uint64_t> mixed;
+  bool labelVoxels = false;
+  for (;;) {
+    const RawSectionHeader raw = readRawSectionHeader(in, "next optional or the end");
+    if (raw.id == uint32_t(Section::End)) {
+      if (raw.encoding != 0 || raw.stored != 0 || raw.raw != 0 || raw.crc != 0) {
+        invalid("end section at byte " + str(raw.at) + ": encoding, lengths and CRC must be 0");
+      }
+      break;
+    }
+    if (raw.id < kFirstOptionalSection) {
+      invalid("section id " + str(raw.id) + " at byte " + str(raw.at) +
+              ": expected an optional section (id 16 or more) or the end section (id 6)");
+    }
+    if (raw.id <= previous) {
+      invalid("optional section " + str(raw.id) + " at byte " + str(raw.at) + " follows section " +
+              str(previous) + ": optional sections appear once each, in increasing id order");
+    }
+    previous = raw.id;
+    if (raw.id >= uint32_t(Section::LabelElements) && raw.id <= uint32_t(Section::LabelNames)) {
+      readLabelSection(in, raw, v, mixed);
+      labelVoxels = labelVoxels || raw.id == uint32_t(Section::LabelVoxels);
+      continue;
+    }
+    if (raw.id & kCriticalSectionBit) {
+      invalid("optional section " + str(raw.id) + " at byte " + str(raw.at) +
+              " is marked critical and this reader does not know it");
+    }
+    skipSection(in, raw);
+  }
+  if (in.remaining() != 0) invalid(str(in.remaining()) + " bytes after the end section");
+  if (!v.labels.empty() && !labelVoxels) invalid("label elements section without the label voxels section");
+  indexMixedLeaves(v);
+}
+
 size_t toSize(uint64_t bytes) {
   if (bytes > uint64_t(SIZE_MAX)) throw std::bad_alloc();
   return size_t(bytes);
@@ -814,9 +1209,9 @@ Volume readVolume(Source& in) {
   if (std::memcmp(header, kMagic, 4) != 0) invalid("not an .hdt file (bad magic)");
   ByteReader hr(header + 4, kFileHeaderBytes - 4);
   const uint32_t version = hr.u32(), flags = hr.u32();
-  if (version != kVersion) {
-    invalid("unsupported .hdt format version " + str(version) + " (this reader supports " + str(kVersion) +
-            ")");
+  if (version < kOldestVersion || version > kVersion) {
+    invalid("unsupported .hdt format version " + str(version) + " (this reader supports " +
+            str(kOldestVersion) + " to " + str(kVersion) + ")");
   }
   if (flags & ~kFlagLeafZstd) invalid("unknown flags " + str(flags) + " in the file header");
 #if !defined(HDT_HAVE_ZSTD)
@@ -829,7 +1224,7 @@ Volume readVolume(Source& in) {
   // Grid (rules 8-10).
   {
     const SectionHeader h = readSectionHeader(in, Section::Grid);
-    expectRawBytes(h, kGridBytes);
+    expectRawBytes(h, version == 1 ? kGridBytesV1 : kGridBytes);
     const std::vector<uint8_t> bytes = readSmallSection(in, h);
     ByteReader r(bytes.data(), bytes.size());
     const int64_t N = r.u32(), R = r.u32(), L = r.u32(), height = r.u32();
@@ -837,8 +1232,12 @@ Volume readVolume(Source& in) {
     for (double& o : origin) o = r.f64();
     const double voxelSize = r.f64();
     const uint32_t surfaceOnly = r.u32(), closedMesh = r.u32();
+    // Version 1 predates the choice: its volumes were classified by parity.
+    const uint32_t insideTest = version == 1 ? uint32_t(InsideTest::Parity) : r.u32();
     checkGrid(N, R, L, height, origin, voxelSize);
     if (surfaceOnly > 1 || closedMesh > 1) invalid("grid: a boolean flag is neither 0 nor 1");
+    checkInsideTest(insideTest);
+    v.insideTest = InsideTest(insideTest);
     g.resolution = int(N);
     g.rootGrid = int(R);
     g.leafSize = int(L);
@@ -927,7 +1326,11 @@ Volume readVolume(Source& in) {
 #endif
     }
   }
-  if (in.remaining() != 0) invalid(str(in.remaining()) + " bytes after the end of the leaf data section");
+  if (version == 1) {
+    if (in.remaining() != 0) invalid(str(in.remaining()) + " bytes after the end of the leaf data section");
+  } else {
+    readOptionalSections(in, v);
+  }
 
   checkStructure(v.stats, v, tree, checkLeaves(v.leafWords, g.leafSize, v.surfaceOnly));
   return v;

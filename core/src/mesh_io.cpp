@@ -14,6 +14,7 @@
 #include <sys/stat.h>
 
 #include <algorithm>
+#include <map>
 #include <cctype>
 #include <cerrno>
 #include <cstdio>
@@ -265,7 +266,8 @@ private:
   Format format_;
 };
 
-TriangleMesh readPly(const std::string& path, std::FILE* f, uint64_t size) {
+// labelProperty: the integer face property that labels the triangles, or "".
+TriangleMesh readPly(const std::string& path, std::FILE* f, uint64_t size, const std::string& labelProperty = "") {
   std::string data(size, '\0');
   if (std::fread(&data[0], 1, size, f) != size) fail(path, "read error");
 
@@ -335,14 +337,21 @@ TriangleMesh readPly(const std::string& path, std::FILE* f, uint64_t size) {
                      " entries but the file is too short for them");
     }
     const bool isVertex = e.name == "vertex", isFace = e.name == "face";
-    int axis[3] = {-1, -1, -1}, indices = -1;
+    int axis[3] = {-1, -1, -1}, indices = -1, labelIndex = -1;
     for (size_t i = 0; i < e.properties.size(); ++i) {
       const PlyProperty& p = e.properties[i];
+      if (isFace && !p.isList && !labelProperty.empty() && p.name == labelProperty) {
+        if (p.type == PlyType::Float32 || p.type == PlyType::Float64)
+          fail(path, "PLY face property '" + labelProperty + "' is not an integer property");
+        labelIndex = int(i);
+      }
       if (isVertex && !p.isList && p.name.size() == 1 && p.name[0] >= 'x' && p.name[0] <= 'z') axis[p.name[0] - 'x'] = int(i);
       if (isFace && p.isList && (p.name == "vertex_indices" || p.name == "vertex_index")) indices = int(i);
     }
     if (isVertex && (axis[0] < 0 || axis[1] < 0 || axis[2] < 0)) fail(path, "PLY vertex element lacks x, y or z");
     if (isFace && indices < 0) fail(path, "PLY face element has no vertex_indices list");
+    if (isFace && !labelProperty.empty() && labelIndex < 0)
+      fail(path, "PLY face element has no property '" + labelProperty + "' to take labels from");
     if (e.properties.empty()) continue; // empty records: nothing to read
     if (isVertex) {
       haveVertices = true;
@@ -353,12 +362,14 @@ TriangleMesh readPly(const std::string& path, std::FILE* f, uint64_t size) {
     std::vector<double> list;
     for (uint64_t n = 0; n < e.count; ++n) {
       double xyz[3] = {};
+      double label = -1;
       for (size_t i = 0; i < e.properties.size(); ++i) {
         const PlyProperty& p = e.properties[i];
         if (!p.isList) {
           const double v = body.read(p.type, e.name.c_str());
           for (int a = 0; a < 3; ++a)
             if (axis[a] == int(i)) xyz[a] = v;
+          if (int(i) == labelIndex) label = v;
           continue;
         }
         const double count = body.read(p.countType, e.name.c_str());
@@ -380,6 +391,13 @@ TriangleMesh readPly(const std::string& path, std::FILE* f, uint64_t size) {
         }
       }
       if (isVertex) mesh.points.insert(mesh.points.end(), {xyz[0], xyz[1], xyz[2]});
+      if (isFace && labelIndex >= 0) {
+        if (!(label >= 1 && label <= 65535)) {
+          fail(path, "face " + std::to_string(n) + " has the label " + std::to_string(int64_t(label)) +
+                         " in '" + labelProperty + "' (labels are 1 to 65535; 0 means outside)");
+        }
+        mesh.triangleLabels.resize(mesh.triangleCount(), Label(label));
+      }
     }
   }
   if (!haveVertices) fail(path, "PLY file has no vertex element");
@@ -397,10 +415,37 @@ TriangleMesh readPly(const std::string& path, std::FILE* f, uint64_t size) {
 // ---- ASCII STL and OBJ, through assimp ------------------------------------------------
 #if defined(HDT_HAVE_ASSIMP)
 
-void appendNode(const aiScene& scene, const aiNode& node, const aiMatrix4x4& parent, TriangleMesh& out) {
+// Labels by OBJ group (node) or material, while the scene is walked.
+struct AssimpLabels {
+  MeshLabelSource::Kind kind = MeshLabelSource::Kind::None;
+  std::map<std::string, Label> groups; // node name -> label
+  Label labelOf(const aiScene& scene, const aiNode& node, const aiMesh& mesh, TriangleMesh& out) {
+    if (kind == MeshLabelSource::Kind::ObjMaterial) {
+      if (mesh.mMaterialIndex >= 65535) throw Error(ErrorKind::BadInput, "more than 65535 materials");
+      const Label label = Label(mesh.mMaterialIndex + 1);
+      aiString name;
+      if (mesh.mMaterialIndex < scene.mNumMaterials &&
+          scene.mMaterials[mesh.mMaterialIndex]->Get(AI_MATKEY_NAME, name) == AI_SUCCESS)
+        out.labelNames[label] = name.C_Str();
+      return label;
+    }
+    const std::string name = node.mName.length ? node.mName.C_Str() : mesh.mName.C_Str();
+    const auto it = groups.find(name);
+    if (it != groups.end()) return it->second;
+    if (groups.size() >= 65535) throw Error(ErrorKind::BadInput, "more than 65535 groups");
+    const Label label = Label(groups.size() + 1);
+    groups.emplace(name, label);
+    out.labelNames[label] = name;
+    return label;
+  }
+};
+
+void appendNode(const aiScene& scene, const aiNode& node, const aiMatrix4x4& parent, TriangleMesh& out,
+                AssimpLabels& labels) {
   const aiMatrix4x4 transform = parent * node.mTransformation;
   for (unsigned m = 0; m < node.mNumMeshes; ++m) {
     const aiMesh& mesh = *scene.mMeshes[node.mMeshes[m]];
+    const Label label = labels.kind == MeshLabelSource::Kind::None ? 0 : labels.labelOf(scene, node, mesh, out);
     const size_t base = out.pointCount();
     if (base + mesh.mNumVertices > UINT32_MAX) throw Error(ErrorKind::BadInput, "too many points for 32-bit indices");
     for (unsigned v = 0; v < mesh.mNumVertices; ++v) {
@@ -411,12 +456,13 @@ void appendNode(const aiScene& scene, const aiNode& node, const aiMatrix4x4& par
       const aiFace& face = mesh.mFaces[f];
       if (face.mNumIndices != 3) continue; // points and lines: no surface
       for (int k = 0; k < 3; ++k) out.triangles.push_back(uint32_t(base + face.mIndices[k]));
+      if (labels.kind != MeshLabelSource::Kind::None) out.triangleLabels.push_back(label);
     }
   }
-  for (unsigned c = 0; c < node.mNumChildren; ++c) appendNode(scene, *node.mChildren[c], transform, out);
+  for (unsigned c = 0; c < node.mNumChildren; ++c) appendNode(scene, *node.mChildren[c], transform, out, labels);
 }
 
-TriangleMesh readWithAssimp(const std::string& path) {
+TriangleMesh readWithAssimp(const std::string& path, MeshLabelSource::Kind labelKind = MeshLabelSource::Kind::None) {
   Assimp::Importer importer;
   // Triangulate only: joining vertices, dropping degenerates or sorting by
   // primitive type would change what the file says.
@@ -427,15 +473,17 @@ TriangleMesh readWithAssimp(const std::string& path) {
   }
   if (scene->mRootNode == nullptr) fail(path, "the file holds no geometry");
   TriangleMesh mesh;
+  AssimpLabels labels;
+  labels.kind = labelKind;
   try {
-    appendNode(*scene, *scene->mRootNode, aiMatrix4x4(), mesh);
+    appendNode(*scene, *scene->mRootNode, aiMatrix4x4(), mesh, labels);
   } catch (const Error& e) {
     fail(path, e.what());
   }
   return mesh;
 }
 #else
-TriangleMesh readWithAssimp(const std::string& path) {
+TriangleMesh readWithAssimp(const std::string& path, MeshLabelSource::Kind = MeshLabelSource::Kind::None) {
   fail(path, "this build reads only binary STL and PLY (it was built without assimp; install "
              "libassimp-dev and reconfigure to read ASCII STL and OBJ)");
 }
@@ -451,7 +499,52 @@ bool readsAllMeshFormats() {
 #endif
 }
 
-TriangleMesh readMesh(const std::string& path) {
+TriangleMesh readMesh(const std::string& path) { return readMesh(path, MeshLabelSource{}); }
+
+void labelConnectedComponents(TriangleMesh& mesh) {
+  // Union-find over points; points at the same position (exactly) start
+  // joined, so that triangle soups (STL) connect too. A component's label
+  // follows its first triangle.
+  const size_t np = mesh.pointCount();
+  std::vector<uint32_t> parent(np);
+  for (uint32_t i = 0; i < parent.size(); ++i) parent[i] = i;
+  {
+    std::vector<uint32_t> order(np);
+    for (uint32_t i = 0; i < np; ++i) order[i] = i;
+    const double* p = mesh.points.data();
+    auto less = [p](uint32_t a, uint32_t b) {
+      return std::lexicographical_compare(p + 3 * a, p + 3 * a + 3, p + 3 * b, p + 3 * b + 3);
+    };
+    std::sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) { return less(a, b) || (!less(b, a) && a < b); });
+    for (size_t i = 1; i < np; ++i)
+      if (!less(order[i - 1], order[i])) parent[order[i]] = order[i - 1]; // equal: ties sorted by index
+  }
+  auto find = [&](uint32_t x) {
+    while (parent[x] != x) x = parent[x] = parent[parent[x]];
+    return x;
+  };
+  for (size_t t = 0; t < mesh.triangleCount(); ++t) {
+    const uint32_t a = find(mesh.triangles[3 * t]);
+    for (int c = 1; c < 3; ++c) {
+      const uint32_t b = find(mesh.triangles[3 * t + size_t(c)]);
+      if (a != b) parent[std::max(a, b)] = std::min(a, b);
+    }
+  }
+  std::map<uint32_t, Label> labelOfRoot;
+  mesh.triangleLabels.resize(mesh.triangleCount());
+  for (size_t t = 0; t < mesh.triangleCount(); ++t) {
+    const uint32_t root = find(mesh.triangles[3 * t]);
+    auto it = labelOfRoot.find(root);
+    if (it == labelOfRoot.end()) {
+      if (labelOfRoot.size() >= 65535) throw Error(ErrorKind::BadInput, "more than 65535 connected components");
+      it = labelOfRoot.emplace(root, Label(labelOfRoot.size() + 1)).first;
+    }
+    mesh.triangleLabels[t] = it->second;
+  }
+}
+
+TriangleMesh readMesh(const std::string& path, const MeshLabelSource& labels) {
+  using Kind = MeshLabelSource::Kind;
   uint64_t size = 0;
   File f = openRegular(path, size);
   const std::string ext = lowerExtension(path);
@@ -461,18 +554,30 @@ TriangleMesh readMesh(const std::string& path) {
   }
   if (size == 0) fail(path, "the file is empty");
 
+  if (labels.kind == Kind::PlyFaceProperty && ext != ".ply")
+    fail(path, "labels from a PLY face property need a .ply file");
+  if ((labels.kind == Kind::ObjGroup || labels.kind == Kind::ObjMaterial) && ext != ".obj")
+    fail(path, "labels from OBJ groups or materials need an .obj file");
   TriangleMesh mesh;
   uint32_t n = 0;
   if (ext == ".ply") {
-    mesh = readPly(path, f.get(), size);
+    mesh = readPly(path, f.get(), size, labels.kind == Kind::PlyFaceProperty ? labels.property : "");
   } else if (ext == ".stl" && binaryStlCount(f.get(), size, n)) {
     mesh = readBinaryStl(path, f.get(), n);
   } else {
     if (ext == ".stl") requireCompleteAsciiStl(path, f.get(), size, n);
     f.reset();
-    mesh = readWithAssimp(path);
+    mesh = readWithAssimp(path, labels.kind == Kind::ObjGroup || labels.kind == Kind::ObjMaterial ? labels.kind
+                                                                                                  : Kind::None);
   }
   if (mesh.triangleCount() == 0) fail(path, "no triangles in the file");
+  if (labels.kind == Kind::Components) {
+    try {
+      labelConnectedComponents(mesh);
+    } catch (const Error& e) {
+      fail(path, e.what());
+    }
+  }
   return mesh;
 }
 

@@ -205,5 +205,52 @@ EOF2
   [[ ! -s $work/stderr ]] || fail "--quiet still printed warnings"
 }
 
+case_labels() {
+  # Two disjoint boxes in one PLY, labelled by a face property; the JSON table
+  # adds up to the unlabelled counts, the label NRRD holds 2 N^3 bytes of data.
+  python3 - "$work/two.ply" <<'EOF2'
+import sys
+pts, faces = [], []
+for b, label in ((0, 4), (3, 9)):
+    base = len(pts)
+    pts += [(b + (i & 1), (i >> 1) & 1, (i >> 2) & 1) for i in range(8)]
+    for q in ((0, 2, 3, 1), (4, 5, 7, 6), (0, 1, 5, 4), (2, 6, 7, 3), (0, 4, 6, 2), (1, 3, 7, 5)):
+        faces.append(([base + k for k in q], label))
+with open(sys.argv[1], "w") as f:
+    f.write("ply\nformat ascii 1.0\nelement vertex %d\nproperty float x\nproperty float y\nproperty float z\n"
+            "element face %d\nproperty list uchar int vertex_indices\nproperty ushort part\nend_header\n"
+            % (len(pts), len(faces)))
+    for p in pts: f.write("%g %g %g\n" % p)
+    for q, l in faces: f.write("4 %s %d\n" % (" ".join(map(str, q)), l))
+EOF2
+  run 0 "$work/two.ply" --resolution 64 --root-grid 4 --leaf-size 8 --json
+  cp "$work/stdout" "$work/plain.json"
+  run 0 "$work/two.ply" --resolution 64 --root-grid 4 --leaf-size 8 --json --labels ply:part --overlap 9,4 \
+    --dense-labels "$work/labels.nrrd" -o "$work/labels.hdt"
+  python3 - "$work/plain.json" "$work/stdout" "$work/labels.nrrd" <<'EOF2' || fail "labels JSON or NRRD"
+import json, sys
+plain, lab = (json.load(open(p)) for p in sys.argv[1:3])
+assert plain["labels"] is None and plain["label_bytes"] == 0, plain
+labels = lab["labels"]
+assert [l["label"] for l in labels] == [4, 9], labels
+assert sum(l["surface_voxels"] for l in labels) == plain["active_voxels"]
+assert sum(l["inside_voxels"] for l in labels) == plain["inside_voxels"]
+assert lab["label_bytes"] > 0 and lab["dense_labels_file"] == sys.argv[3]
+data = open(sys.argv[3], "rb").read()
+header, body = data.split(b"\n\n", 1)
+assert b"type: uint16" in header and len(body) == 2 * 64 ** 3, (header, len(body))
+values = set(int.from_bytes(body[i:i + 2], "little") for i in range(0, len(body), 2))
+assert values == {0, 4, 9}, values
+EOF2
+  run 2 "$work/two.ply" --overlap 0,1
+  stderr_has "--overlap expects"
+  run 2 "$work/two.ply" --labels bogus
+  stderr_has "--labels expects"
+  run 2 "$work/two.ply" --dense-labels "$work/x.nrrd"
+  stderr_has "--dense-labels needs --labels"
+  run 3 "$work/two.ply" --resolution 64 --root-grid 4 --labels ply:nothere
+  stderr_has "no property 'nothere'"
+}
+
 "case_${case_name//-/_}"
 echo "ok: $case_name"

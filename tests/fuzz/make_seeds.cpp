@@ -109,6 +109,15 @@ int main(int argc, char** argv) {
     put(out + "/hdt_reader/random" + std::to_string(seed) + ".hdt", serializeHdt(v, raw));
     put(out + "/hdt_reader/random" + std::to_string(seed) + "-zstd.hdt", serializeHdt(v));
   }
+  // Labelled volumes: the optional label sections (16, 17, 18) to mutate too.
+  for (uint32_t seed = 5; seed <= 6; ++seed) {
+    test::RandomVolumeSpec spec;
+    spec.height = 1;
+    Volume v = test::randomVolume(seed, spec);
+    test::labelRandomly(v, seed);
+    put(out + "/hdt_reader/labelled" + std::to_string(seed) + ".hdt", serializeHdt(v, raw));
+    put(out + "/hdt_reader/labelled" + std::to_string(seed) + "-zstd.hdt", serializeHdt(v));
+  }
   BuildConfig c;
   c.resolution = 32;
   c.rootGrid = 2;

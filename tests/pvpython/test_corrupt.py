@@ -76,7 +76,8 @@ cases = [
     ("version.hdt", flip(4, 1), "version"),
     ("trailing.hdt", data + b"\0", "after the end"),
     ("stats-bit.hdt", flip(stats_offset, 3), "CRC-32"),
-    ("leaf-bit.hdt", flip(len(data) - 17, 5), "CRC-32"),
+    # The file ends with the leaf data, then the 28-byte end section (format version 2).
+    ("leaf-bit.hdt", flip(len(data) - 28 - 17, 5), "CRC-32"),
 ]
 
 

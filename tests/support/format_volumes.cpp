@@ -1,5 +1,7 @@
 #include "support/format_volumes.hpp"
 
+#include "hdt/labels.hpp"
+
 #include <gtest/gtest.h>
 
 #include <cstdlib>
@@ -69,6 +71,36 @@ Volume randomVolume(uint32_t seed, const RandomVolumeSpec& spec) {
   return v;
 }
 
+void labelRandomly(Volume& v, uint32_t seed, int labels) {
+  std::mt19937 rng(seed);
+  auto label = [&] { return Label(1 + rng() % uint32_t(labels)); };
+  LabelField& f = v.labels;
+  f = LabelField{};
+  f.elementLabels.assign(v.elements.size(), 0);
+  const int L = v.grid.leafSize;
+  const size_t voxels = size_t(L) * L * L;
+  for (size_t i = 0; i < v.elements.size(); ++i) {
+    const ElementWord w = v.elements[i];
+    if (elementState(w) == ElementState::Full) f.elementLabels[i] = label();
+    if (elementState(w) != ElementState::Boundary) continue;
+    const uint32_t* leaf = v.leaf(elementPayload(w));
+    std::vector<size_t> occupied;
+    for (size_t j = 0; j < voxels; ++j)
+      if ((leaf[j / 16] >> (2 * (j % 16))) & 3u) occupied.push_back(j);
+    if (occupied.size() < 2 || rng() % 2) {
+      f.elementLabels[i] = label();
+      continue;
+    }
+    std::vector<Label> block(voxels, 0);
+    for (size_t j : occupied) block[j] = label();
+    block[occupied[0]] = 1; // at least two labels
+    block[occupied[1]] = 2;
+    f.voxelLabels.insert(f.voxelLabels.end(), block.begin(), block.end());
+  }
+  f.names = {{1, "first part"}, {Label(labels), "last"}, {65535, "unused \xc3\xa9"}};
+  indexMixedLeaves(v);
+}
+
 Volume emptyVolume(int rootGrid, int leafSize, int height) {
   Volume v;
   v.grid.rootGrid = rootGrid;
@@ -103,6 +135,11 @@ void expectSameVolume(const Volume& e, const Volume& a, const std::string& conte
   EXPECT_TRUE(e.elements == a.elements) << "elements differ";
   EXPECT_EQ(e.levelStart, a.levelStart);
   EXPECT_TRUE(e.leafWords == a.leafWords) << "leaf words differ";
+  EXPECT_EQ(e.insideTest, a.insideTest);
+  EXPECT_TRUE(e.labels.elementLabels == a.labels.elementLabels) << "element labels differ";
+  EXPECT_TRUE(e.labels.voxelLabels == a.labels.voxelLabels) << "voxel labels differ";
+  EXPECT_TRUE(e.labels.mixedBlock == a.labels.mixedBlock) << "mixed-leaf index differs";
+  EXPECT_EQ(e.labels.names, a.labels.names);
 
   const Statistics &x = e.stats, &y = a.stats;
   EXPECT_EQ(x.triangles, y.triangles);
@@ -210,14 +247,20 @@ std::vector<uint8_t> assembleHdtImage(const HdtImage& image) {
     if (!s.keepHeader) {
       stored = s.payload.size();
       if (s.encoding == 0) raw = stored;
-      crc = referenceCrc32(s.payload.data(), s.payload.size());
     }
     putLe32(out, at, s.id);
     putLe32(out, at + 4, s.encoding);
     putLe64(out, at + 8, stored);
     putLe64(out, at + 16, raw);
-    putLe32(out, at + 24, crc);
     out.insert(out.end(), s.payload.begin(), s.payload.end());
+    if (!s.keepHeader) {
+      // Optional sections (id >= 16): the CRC covers the header's first 24 bytes, then the payload.
+      std::vector<uint8_t> covered;
+      if (s.id >= 16) covered.assign(out.begin() + at, out.begin() + at + 24);
+      covered.insert(covered.end(), s.payload.begin(), s.payload.end());
+      crc = referenceCrc32(covered.data(), covered.size());
+    }
+    putLe32(out, at + 24, crc);
   }
   return out;
 }

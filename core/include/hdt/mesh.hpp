@@ -2,10 +2,12 @@
 #pragma once
 
 #include "hdt/config.hpp"
+#include "hdt/label_field.hpp"
 #include "hdt/lattice.hpp"
 
 #include <array>
 #include <cstdint>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -15,6 +17,10 @@ namespace hdt {
 struct TriangleMesh {
   std::vector<double> points;
   std::vector<uint32_t> triangles;
+  // Optional part labels (hdt/labels.hpp): empty, or one label >= 1 per
+  // triangle; names of labels, when the source has them.
+  std::vector<Label> triangleLabels;
+  std::map<Label, std::string> labelNames;
 
   size_t pointCount() const { return points.size() / 3; }
   size_t triangleCount() const { return triangles.size() / 3; }

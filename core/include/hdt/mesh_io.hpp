@@ -21,6 +21,30 @@ namespace hdt {
 // an unknown extension, corrupt or truncated content, or no triangles.
 TriangleMesh readMesh(const std::string& path);
 
+// Where part labels (TriangleMesh::triangleLabels, hdt/labels.hpp) come from.
+//   PlyFaceProperty: an integer property of the PLY face element named
+//     `property`, values 1..65535 (each polygon's triangles share its value);
+//   ObjGroup: OBJ groups / objects, labels 1, 2, ... in order of first
+//     appearance, named after them;
+//   ObjMaterial: OBJ materials (usemtl), label = material index + 1, named
+//     after them;
+//   Components: connected components (triangles sharing a point, by index
+//     or by exact position), 1, 2, ... in order of their first triangle; any
+//     format.
+struct MeshLabelSource {
+  enum class Kind { None, PlyFaceProperty, ObjGroup, ObjMaterial, Components } kind = Kind::None;
+  std::string property;
+};
+
+// readMesh, with labels from `labels` (Error(BadInput) when the file lacks them).
+TriangleMesh readMesh(const std::string& path, const MeshLabelSource& labels);
+
+// Labels each triangle with its connected component (shared points: the same
+// index or exactly the same coordinates),
+// 1, 2, ... in order of the components' first triangles. Throws
+// Error(BadInput) past 65535 components.
+void labelConnectedComponents(TriangleMesh& mesh);
+
 // True when this build has assimp and so reads every format above; without
 // it only binary STL and PLY can be read.
 bool readsAllMeshFormats();

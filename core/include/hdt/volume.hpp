@@ -2,6 +2,7 @@
 #pragma once
 
 #include "hdt/config.hpp"
+#include "hdt/label_field.hpp"
 #include "hdt/types.hpp"
 
 #include "hdt/default_init_allocator.hpp"
@@ -54,6 +55,7 @@ struct Volume {
   std::vector<uint64_t> levelStart;
   LeafWordVector leafWords;          // leafGrids * leafWordCount(L); resize() leaves them unwritten
   Statistics stats;
+  LabelField labels;                 // part labels (hdt/labels.hpp); empty when unlabelled
 
   uint64_t leafCount() const { return leafWords.size() / leafWordCount(grid.leafSize); }
   const uint32_t* leaf(uint64_t i) const { return leafWords.data() + i * leafWordCount(grid.leafSize); }

@@ -1,0 +1,343 @@
+// Part labels on voxels: per-part builds combined into one labelled volume
+// (hdt/labels.hpp says what the result means).
+#include "hdt/labels.hpp"
+
+#include "hdt/error.hpp"
+#include "hdt/host_memory.hpp"
+#include "hdt/mesh.hpp"
+#include "hdt/volume_walk.hpp"
+
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <chrono>
+#include <map>
+#include <utility>
+
+namespace hdt {
+
+LabelRanking::LabelRanking(const LabelOptions& options) : rank_(65536) {
+  for (uint32_t l = 0; l < 65536; ++l) {
+    switch (options.overlap) {
+    case OverlapPolicy::Lowest:
+    case OverlapPolicy::Priority: rank_[l] = 65536 + l; break;
+    case OverlapPolicy::Highest: rank_[l] = 65536 + (65535 - l); break;
+    }
+  }
+  if (options.overlap == OverlapPolicy::Priority) {
+    // Listed labels first, in list order; a repeated label keeps its first place.
+    for (size_t i = options.priority.size(); i-- > 0;) rank_[options.priority[i]] = uint32_t(i);
+  }
+}
+
+namespace {
+
+// A part's claim on an element of the combined tree: the part's own element
+// there, or "Full" inherited from a Full ancestor.
+constexpr uint64_t kInheritedFull = ~uint64_t(0);
+struct Claim {
+  uint32_t part;
+  uint64_t element;
+};
+
+// Claims grouped by combined element: element i owns claims[start[i] .. start[i+1]).
+struct ClaimLists {
+  std::vector<Claim> claims;
+  std::vector<uint64_t> start{0};
+  void close() { start.push_back(claims.size()); }
+  size_t size() const { return start.size() - 1; }
+};
+
+bool isFullClaim(const std::vector<Volume>& parts, const Claim& c) {
+  return c.element == kInheritedFull || elementState(parts[c.part].elements[c.element]) == ElementState::Full;
+}
+
+// The claims of part `part` on child `child` of an element the part holds as `c`.
+void pushChildClaim(const std::vector<Volume>& parts, const Claim& c, int child, ClaimLists& next) {
+  if (isFullClaim(parts, c)) {
+    next.claims.push_back({c.part, kInheritedFull});
+    return;
+  }
+  const ElementWord w = parts[c.part].elements[c.element];
+  if (elementState(w) != ElementState::Branch) return; // Empty: no claim
+  const uint64_t k = uint64_t(elementPayload(w)) + uint64_t(child);
+  if (elementState(parts[c.part].elements[k]) != ElementState::Empty) next.claims.push_back({c.part, k});
+}
+
+// One combined leaf's words: the OR of the claims' surface and inside
+// planes, inside only where no claim has surface.
+uint32_t claimWord(const std::vector<Volume>& parts, const Claim& c, uint32_t w) {
+  if (c.element == kInheritedFull) return kInsidePlaneBits; // all Inside
+  return parts[c.part].leaf(elementPayload(parts[c.part].elements[c.element]))[w];
+}
+
+void combineLeafWords(const std::vector<Volume>& parts, const Claim* claims, size_t count, uint32_t* out) {
+  const uint32_t words = leafWordCount(parts[0].grid.leafSize);
+  for (uint32_t w = 0; w < words; ++w) {
+    uint32_t surface = 0, inside = 0;
+    for (size_t i = 0; i < count; ++i) {
+      const uint32_t pw = claimWord(parts, claims[i], w);
+      surface |= planeOf(pw, kSurfacePlane);
+      inside |= planeOf(pw, kInsidePlane);
+    }
+    inside &= ~surface;
+    out[w] = inside | (surface << 1);
+  }
+}
+
+// The labels of a combined leaf (words as combineLeafWords made them): the
+// one label of its non-Outside voxels, or 0 when it holds several; then
+// `voxels` (L^3, written only for several claims) holds every voxel's label:
+// the best, by the policy, of the claims in the voxel's combined state.
+Label combineLeafLabels(const std::vector<Volume>& parts, const std::vector<Label>& partLabels,
+                        const LabelRanking& ranking, const Claim* claims, size_t count, const uint32_t* combined,
+                        Label* voxels) {
+  if (count == 1) return partLabels[claims[0].part];
+  const int L = parts[0].grid.leafSize;
+  const uint32_t words = leafWordCount(L);
+  std::fill(voxels, voxels + size_t(L) * L * L, kOutsideLabel);
+  for (size_t i = 0; i < count; ++i) {
+    const Label label = partLabels[claims[i].part];
+    for (uint32_t w = 0; w < words; ++w) {
+      const uint32_t pw = claimWord(parts, claims[i], w), c = combined[w];
+      uint32_t mine = (planeOf(pw, kSurfacePlane) & planeOf(c, kSurfacePlane)) |
+                      (planeOf(pw, kInsidePlane) & planeOf(c, kInsidePlane));
+      while (mine) {
+        const int bit = __builtin_ctz(mine);
+        mine &= mine - 1;
+        Label& v = voxels[size_t(w) * kVoxelsPerWord + size_t(bit / 2)];
+        v = v == kOutsideLabel ? label : ranking.best(v, label);
+      }
+    }
+  }
+  Label only = kOutsideLabel;
+  for (size_t j = 0; j < size_t(L) * L * L; ++j) {
+    if (voxels[j] == kOutsideLabel) continue;
+    if (only == kOutsideLabel) only = voxels[j];
+    if (voxels[j] != only) return kOutsideLabel; // mixed
+  }
+  return only;
+}
+
+void checkParts(const std::vector<Volume>& parts, const std::vector<Label>& partLabels) {
+  if (parts.empty() || parts.size() != partLabels.size())
+    throw Error(ErrorKind::InvalidArgument, "labelled build: no parts, or not one label per part");
+  std::vector<Label> sorted = partLabels;
+  std::sort(sorted.begin(), sorted.end());
+  if (sorted.front() == kOutsideLabel || std::adjacent_find(sorted.begin(), sorted.end()) != sorted.end())
+    throw Error(ErrorKind::InvalidArgument, "labelled build: part labels must be distinct and >= 1");
+  const GridSpec& g = parts[0].grid;
+  for (const Volume& p : parts) {
+    const GridSpec& q = p.grid;
+    if (q.resolution != g.resolution || q.rootGrid != g.rootGrid || q.leafSize != g.leafSize ||
+        q.height != g.height || q.origin != g.origin || q.voxelSize != g.voxelSize ||
+        p.surfaceOnly != parts[0].surfaceOnly)
+      throw Error(ErrorKind::InvalidArgument, "labelled build: the parts are not on one grid");
+  }
+}
+
+} // namespace
+
+Volume combineLabelledParts(const std::vector<Volume>& parts, const std::vector<Label>& partLabels,
+                            const LabelOptions& options) {
+  checkParts(parts, partLabels);
+  const auto t0 = std::chrono::steady_clock::now();
+  const LabelRanking ranking(options);
+  Volume out;
+  out.grid = parts[0].grid;
+  out.surfaceOnly = parts[0].surfaceOnly;
+  out.closedMesh = true;
+  out.insideTest = parts[0].insideTest;
+  for (const Volume& p : parts) {
+    out.closedMesh = out.closedMesh && p.closedMesh;
+    // Auto may have picked different tests for closed and open parts.
+    if (p.insideTest != out.insideTest) out.insideTest = InsideTest::WindingNumber;
+  }
+  const GridSpec& g = out.grid;
+  std::vector<Label>& elementLabels = out.labels.elementLabels;
+
+  // The tree, level by level (types.hpp order): an element branches when a
+  // part branches there, is Full when a part is Full there.
+  ClaimLists level, leafClaims;
+  const uint64_t roots = uint64_t(g.rootGrid) * g.rootGrid * g.rootGrid;
+  for (uint64_t r = 0; r < roots; ++r) {
+    for (uint32_t p = 0; p < parts.size(); ++p)
+      if (elementState(parts[p].elements[r]) != ElementState::Empty) level.claims.push_back({p, r});
+    level.close();
+  }
+  std::vector<uint64_t> leafElement;
+  for (int k = 0; k <= g.height; ++k) {
+    out.levelStart.push_back(out.elements.size());
+    const uint64_t firstChild = out.elements.size() + level.size();
+    uint32_t branches = 0;
+    ClaimLists next;
+    for (size_t i = 0; i < level.size(); ++i) {
+      const Claim* c = level.claims.data() + level.start[i];
+      const size_t n = size_t(level.start[i + 1] - level.start[i]);
+      bool refined = false;
+      Label full = kOutsideLabel;
+      for (size_t j = 0; j < n; ++j) {
+        if (isFullClaim(parts, c[j])) {
+          const Label l = partLabels[c[j].part];
+          full = full == kOutsideLabel ? l : ranking.best(full, l);
+        } else {
+          refined = true; // Branch, or Boundary at level h
+        }
+      }
+      if (refined && k < g.height) {
+        out.elements.push_back(makeElement(ElementState::Branch, uint32_t(firstChild + 8 * uint64_t(branches++))));
+        elementLabels.push_back(kOutsideLabel);
+        for (int child = 0; child < 8; ++child) {
+          for (size_t j = 0; j < n; ++j) pushChildClaim(parts, c[j], child, next);
+          next.close();
+        }
+      } else if (refined) {
+        out.elements.push_back(makeElement(ElementState::Boundary, uint32_t(leafElement.size())));
+        elementLabels.push_back(kOutsideLabel); // set once the leaf is combined
+        leafElement.push_back(out.elements.size() - 1);
+        for (size_t j = 0; j < n; ++j)
+          leafClaims.claims.push_back(isFullClaim(parts, c[j]) ? Claim{c[j].part, kInheritedFull} : c[j]);
+        leafClaims.close();
+      } else {
+        out.elements.push_back(makeElement(full ? ElementState::Full : ElementState::Empty, 0));
+        elementLabels.push_back(full);
+      }
+      if (out.elements.size() > kMaxElementPayload)
+        throw Error(ErrorKind::OutOfResources, "labelled build: more than 2^30 - 1 tree elements");
+    }
+    level = std::move(next);
+  }
+  out.levelStart.push_back(out.elements.size());
+
+  // The leaves, in parallel, each writing its own words and label; the voxel
+  // labels of mixed leaves are computed again straight into their place once
+  // the mixed leaves are counted (cheaper than holding them all twice).
+  const uint32_t words = leafWordCount(g.leafSize);
+  const size_t voxels = size_t(g.leafSize) * g.leafSize * g.leafSize;
+  const size_t leafCount = leafElement.size();
+  out.leafWords.resize(leafCount * words);
+  std::vector<Label> leafLabels(leafCount);
+  auto claimsOf = [&](size_t i) { return leafClaims.claims.data() + leafClaims.start[i]; };
+  auto countOf = [&](size_t i) { return size_t(leafClaims.start[i + 1] - leafClaims.start[i]); };
+  tbb::enumerable_thread_specific<std::vector<Label>> scratch([&] { return std::vector<Label>(voxels); });
+  tbb::parallel_for(size_t(0), leafCount, [&](size_t i) {
+    uint32_t* w = out.leafWords.data() + i * words;
+    combineLeafWords(parts, claimsOf(i), countOf(i), w);
+    leafLabels[i] = combineLeafLabels(parts, partLabels, ranking, claimsOf(i), countOf(i), w, scratch.local().data());
+  });
+  std::vector<size_t> mixedLeaves;
+  for (size_t i = 0; i < leafCount; ++i) {
+    elementLabels[leafElement[i]] = leafLabels[i];
+    if (leafLabels[i] == kOutsideLabel) mixedLeaves.push_back(i);
+  }
+  out.labels.voxelLabels.resize(mixedLeaves.size() * voxels);
+  tbb::parallel_for(size_t(0), mixedLeaves.size(), [&](size_t k) {
+    const size_t i = mixedLeaves[k];
+    combineLeafLabels(parts, partLabels, ranking, claimsOf(i), countOf(i), out.leafWords.data() + i * words,
+                      out.labels.voxelLabels.data() + k * voxels);
+  });
+  indexMixedLeaves(out);
+
+  computeStructureStatistics(out);
+  Statistics& s = out.stats;
+  s.backend = parts[0].stats.backend;
+  s.threads = parts[0].stats.threads;
+  for (const Volume& p : parts) {
+    s.triangles += p.stats.triangles;
+    s.degenerateTriangles += p.stats.degenerateTriangles;
+    s.time.mapping += p.stats.time.mapping;
+    s.time.branching += p.stats.time.branching;
+    s.time.leaf += p.stats.time.leaf;
+    s.time.classify += p.stats.time.classify;
+    s.time.total += p.stats.time.total;
+    s.peakHostBytes = std::max(s.peakHostBytes, p.stats.peakHostBytes);
+    s.peakDeviceBytes = std::max(s.peakDeviceBytes, p.stats.peakDeviceBytes);
+  }
+  s.time.total += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  // The combination holds every part and the result at once: the process's peak so far.
+  s.peakHostBytes = std::max(s.peakHostBytes, peakResidentBytes());
+  return out;
+}
+
+void indexMixedLeaves(Volume& v) {
+  LabelField& f = v.labels;
+  f.mixedBlock.clear();
+  if (f.empty()) return;
+  f.mixedBlock.assign(v.leafCount(), kNotMixed);
+  uint32_t block = 0;
+  for (uint64_t i = v.levelStart[size_t(v.grid.height)]; i < v.elements.size(); ++i) {
+    const ElementWord w = v.elements[i];
+    if (elementState(w) == ElementState::Boundary && f.elementLabels[i] == kOutsideLabel)
+      f.mixedBlock[elementPayload(w)] = block++;
+  }
+}
+
+Label labelAt(const Volume& v, int x, int y, int z) {
+  const GridSpec& g = v.grid;
+  if (v.labels.empty() || x < 0 || y < 0 || z < 0 || x >= g.resolution || y >= g.resolution ||
+      z >= g.resolution)
+    return kOutsideLabel;
+  const WalkedElement e = locateElement(v, x, y, z, g.height);
+  const Label label = v.labels.elementLabels[e.index];
+  if (e.state() != ElementState::Boundary) return label;
+  const int L = g.leafSize, lx = x - e.origin[0], ly = y - e.origin[1], lz = z - e.origin[2];
+  if (label != kOutsideLabel)
+    return leafVoxel(v.leaf(e.payload()), L, lx, ly, lz) == VoxelState::Outside ? kOutsideLabel : label;
+  const size_t block = v.labels.mixedBlock.at(e.payload());
+  return v.labels.voxelLabels[block * size_t(L) * L * L + size_t(lx + L * (ly + L * lz))];
+}
+
+std::vector<LabelStatistics> labelStatistics(const Volume& v) {
+  std::vector<LabelStatistics> table;
+  if (v.labels.empty()) return table;
+  const LabelField& f = v.labels;
+  const GridSpec& g = v.grid;
+  std::vector<uint64_t> surface(65536, 0), inside(65536, 0);
+  const uint32_t words = leafWordCount(g.leafSize);
+  const size_t voxels = size_t(g.leafSize) * g.leafSize * g.leafSize;
+  for (int k = 0; k <= g.height; ++k) {
+    const uint64_t edge = uint64_t(g.elementVoxels(k));
+    for (uint64_t i = v.levelStart[size_t(k)]; i < v.levelStart[size_t(k) + 1]; ++i) {
+      const ElementWord w = v.elements[i];
+      if (elementState(w) == ElementState::Full) inside[f.elementLabels[i]] += edge * edge * edge;
+      if (elementState(w) != ElementState::Boundary) continue;
+      const uint32_t* leaf = v.leaf(elementPayload(w));
+      if (f.elementLabels[i] != kOutsideLabel) {
+        for (uint32_t j = 0; j < words; ++j) {
+          surface[f.elementLabels[i]] += planeCount(leaf[j], kSurfacePlane);
+          inside[f.elementLabels[i]] += planeCount(leaf[j], kInsidePlane);
+        }
+        continue;
+      }
+      const Label* labels = f.voxelLabels.data() + size_t(f.mixedBlock[elementPayload(w)]) * voxels;
+      for (size_t j = 0; j < voxels; ++j) {
+        const VoxelState s = VoxelState((leaf[j / kVoxelsPerWord] >> (2 * (j % kVoxelsPerWord))) & 3u);
+        if (s == VoxelState::Surface) ++surface[labels[j]];
+        if (s == VoxelState::Inside) ++inside[labels[j]];
+      }
+    }
+  }
+  const double s = g.voxelSize;
+  for (uint32_t l = 1; l < 65536; ++l) {
+    const auto name = f.names.find(Label(l));
+    if (surface[l] == 0 && inside[l] == 0 && name == f.names.end()) continue;
+    LabelStatistics row;
+    row.label = Label(l);
+    if (name != f.names.end()) row.name = name->second;
+    row.surfaceVoxels = surface[l];
+    row.insideVoxels = inside[l];
+    row.volume = double(surface[l] + inside[l]) * s * s * s;
+    row.surfaceArea = 2.0 / 3.0 * double(surface[l]) * s * s;
+    table.push_back(std::move(row));
+  }
+  return table;
+}
+
+uint64_t labelFieldBytes(const Volume& v) {
+  const LabelField& f = v.labels;
+  return f.elementLabels.size() * sizeof(Label) + f.voxelLabels.size() * sizeof(Label) +
+         f.mixedBlock.size() * sizeof(uint32_t);
+}
+
+} // namespace hdt
