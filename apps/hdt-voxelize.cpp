@@ -198,6 +198,7 @@ int run(int argc, const char* const* argv) {
   report.hdtPath = options.hdtPath;
   report.densePath = options.densePath;
   report.duplicateTriangles = prepared.duplicateTriangles;
+  report.requestedInsideTest = prepared.requestedInsideTest;
   report.hostBytesEstimate = estimateHostBytes(prepared);
   report.io.write = msSince(t);
 

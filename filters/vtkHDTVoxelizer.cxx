@@ -10,6 +10,7 @@
 #include "hdt/error.hpp"
 #include "hdt/mesh.hpp"
 #include "hdt/volume.hpp"
+#include "hdt/winding_tree.hpp"
 
 #include "vtkCompositeDataIterator.h"
 #include "vtkCompositeDataSet.h"
@@ -24,6 +25,7 @@
 #include "vtkObjectFactory.h"
 #include "vtkPolyData.h"
 #include "vtkSmartPointer.h"
+#include "vtkStringArray.h"
 
 #include <algorithm>
 #include <chrono>
@@ -84,11 +86,12 @@ struct BuildKey
   vtkMTimeType InputMTime = 0;
   int Resolution = 0, RootGridSize = 0, LeafGridSize = 0, Backend = 0, Threads = 0;
   bool SurfaceOnly = false;
+  int InsideTest = 0;
   bool operator==(const BuildKey& o) const
   {
     return Input == o.Input && InputMTime == o.InputMTime && Resolution == o.Resolution &&
       RootGridSize == o.RootGridSize && LeafGridSize == o.LeafGridSize && Backend == o.Backend &&
-      Threads == o.Threads && SurfaceOnly == o.SurfaceOnly;
+      Threads == o.Threads && SurfaceOnly == o.SurfaceOnly && InsideTest == o.InsideTest;
   }
 };
 
@@ -118,6 +121,7 @@ BuildKey vtkHDTVoxelizer::Internals::MakeKey(vtkHDTVoxelizer* self, vtkDataObjec
   key.Backend = self->Backend;
   key.Threads = self->Threads;
   key.SurfaceOnly = self->SurfaceOnly != 0;
+  key.InsideTest = self->InsideTest;
   return key;
 }
 
@@ -222,6 +226,12 @@ void vtkHDTVoxelizer::Internals::Convert(
   conversionTime->SetName("TimeConversion");
   conversionTime->InsertNextValue(info.Milliseconds);
   output->GetFieldData()->AddArray(conversionTime);
+  vtkNew<vtkStringArray> reason; // why the inside test that ran (field InsideTest) was chosen
+  reason->SetName("InsideTestReason");
+  reason->InsertNextValue(volume->surfaceOnly ? std::string("surface-only build: no inside test")
+                                              : hdt::insideTestReason(static_cast<hdt::InsideTest>(self->InsideTest),
+                                                  volume->insideTest, volume->closedMesh));
+  output->GetFieldData()->AddArray(reason);
   vtkHDTVolumeHandle::Attach(volume, output);
   const std::string warning = vtkHDTToHyperTreeGrid::DrawingWarning(info);
   if (!warning.empty())
@@ -350,6 +360,7 @@ int vtkHDTVoxelizer::RequestData(
   config.rootGrid = this->RootGridSize;
   config.leafSize = this->LeafGridSize;
   config.surfaceOnly = this->SurfaceOnly != 0;
+  config.insideTest = static_cast<hdt::InsideTest>(this->InsideTest); // same values
   const BuildKey key = Internals::MakeKey(this, input);
 
   try
@@ -430,6 +441,7 @@ void vtkHDTVoxelizer::PrintSelf(ostream& os, vtkIndent indent)
   os << indent << "LeafGridSize: " << this->LeafGridSize << "\n";
   os << indent << "Backend: " << this->Backend << "\n";
   os << indent << "SurfaceOnly: " << this->SurfaceOnly << "\n";
+  os << indent << "InsideTest: " << this->InsideTest << "\n";
   os << indent << "MaxDepth: " << this->MaxDepth << "\n";
   os << indent << "MaskOutside: " << this->MaskOutside << "\n";
   os << indent << "Threads: " << this->Threads << "\n";
