@@ -67,7 +67,7 @@ TEST_P(CudaWindingShared, SameBytesAsCpu) {
   if (path.empty()) GTEST_SKIP() << GetParam() << " not in \"" << dir << "\"";
   const TriangleMesh m = readMesh(path);
   for (InsideTest test : {InsideTest::WindingNumber, InsideTest::Parity}) {
-    const PreparedMesh mesh = prepareMesh(m, config(256, 16, 16, test));
+    const PreparedMesh mesh = prepareMesh(m, config(128, 8, 16, test));
     EXPECT_TRUE(sameVolume(build(mesh, cudaOptions()), build(mesh, cpuOptions()))) << GetParam() << " " << int(test);
   }
 }
