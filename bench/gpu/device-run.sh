@@ -20,7 +20,7 @@
 #     profile   ncu on one 8192^3 build (profile2: a second mesh; sass: instruction mix)
 #     e2e       mesh file to .hdt file, every step timed, one process a run
 #               (hdt_e2e_bench; E2E_MESHES, E2E_RES, E2E_MODES, E2E_TIMEOUT)
-#     winding   the winding-number inside test: CPU == CUDA tests (CudaWinding*), then
+#     winding   the winding-number inside test: CPU == CUDA tests (*CudaWinding*), then
 #               hdt_gpu_bench solid (parity) vs winding on the open meshes at 128 and 256
 #               (WINDING_MESHES, WINDING_RES, WINDING_TIMEOUT)
 #     minibench, variant: quicker subsets used while tuning
@@ -267,7 +267,7 @@ PY
 
 : > "$SUMMARY"
 step_winding() {
-  run_tests winding-tests 'CudaWinding*' "${TESTS_TIMEOUT:-240}"
+  run_tests winding-tests '*CudaWinding*' "${TESTS_TIMEOUT:-240}"
   local t0=$SECONDS args=()
   for m in ${WINDING_MESHES:-teapot.ply ogre.ply}; do args+=(--mesh "$m"); done
   timeout "${WINDING_TIMEOUT:-240}" "$BENCH" --meshes "$DEPS/meshes" "${args[@]}" --res "${WINDING_RES:-128,256}" \
