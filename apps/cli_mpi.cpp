@@ -117,6 +117,7 @@ void MpiSession::abort(int code) const {
 }
 
 Volume buildAcrossRanks(const MpiSession& session, const PreparedMesh& mesh, const BuildOptions& options) {
+  requireDistributable(mesh);
   const auto t0 = Clock::now();
   const GridSpec& g = mesh.grid;
   const int K = session.size(), me = session.rank();

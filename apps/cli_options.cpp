@@ -1,6 +1,8 @@
 #include "cli_options.hpp"
 
 #include <algorithm>
+#include "hdt/winding_tree.hpp"
+
 #include <cerrno>
 #include <climits>
 #include <cstdlib>
@@ -27,6 +29,13 @@ Backend parseBackend(const std::string& text) {
   throw UsageError("--backend expects auto, cpu or cuda, got '" + text + "'");
 }
 
+InsideTest parseInsideTest(const std::string& text) {
+  if (text == "auto") return InsideTest::Auto;
+  if (text == "parity") return InsideTest::Parity;
+  if (text == "winding") return InsideTest::WindingNumber;
+  throw UsageError("--inside-test expects auto, parity or winding, got '" + text + "'");
+}
+
 } // namespace
 
 std::string usageText() {
@@ -51,6 +60,11 @@ std::string usageText() {
          "  --threads T      CPU threads, at most " + std::to_string(kMaxCpuThreads) +
          " (default 0: all cores)\n"
          "  --surface-only   mark surface voxels only; skip inside/outside classification\n"
+         "  --inside-test T  parity, winding or auto (default " + std::string(insideTestName(defaults.insideTest)) +
+         "): ray parity\n"
+         "                   (exact for closed meshes), the generalized winding number (inside\n"
+         "                   where w >= 1/2, exact at every voxel centre), or auto: parity for\n"
+         "                   closed meshes, winding for open ones\n"
          "  -o OUT.hdt       write the volume as an .hdt file (checked before the build,\n"
          "                   replaced atomically; never the input mesh)\n"
          "  --dense OUT.nrrd write a dense N^3 uint8 NRRD (0 outside, 1 inside, 2 surface; N <= 1024)\n"
@@ -138,6 +152,7 @@ Options parseOptions(int argc, const char* const* argv) {
       }
     }
     else if (arg == "--surface-only") set(o.config.surfaceOnly);
+    else if (arg == "--inside-test") o.config.insideTest = parseInsideTest(value());
     else if (arg == "-o" || arg == "--output") o.hdtPath = value();
     else if (arg == "--dense") o.densePath = value();
     else if (arg == "--labels") o.labels = parseLabelSource(value());

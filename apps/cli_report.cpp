@@ -1,5 +1,7 @@
 #include "cli_report.hpp"
 
+#include "hdt/winding_tree.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -135,7 +137,12 @@ void writeJson(std::ostream& out, const Report& r) {
       .add("dense_file", orNull(r.densePath))
       .add("duplicate_triangles", number(r.duplicateTriangles))
       .add("warnings", warnings + "]")
-      .add("host_bytes_estimate", number(r.hostBytesEstimate));
+      .add("host_bytes_estimate", number(r.hostBytesEstimate))
+      .add("inside_test", v.surfaceOnly ? "null" : quoted(insideTestName(v.insideTest)))
+      .add("inside_test_requested", quoted(insideTestName(r.requestedInsideTest)))
+      .add("inside_test_reason",
+           v.surfaceOnly ? "null" : quoted(insideTestReason(r.requestedInsideTest, v.insideTest, v.closedMesh)))
+      .add("winding_refined_elements", number(s.windingRefinedElements));
   std::string labels = r.labelled ? "[" : "null";
   for (const LabelStatistics& l : r.labels) {
     JsonObject row;
@@ -163,8 +170,10 @@ void writeTable(std::ostream& out, const Report& r) {
       {"mesh", r.mesh, "", false},
       {"triangles", withCommas(s.triangles),
        withCommas(s.degenerateTriangles) + " degenerate dropped; " +
-           (v.closedMesh ? "closed" : "open: inside = majority of 3 ray axes") +
+           (v.closedMesh ? "closed" : "open") +
            (r.duplicateTriangles ? "; " + withCommas(r.duplicateTriangles) + " duplicated" : "")},
+      {"inside test", v.surfaceOnly ? "-" : insideTestName(v.insideTest),
+       v.surfaceOnly ? "surface-only build" : insideTestReason(r.requestedInsideTest, v.insideTest, v.closedMesh)},
       {"resolution", std::to_string(g.resolution) + "^3", "voxels"},
       {"root grid", std::to_string(g.rootGrid) + "^3", "cells"},
       {"octree height", std::to_string(g.height), "levels"},

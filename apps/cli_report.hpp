@@ -24,6 +24,7 @@ struct Report {
   std::string hdtPath;   // empty when not written
   std::string densePath; // empty when not written
   uint64_t duplicateTriangles = 0;
+  InsideTest requestedInsideTest = InsideTest::Auto; // --inside-test
   uint64_t hostBytesEstimate = 0;    // hdt::estimateHostBytes (CPU builds)
   std::vector<std::string> warnings; // hdt::buildWarnings
   bool labelled = false;             // --labels
@@ -39,8 +40,10 @@ struct Report {
 // total}, peak_host_bytes, then degenerate_triangles, closed_mesh,
 // peak_device_bytes, surface_only, io_ms {read, prepare, write}, hdt_file,
 // dense_file, duplicate_triangles, warnings [strings],
-// host_bytes_estimate, labels (null, or [{label, name, surface_voxels,
-// inside_voxels, volume, surface_area}]), label_bytes, dense_labels_file. README.md says what
+// host_bytes_estimate, inside_test ("parity" or "winding": the test that
+// ran), inside_test_requested, inside_test_reason, winding_refined_elements,
+// labels (null, or [{label, name, surface_voxels, inside_voxels, volume,
+// surface_area}]), label_bytes, dense_labels_file. README.md says what
 // each means.
 void writeJson(std::ostream& out, const Report& report);
 

@@ -221,6 +221,7 @@ int run(int argc, const char* const* argv, const MpiSession& session) {
     report.labelBytes = labelFieldBytes(volume);
   }
   report.duplicateTriangles = prepared.duplicateTriangles;
+  report.requestedInsideTest = prepared.requestedInsideTest;
   report.hostBytesEstimate = estimateHostBytes(prepared);
   report.io.write = msSince(t);
 

@@ -327,6 +327,7 @@ void vtkHDTDistributed::GatherMesh(vtkMultiProcessController* c, hdt::TriangleMe
 vtkHDTDistributedPiece vtkHDTDistributed::Build(
   vtkMultiProcessController* c, const hdt::PreparedMesh& mesh, const hdt::BuildOptions& options)
 {
+  hdt::requireDistributable(mesh);
   const auto t0 = Clock::now();
   const hdt::GridSpec& g = mesh.grid;
   const int K = c->GetNumberOfProcesses(), me = c->GetLocalProcessId();

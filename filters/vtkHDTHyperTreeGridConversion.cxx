@@ -511,6 +511,10 @@ void vtkHDTToHyperTreeGrid::AddFieldData(const hdt::Volume& volume, vtkFieldData
   setSingle<vtkIntArray>(fd, "LeafGridSize", volume.grid.leafSize);
   setSingle<vtkIntArray>(fd, "SurfaceOnly", volume.surfaceOnly ? 1 : 0);
   setSingle<vtkIntArray>(fd, "ClosedMesh", volume.closedMesh ? 1 : 0);
+  setSingle<vtkStringArray>(fd, "InsideTest",
+    volume.surfaceOnly ? std::string("none")
+                       : std::string(volume.insideTest == hdt::InsideTest::WindingNumber ? "winding" : "parity"));
+  setSingle<vtkTypeUInt64Array>(fd, "WindingRefinedElements", s.windingRefinedElements);
   setSingle<vtkDoubleArray>(fd, "VoxelSize", volume.grid.voxelSize);
   vtkNew<vtkDoubleArray> origin;
   origin->SetName("Origin");

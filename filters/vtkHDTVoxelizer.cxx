@@ -13,6 +13,7 @@
 #include "hdt/labels.hpp"
 #include "hdt/mesh.hpp"
 #include "hdt/volume.hpp"
+#include "hdt/winding_tree.hpp"
 
 #include "vtkCompositeDataIterator.h"
 #include "vtkCompositeDataSet.h"
@@ -28,6 +29,7 @@
 #include "vtkObjectFactory.h"
 #include "vtkPolyData.h"
 #include "vtkSmartPointer.h"
+#include "vtkStringArray.h"
 
 #include <algorithm>
 #include <chrono>
@@ -96,7 +98,7 @@ struct BuildKey
   vtkMTimeType InputMTime = 0;
   int Resolution = 0, RootGridSize = 0, LeafGridSize = 0, Backend = 0, Threads = 0;
   bool SurfaceOnly = false;
-  int LabelBy = 0, OverlapPolicy = 0;
+  int LabelBy = 0, OverlapPolicy = 0, InsideTest = 0;
   std::string LabelArrayName, LabelPriority;
   // Across MPI ranks: the gathered mesh's contents instead of the input's
   // identity (ParaView re-executes pieces upstream between output ports).
@@ -107,7 +109,7 @@ struct BuildKey
       LeafGridSize == o.LeafGridSize && Backend == o.Backend && Threads == o.Threads &&
       SurfaceOnly == o.SurfaceOnly && LabelBy == o.LabelBy &&
       OverlapPolicy == o.OverlapPolicy && LabelArrayName == o.LabelArrayName &&
-      LabelPriority == o.LabelPriority;
+      LabelPriority == o.LabelPriority && InsideTest == o.InsideTest;
   }
   bool operator==(const BuildKey& o) const
   {
@@ -149,6 +151,7 @@ BuildKey vtkHDTVoxelizer::Internals::MakeKey(vtkHDTVoxelizer* self, vtkDataObjec
   key.OverlapPolicy = self->OverlapPolicy;
   key.LabelArrayName = self->LabelArrayName ? self->LabelArrayName : "";
   key.LabelPriority = self->LabelPriority ? self->LabelPriority : "";
+  key.InsideTest = self->InsideTest;
   return key;
 }
 
@@ -324,6 +327,12 @@ void vtkHDTVoxelizer::Internals::Convert(
   {
     vtkHDTDistributed::AddFieldData(self->Internal->Piece, output->GetFieldData());
   }
+  vtkNew<vtkStringArray> reason; // why the inside test that ran (field InsideTest) was chosen
+  reason->SetName("InsideTestReason");
+  reason->InsertNextValue(volume->surfaceOnly ? std::string("surface-only build: no inside test")
+                                              : hdt::insideTestReason(static_cast<hdt::InsideTest>(self->InsideTest),
+                                                  volume->insideTest, volume->closedMesh));
+  output->GetFieldData()->AddArray(reason);
   vtkHDTVolumeHandle::Attach(volume, output);
   const std::string warning = vtkHDTToHyperTreeGrid::DrawingWarning(info);
   if (!warning.empty())
@@ -457,6 +466,7 @@ int vtkHDTVoxelizer::RequestData(
   config.rootGrid = this->RootGridSize;
   config.leafSize = this->LeafGridSize;
   config.surfaceOnly = this->SurfaceOnly != 0;
+  config.insideTest = static_cast<hdt::InsideTest>(this->InsideTest); // same values
   BuildKey key = Internals::MakeKey(this, input);
 
   try
@@ -574,6 +584,7 @@ void vtkHDTVoxelizer::PrintSelf(ostream& os, vtkIndent indent)
   os << indent << "LeafGridSize: " << this->LeafGridSize << "\n";
   os << indent << "Backend: " << this->Backend << "\n";
   os << indent << "SurfaceOnly: " << this->SurfaceOnly << "\n";
+  os << indent << "InsideTest: " << this->InsideTest << "\n";
   os << indent << "MaxDepth: " << this->MaxDepth << "\n";
   os << indent << "MaskOutside: " << this->MaskOutside << "\n";
   os << indent << "Threads: " << this->Threads << "\n";

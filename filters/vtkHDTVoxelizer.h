@@ -106,6 +106,26 @@ public:
 
   ///@{
   /**
+   * How inside voxels are told from outside ones (hdt::InsideTest):
+   * INSIDE_TEST_AUTO: exact ray parity for closed meshes, the
+   * generalized winding number (inside where w >= 1/2) for open ones;
+   * INSIDE_TEST_PARITY (default, as hdt::BuildConfig): ray parity always (open meshes: the majority of the
+   * +x, +y, +z parities, a heuristic; a warning says so);
+   * INSIDE_TEST_WINDING: the winding number always. The field arrays
+   * InsideTest and InsideTestReason say which ran and why.
+   */
+  enum InsideTestChoice
+  {
+    INSIDE_TEST_AUTO = 0,
+    INSIDE_TEST_PARITY = 1,
+    INSIDE_TEST_WINDING = 2
+  };
+  vtkSetClampMacro(InsideTest, int, INSIDE_TEST_AUTO, INSIDE_TEST_WINDING);
+  vtkGetMacro(InsideTest, int);
+  ///@}
+
+  ///@{
+  /**
    * Only mark the voxels the surface passes through; no inside/outside
    * classification (faster, and the only meaningful mode for open meshes).
    */
@@ -240,6 +260,7 @@ protected:
   int LeafGridSize = 16;
   int Backend = BACKEND_AUTO;
   vtkTypeBool SurfaceOnly = false;
+  int InsideTest = INSIDE_TEST_PARITY;
   int MaxDepth = -2;
   vtkTypeBool MaskOutside = false;
   int Threads = 0;

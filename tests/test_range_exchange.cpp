@@ -5,6 +5,7 @@
 // surfaces must add up to the whole volume's.
 #include "hdt/builder.hpp"
 #include "hdt/error.hpp"
+#include "hdt/mesh.hpp"
 #include "hdt/range_exchange.hpp"
 #include "hdt/voxel_surface.hpp"
 #include "support/shapes.hpp"
@@ -126,3 +127,21 @@ TEST(RangeExchange, DamagedBuffersAreRefused) {
 } // namespace
 } // namespace test
 } // namespace hdt
+
+// Winding-number builds refine trees after the join, so they are refused
+// across processes (all alike); parity and surface-only builds are not.
+TEST(RangeExchange, WindingNumberBuildsAreNotDistributed) {
+  hdt::PreparedMesh mesh;
+  mesh.insideTest = hdt::InsideTest::Parity;
+  EXPECT_NO_THROW(hdt::requireDistributable(mesh));
+  mesh.insideTest = hdt::InsideTest::WindingNumber;
+  try {
+    hdt::requireDistributable(mesh);
+    FAIL() << "a winding-number build was accepted across ranks";
+  } catch (const hdt::Error& e) {
+    EXPECT_EQ(e.kind(), hdt::ErrorKind::InvalidArgument);
+    EXPECT_NE(std::string(e.what()).find("winding-number"), std::string::npos);
+  }
+  mesh.surfaceOnly = true; // no inside test runs
+  EXPECT_NO_THROW(hdt::requireDistributable(mesh));
+}

@@ -20,6 +20,9 @@
 #     profile   ncu on one 8192^3 build (profile2: a second mesh; sass: instruction mix)
 #     e2e       mesh file to .hdt file, every step timed, one process a run
 #               (hdt_e2e_bench; E2E_MESHES, E2E_RES, E2E_MODES, E2E_TIMEOUT)
+#     winding   the winding-number inside test: CPU == CUDA tests (*CudaWinding*), then
+#               hdt_gpu_bench solid (parity) vs winding on the open meshes at 128 and 256
+#               (WINDING_MESHES, WINDING_RES, WINDING_TIMEOUT)
 #     minibench, variant: quicker subsets used while tuning
 # Steps read a few environment variables (BENCH_*, PROFILE_*, MINIBENCH_*, TESTS_TIMEOUT).
 #
@@ -263,6 +266,16 @@ PY
 }
 
 : > "$SUMMARY"
+step_winding() {
+  run_tests winding-tests '*CudaWinding*' "${TESTS_TIMEOUT:-240}"
+  local t0=$SECONDS args=()
+  for m in ${WINDING_MESHES:-teapot.ply ogre.ply}; do args+=(--mesh "$m"); done
+  timeout "${WINDING_TIMEOUT:-240}" "$BENCH" --meshes "$DEPS/meshes" "${args[@]}" --res "${WINDING_RES:-128,256}" \
+    --root 8 --modes solid,winding --runs 1 --out "$OUT/winding-gpu.jsonl" > "$OUT/winding-gpu.log" 2>&1
+  say "winding bench: rc=$? in $((SECONDS - t0)) s"
+  tail -8 "$OUT/winding-gpu.log" | tee -a "$SUMMARY"
+}
+
 for s in "$@"; do "step_$s"; done
 echo
 cat "$SUMMARY"

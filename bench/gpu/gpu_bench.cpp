@@ -9,7 +9,7 @@
 // records its error and ends that mesh's series.
 //
 // usage: hdt_gpu_bench --meshes DIR [--mesh FILE]... [--res 1024,2048,...]
-//                      [--modes surface,solid] [--runs 5] [--subdivide K]
+//                      [--modes surface,solid,winding] [--runs 5] [--subdivide K]
 //                      [--root 16] [--leaf 16] [--out FILE]
 #include "hdt/builder.hpp"
 #include "hdt/cuda_build.hpp"
@@ -36,11 +36,13 @@ namespace {
 namespace fs = std::filesystem;
 using namespace hdt;
 
+enum BenchMode : int { kSurface = 0, kSolid = 1, kWinding = 2 };
+
 struct Args {
   std::string meshes;
   std::vector<std::string> only;
   std::vector<int> res = {1024, 2048, 4096, 8192, 16384, 32768};
-  std::vector<bool> modes = {true, false}; // surfaceOnly
+  std::vector<int> modes = {kSurface, kSolid}; // kSurface, kSolid (Parity), kWinding
   int runs = 5;
   int subdivide = 0;
   int root = 16, leaf = 16;
@@ -66,7 +68,11 @@ Args parse(int argc, char** argv) {
     if (k == "--meshes") a.meshes = value();
     else if (k == "--mesh") a.only.push_back(value());
     else if (k == "--res") { a.res.clear(); for (auto& p : split(value(), ',')) a.res.push_back(std::stoi(p)); }
-    else if (k == "--modes") { a.modes.clear(); for (auto& p : split(value(), ',')) a.modes.push_back(p == "surface"); }
+    else if (k == "--modes") {
+      a.modes.clear();
+      for (auto& p : split(value(), ','))
+        a.modes.push_back(p == "surface" ? kSurface : p == "winding" ? kWinding : kSolid);
+    }
     else if (k == "--runs") a.runs = std::stoi(value());
     else if (k == "--subdivide") a.subdivide = std::stoi(value());
     else if (k == "--root") a.root = std::stoi(value());
@@ -152,13 +158,19 @@ int main(int argc, char** argv) {
     }
     const std::string label =
         args.subdivide ? file + " (subdivided x" + std::to_string(1 << (2 * args.subdivide)) + ")" : file;
-    for (bool surfaceOnly : args.modes) {
+    for (int mode : args.modes) {
+      const bool surfaceOnly = mode == kSurface;
+      const char* modeName = mode == kSurface ? "surface" : mode == kWinding ? "winding" : "solid";
+      // The winding number runs on the host over the copied-back volume, so
+      // its runs keep the result (wall time includes the copy back).
+      const bool keep = mode == kWinding;
       for (int n : args.res) {
         BuildConfig config;
         config.resolution = n;
         config.rootGrid = args.root;
         config.leafSize = args.leaf;
         config.surfaceOnly = surfaceOnly;
+        config.insideTest = mode == kWinding ? InsideTest::WindingNumber : InsideTest::Parity;
         BuildOptions options;
         options.backend = Backend::Cuda;
         std::vector<std::string> log;
@@ -166,10 +178,10 @@ int main(int argc, char** argv) {
         try {
           const PreparedMesh prepared = prepareMesh(mesh, config);
           CudaBuildReport report;
-          for (int w = 0; w < 2; ++w) buildCudaWithReport(prepared, options, &report, false); // warm-up
+          for (int w = 0; w < 2; ++w) buildCudaWithReport(prepared, options, &report, keep); // warm-up
           std::vector<double> t1, t2, t3, tc, tt, wall, upload;
           for (int r = 0; r < args.runs; ++r) {
-            const Volume v = buildCudaWithReport(prepared, options, &report, false);
+            const Volume v = buildCudaWithReport(prepared, options, &report, keep);
             t1.push_back(v.stats.time.mapping);
             t2.push_back(v.stats.time.branching);
             t3.push_back(v.stats.time.leaf);
@@ -199,7 +211,9 @@ int main(int argc, char** argv) {
             << ", \"peak_device_bytes\": " << s.peakDeviceBytes
             << ", \"degenerate_triangles\": " << s.degenerateTriangles
             << ", \"closed_mesh\": " << (v.closedMesh ? "true" : "false")
-            << ", \"surface_only\": " << (surfaceOnly ? "true" : "false") << ", \"runs\": " << args.runs
+            << ", \"surface_only\": " << (surfaceOnly ? "true" : "false") << ", \"mode\": " << quoted(modeName)
+            << ", \"inside_test\": " << quoted(v.insideTest == InsideTest::WindingNumber ? "winding" : "parity")
+            << ", \"winding_refined_elements\": " << s.windingRefinedElements << ", \"runs\": " << args.runs
             << ", \"total_ms_min\": " << num(*std::min_element(tt.begin(), tt.end()), "%.4f")
             << ", \"total_ms_max\": " << num(*std::max_element(tt.begin(), tt.end()), "%.4f")
             << ", \"upload_ms\": " << num(median(upload), "%.4f")
@@ -209,7 +223,7 @@ int main(int argc, char** argv) {
           out << j.str() << "\n";
           out.flush();
           std::printf("%-28s %6d %-7s %3d %9llu %8llu %7.3f %7.3f %7.3f %7.3f %7.3f %8.3f %8.0f\n", label.c_str(), n,
-                      surfaceOnly ? "surface" : "solid", g.height, (unsigned long long)s.treeElements,
+                      modeName, g.height, (unsigned long long)s.treeElements,
                       (unsigned long long)s.leafGrids, median(t1), median(t2), median(t3), median(tc), median(tt),
                       median(upload), double(s.peakDeviceBytes) / (1 << 20));
           std::fflush(stdout);
@@ -218,7 +232,7 @@ int main(int argc, char** argv) {
               << ", \"surface_only\": " << (surfaceOnly ? "true" : "false") << ", \"gpu\": \"\", \"date\": "
               << quoted(date) << ", \"error\": " << quoted(e.what()) << "}\n";
           out.flush();
-          std::printf("%-28s %6d %-7s  error: %s\n", label.c_str(), n, surfaceOnly ? "surface" : "solid", e.what());
+          std::printf("%-28s %6d %-7s  error: %s\n", label.c_str(), n, modeName, e.what());
           break; // larger resolutions will not fit either
         }
       }

@@ -12,6 +12,7 @@
 #include "hdt/error.hpp"
 #include "hdt/host_memory.hpp"
 #include "hdt/root_ranges.hpp"
+#include "hdt/winding_tree.hpp"
 
 #include <tbb/combinable.h>
 #include <tbb/global_control.h>
@@ -91,7 +92,8 @@ struct CpuRangeBuild::Impl {
 
   RangeTree finish(const RangeBoundary* beyond) {
     const auto t = Clock::now();
-    if (!mesh_.surfaceOnly) classify(beyond);
+    // The winding number classifies the joined volume instead (applyInsideTest).
+    if (!mesh_.surfaceOnly && mesh_.insideTest != InsideTest::WindingNumber) classify(beyond);
     times_.classify += msSince(t);
     times_.total = times_.mapping + times_.branching + times_.leaf + times_.classify;
     report(1.0, "done");
@@ -383,9 +385,12 @@ const PhaseTimes& CpuRangeBuild::times() const { return impl_->times_; }
 
 namespace {
 
-Volume finishVolume(const PreparedMesh& mesh, Volume v, const PhaseTimes& times) {
+Volume finishVolume(const PreparedMesh& mesh, Volume v, PhaseTimes times) {
   v.surfaceOnly = mesh.surfaceOnly;
   v.closedMesh = mesh.closed;
+  const double windingMs = applyInsideTest(mesh, v);
+  times.classify += windingMs;
+  times.total += windingMs;
   computeStructureStatistics(v);
   v.stats.triangles = mesh.triangles.size();
   v.stats.degenerateTriangles = mesh.degenerateTriangles;

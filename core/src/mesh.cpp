@@ -5,6 +5,7 @@
 #include "hdt/default_init_allocator.hpp"
 #include "hdt/huge_pages.hpp" // prefaultParallel
 #include "hdt/volume.hpp"
+#include "hdt/winding_tree.hpp"
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -243,6 +244,11 @@ std::vector<std::string> buildWarnings(const PreparedMesh& mesh, const Volume& v
                   " triangles repeat another triangle's corners (duplicated faces cancel in the "
                   "inside/outside parity)");
   }
+  if (!volume.closedMesh && !volume.surfaceOnly && volume.insideTest == InsideTest::Parity) {
+    out.push_back("the mesh is open and the Parity inside test was asked for: its inside is a heuristic "
+                  "(the majority of the +x, +y, +z ray parities; holes leak); the winding-number test "
+                  "(Auto or Winding) decides open meshes exactly");
+  }
   if (volume.closedMesh && !volume.surfaceOnly && volume.stats.insideVoxels == 0) {
     out.push_back("the mesh is closed but no voxel is inside it (a doubled or self-cancelling "
                   "surface, or a shell thinner than a voxel)");
@@ -293,6 +299,8 @@ PreparedMesh prepareMesh(const TriangleMesh& mesh, const BuildConfig& config) {
     throw Error(ErrorKind::OutOfResources, "more than 2^32 - 1 triangles are not supported");
   }
   out.closed = isClosed(out.triangles);
+  out.requestedInsideTest = config.insideTest;
+  out.insideTest = resolveInsideTest(config.insideTest, out.closed);
   out.duplicateTriangles = countDuplicates(out.triangles);
   return out;
 }

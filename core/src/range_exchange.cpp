@@ -3,6 +3,7 @@
 #include "hdt/range_exchange.hpp"
 
 #include "hdt/error.hpp"
+#include "hdt/mesh.hpp"
 
 #include <algorithm>
 #include <cstring>
@@ -129,6 +130,13 @@ RangeTree placeholder(const GridSpec& g, RootRange cells) {
 }
 
 } // namespace
+
+void requireDistributable(const PreparedMesh& mesh) {
+  if (!mesh.surfaceOnly && mesh.insideTest == InsideTest::WindingNumber)
+    throw Error(ErrorKind::InvalidArgument,
+                "the winding-number inside test does not run across MPI ranks yet: choose Parity "
+                "(or Auto on a closed mesh), or build in one process");
+}
 
 std::vector<uint8_t> packBoundary(const RangeBoundary& b, int rowWords) {
   Writer w;

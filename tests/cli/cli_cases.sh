@@ -252,5 +252,30 @@ EOF2
   stderr_has "no property 'nothere'"
 }
 
+case_inside_test() {
+  python3 - "$work/open.stl" <<'EOF2'
+import struct, sys
+# a tetrahedron without one face: open
+p = [(0, 0, 0), (1, 0, 0), (0, 1, 0), (0, 0, 1)]
+faces = [(0, 2, 1), (0, 1, 3), (0, 3, 2)]
+with open(sys.argv[1], "wb") as f:
+    f.write(b"\0" * 80 + struct.pack("<I", len(faces)))
+    for a, b, c in faces:
+        f.write(struct.pack("<12fH", 0, 0, 0, *p[a], *p[b], *p[c], 0))
+EOF2
+  run 2 "$work/open.stl" --inside-test sometimes
+  stderr_has "--inside-test expects auto, parity or winding, got 'sometimes'"
+  run 0 "$work/open.stl" --resolution 64 --root-grid 4 --inside-test parity --json
+  stderr_has "the mesh is open and the Parity inside test was asked for"
+  python3 -c 'import json,sys; d=json.load(open(sys.argv[1])); assert d["inside_test"] == "parity" and d["inside_test_requested"] == "parity", d' \
+    "$work/stdout" || fail "JSON inside_test is not parity"
+  run 0 "$work/open.stl" --resolution 64 --root-grid 4 --inside-test auto --json
+  python3 -c 'import json,sys; d=json.load(open(sys.argv[1])); assert d["inside_test"] == "winding" and d["inside_test_reason"].startswith("Auto: the mesh is open") and d["inside_voxels"] > 0, d' \
+    "$work/stdout" || fail "Auto did not run the winding number on an open mesh"
+  [[ $(grep -c "Parity inside test" "$work/stderr") == 0 ]] || fail "warned about parity under Auto"
+  run 0 builtin:sphere --resolution 64 --root-grid 4 --inside-test auto
+  stdout_has "Auto: the mesh is closed, exact ray parity"
+}
+
 "case_${case_name//-/_}"
 echo "ok: $case_name"

@@ -73,8 +73,9 @@ def field_value(data, name):
     return value[0] if len(value) == 1 else tuple(value)
 
 
-def field_arrays(data, skip=("TimeConversion",)):
-    """All field arrays as {name: value}, minus the per-run conversion time."""
+def field_arrays(data, skip=("TimeConversion", "InsideTestReason")):
+    """All field arrays as {name: value}, minus the per-run conversion time and the
+    voxelizer-only InsideTestReason (a .hdt file records the test, not why)."""
     fd = data.GetFieldData()
     names = [fd.GetAbstractArray(i).GetName() for i in range(fd.GetNumberOfArrays())]
     return {n: field_value(data, n) for n in names if n not in skip}

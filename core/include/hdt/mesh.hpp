@@ -40,6 +40,10 @@ struct PreparedMesh {
   // directions agree and the classifier needs only one of them.
   bool closed = false;
   bool surfaceOnly = false;               // from BuildConfig: skip classification
+  // The inside test asked for (BuildConfig) and the one the drivers run:
+  // Auto resolved by `closed` (resolveInsideTest, winding_tree.hpp).
+  InsideTest requestedInsideTest = InsideTest::Parity;
+  InsideTest insideTest = InsideTest::Parity;
 };
 
 // Bounds of all points referenced by triangles. Throws Error(BadInput) for an

@@ -21,6 +21,14 @@
 
 namespace hdt {
 
+struct PreparedMesh;
+
+// Throws Error(InvalidArgument) when a build of `mesh` cannot yet be spread
+// over processes: the winding-number inside test refines trees after the
+// whole volume is joined (core/src/winding.cpp), which range builds do not do.
+// Every process prepared the same mesh, so all of them throw alike.
+void requireDistributable(const PreparedMesh& mesh);
+
 // Byte buffers between processes of one job (same machine byte order). The
 // unpackers check sizes and throw Error(BadInput) on a damaged buffer.
 std::vector<uint8_t> packBoundary(const RangeBoundary& boundary, int rowWords);

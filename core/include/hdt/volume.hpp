@@ -42,6 +42,9 @@ struct Statistics {
   uint64_t peakDeviceBytes = 0;
   std::string backend;               // "cpu" or "cuda"
   int threads = 0;                   // CPU threads used
+  // Winding number: uniform elements refined because w = 1/2 crosses them
+  // (winding_tree.hpp); 0 under Parity.
+  uint64_t windingRefinedElements = 0;
 };
 
 struct Volume {

@@ -1,0 +1,340 @@
+// The generalized winding number inside test (Jacobson et al. 2013), shared
+// by the CPU and CUDA drivers (docs/design.md, "Winding number").
+//
+// w(p) = sum over triangles of the signed solid angle / 4 pi; a voxel centre
+// is inside when w >= 1/2. Coordinates are voxel units (lattice / 256, exact
+// doubles). A tree over the triangles (WindingTree, built on the host in
+// winding.cpp, the same tree for both drivers) gives the sum over a box of
+// points as an estimate plus a rigorous error bound; a decision is taken from
+// the estimate only where the bound keeps w clear of 1/2, otherwise the box is
+// split, and a single point falls back to the exact sum over every triangle
+// in a fixed order. Only + - * / and sqrt are used (correctly rounded on both
+// sides, no contraction: -ffp-contract=off, nvcc --fmad=false), atan2 is our
+// own, so the host and the device compute the same bits.
+#pragma once
+
+#include "hdt/platform.hpp"
+
+#include <cmath>
+#include <cstdint>
+
+namespace hdt {
+
+constexpr double kWindingPi = 3.141592653589793116; // the double nearest pi
+constexpr double kWindingHalfPi = 1.570796326794896558;
+
+// atan(t) for t in [0, 1]: two half-angle steps atan t = 2 atan(t / (1 +
+// sqrt(1 + t^2))) bring t below tan(pi / 16) < 0.2, then the Taylor series
+// to t^27 (remainder below 1e-20).
+HDT_HD double windingAtanUnit(double t) {
+  double u = t / (1.0 + sqrt(1.0 + t * t));
+  u = u / (1.0 + sqrt(1.0 + u * u));
+  const double u2 = u * u;
+  double s = 0;
+  for (int k = 13; k >= 0; --k) s = s * u2 + ((k & 1) ? -1.0 : 1.0) / double(2 * k + 1);
+  return 4.0 * (u * s);
+}
+
+// atan2(y, x) from windingAtanUnit: the same bits on host and device (the
+// libraries' atan2 differ in the last places). atan2(0, 0) = 0.
+HDT_HD double windingAtan2(double y, double x) {
+  const double ay = fabs(y), ax = fabs(x);
+  if (ax == 0 && ay == 0) return 0;
+  double a = ay <= ax ? windingAtanUnit(ay / ax) : kWindingHalfPi - windingAtanUnit(ax / ay);
+  if (x < 0) a = kWindingPi - a;
+  return y < 0 ? -a : a;
+}
+
+// Signed solid angle of triangle (v[0..2], v[3..5], v[6..8]) seen from p
+// (Van Oosterom & Strackee 1983): positive when p sees the triangle's back
+// (counter-clockwise from outside), so a closed outward mesh gives 4 pi
+// inside and 0 outside.
+HDT_HD double triangleSolidAngle(const double* v, double px, double py, double pz) {
+  const double ax = v[0] - px, ay = v[1] - py, az = v[2] - pz;
+  const double bx = v[3] - px, by = v[4] - py, bz = v[5] - pz;
+  const double cx = v[6] - px, cy = v[7] - py, cz = v[8] - pz;
+  const double la = sqrt(ax * ax + ay * ay + az * az);
+  const double lb = sqrt(bx * bx + by * by + bz * bz);
+  const double lc = sqrt(cx * cx + cy * cy + cz * cz);
+  const double det = ax * (by * cz - bz * cy) + ay * (bz * cx - bx * cz) + az * (bx * cy - by * cx);
+  const double ab = ax * bx + ay * by + az * bz;
+  const double ac = ax * cx + ay * cy + az * cz;
+  const double bc = bx * cx + by * cy + bz * cz;
+  const double den = la * lb * lc + ab * lc + ac * lb + bc * la;
+  return 2.0 * windingAtan2(det, den);
+}
+
+// A node of the tree: a box of triangles with what the far field needs.
+// Inner nodes have count == 0 and children first, first + 1; leaves hold
+// triangles [first, first + count) of the tree's triangle order.
+struct WindingNode {
+  double lo[3], hi[3]; // bounding box of the triangles
+  double centre[3];    // box centre
+  double radius;       // half diagonal: every point of a triangle is this close to centre
+  double area;         // sum of triangle areas
+  double dipole[3];    // sum of area * unit normal (= half the cross products)
+  double quad[9];      // sum of (area * normal) (centroid - centre)^T, row major
+  uint32_t first, count;
+};
+
+// One triangle in tree order: corners, area and bounding box.
+struct WindingTriangle {
+  double v[9];
+  double area;
+  double lo[3], hi[3];
+};
+
+struct WindingTreeView {
+  const WindingNode* nodes;
+  const WindingTriangle* triangles;
+  uint32_t triangleCount;
+};
+
+constexpr int kWindingStack = 96; // > 2 * tree depth (depth <= 40 for 2^32 triangles in leaves of 8)
+
+// Distance between two boxes (0 when they meet).
+HDT_HD double windingBoxDistance(const double* alo, const double* ahi, const double* blo, const double* bhi) {
+  double s = 0;
+  for (int a = 0; a < 3; ++a) {
+    const double gap = alo[a] > bhi[a] ? alo[a] - bhi[a] : (blo[a] > ahi[a] ? blo[a] - ahi[a] : 0.0);
+    s = s + gap * gap;
+  }
+  return sqrt(s);
+}
+
+// The sum of solid angles over a box of points [lo, hi] (a single point when
+// lo == hi), refined until it decides w >= 1/2 for every point of the box.
+//
+// Bounds (exact real arithmetic; rounding is covered by windingMargin): a
+// node at positive distance from the box may count as the first two terms of
+// the Taylor expansion of the solid-angle kernel K(x) = n . (x - c) / |x - c|^3
+// about the node's centre (a dipole and a quadrupole term, winding.cpp). The
+// kernel's second derivatives are at most 6 / dist^4 (those of 1 / r: k! /
+// r^(k+1)), so that is off by at most 3 A r^2 / (d - r)^4 at c (r: the node's
+// radius, d: centre to c, A: its area); its gradient in c is at most 2 /
+// dist^3, so the node's exact sum varies by at most 2 A rho / dist^3 across
+// the box (rho: the box's half diagonal). Triangles are summed exactly at c and add
+// 2 A rho / dist^3; a triangle meeting the box makes it undecidable as a
+// whole (the caller splits it).
+//
+// The refinement keeps up to kWindingOpen approximated nodes and opens the
+// one with the largest error (the first in the list on a tie) until the
+// estimate is clear of 2 pi by more than the total error, or nothing is left
+// to open, or `maxOpen` nodes were opened. The order of every step is fixed.
+struct WindingSum {
+  double sum;   // estimate at the box centre
+  double error; // bound on |exact - sum| over the box
+  bool ok;      // false: a triangle meets the box, or the refinement gave up
+};
+
+constexpr int kWindingOpen = 1024;
+
+// Distance-dependent dipole estimate and error of node n; false when the
+// node meets the box (it must be opened).
+HDT_HD bool windingNodeFarField(const WindingNode& n, const double* lo, const double* hi, const double* c, double rho,
+                                double& estimate, double& error) {
+  const double dist = windingBoxDistance(n.lo, n.hi, lo, hi);
+  if (!(dist > 0)) return false;
+  const double dx = n.centre[0] - c[0], dy = n.centre[1] - c[1], dz = n.centre[2] - c[2];
+  const double d = sqrt(dx * dx + dy * dy + dz * dz);
+  const double d3 = d * d * d;
+  const double ux = dx / d, uy = dy / d, uz = dz / d;
+  const double* q = n.quad;
+  const double uqu = ux * (q[0] * ux + q[1] * uy + q[2] * uz) + uy * (q[3] * ux + q[4] * uy + q[5] * uz) +
+                     uz * (q[6] * ux + q[7] * uy + q[8] * uz);
+  estimate = (n.dipole[0] * dx + n.dipole[1] * dy + n.dipole[2] * dz) / d3 + ((q[0] + q[4] + q[8]) - 3.0 * uqu) / d3;
+  const double gap = d - n.radius > dist ? d - n.radius : dist;
+  error = 3.0 * n.area * n.radius * n.radius / ((gap * gap) * (gap * gap));
+  if (rho > 0) error = error + 2.0 * n.area * rho / (dist * dist * dist);
+  return true;
+}
+
+// Rounding allowance (steradians) of a sum over n triangles: each solid angle
+// is good to a few ulps of 2 pi away from its triangle (voxel centres that
+// are not surface are at least half a voxel from every triangle).
+HDT_HD double windingMargin(uint32_t n) { return 4.0 * kWindingPi * (1e-9 + 1e-14 * double(n)); }
+
+enum WindingVerdict : int { kWindingOutside = 0, kWindingInside = 1, kWindingUnsure = 2 };
+
+// Inside (w >= 1/2), outside, or unsure from a bounded sum.
+HDT_HD int windingVerdict(const WindingSum& s, uint32_t n) {
+  if (!s.ok) return kWindingUnsure;
+  const double e = s.error * 1.001 + windingMargin(n); // the bound's own rounding, generously
+  if (s.sum - e >= 2.0 * kWindingPi) return kWindingInside;
+  if (s.sum + e < 2.0 * kWindingPi) return kWindingOutside;
+  return kWindingUnsure;
+}
+
+// A max-heap of approximated nodes by error (ties: the lower node id first).
+struct WindingOpenHeap {
+  uint32_t id[kWindingOpen];
+  double sum[kWindingOpen], error[kWindingOpen];
+  int count = 0;
+  double sumTotal = 0, errorTotal = 0;
+
+  HDT_HD bool above(int i, int j) const { return error[i] > error[j] || (error[i] == error[j] && id[i] < id[j]); }
+  HDT_HD void swap(int i, int j) {
+    const uint32_t n = id[i];
+    id[i] = id[j];
+    id[j] = n;
+    const double s = sum[i], e = error[i];
+    sum[i] = sum[j];
+    error[i] = error[j];
+    sum[j] = s;
+    error[j] = e;
+  }
+  HDT_HD void push(uint32_t node, double s, double e) {
+    int i = count++;
+    id[i] = node;
+    sum[i] = s;
+    error[i] = e;
+    sumTotal = sumTotal + s;
+    errorTotal = errorTotal + e;
+    while (i > 0 && above(i, (i - 1) / 2)) {
+      swap(i, (i - 1) / 2);
+      i = (i - 1) / 2;
+    }
+  }
+  HDT_HD uint32_t pop() {
+    const uint32_t node = id[0];
+    sumTotal = sumTotal - sum[0];
+    errorTotal = errorTotal - error[0];
+    swap(0, --count);
+    int i = 0;
+    for (;;) {
+      const int l = 2 * i + 1, r = l + 1;
+      int m = i;
+      if (l < count && above(l, m)) m = l;
+      if (r < count && above(r, m)) m = r;
+      if (m == i) break;
+      swap(i, m);
+      i = m;
+    }
+    return node;
+  }
+};
+
+HDT_HD WindingSum windingSumOverBox(const WindingTreeView& t, const double* lo, const double* hi, int maxOpen) {
+  double c[3], rho2 = 0;
+  for (int a = 0; a < 3; ++a) {
+    c[a] = 0.5 * (lo[a] + hi[a]);
+    const double h = 0.5 * (hi[a] - lo[a]);
+    rho2 = rho2 + h * h;
+  }
+  const double rho = sqrt(rho2);
+  double exact = 0, exactError = 0; // triangles summed exactly, and their variation over the box
+  WindingOpenHeap heap;             // approximated nodes
+  uint32_t stack[kWindingStack];
+  int top = 0, opened = 0;
+  stack[top++] = 0;
+  // A node taken apart: a leaf's triangles summed exactly, an inner node's
+  // children to the stack. False when a triangle meets the box.
+  auto takeApart = [&](const WindingNode& n) {
+    if (n.count == 0) {
+      stack[top++] = n.first + 1; // the left child first
+      stack[top++] = n.first;
+      return true;
+    }
+    for (uint32_t i = n.first; i < n.first + n.count; ++i) {
+      const WindingTriangle& tri = t.triangles[i];
+      exact = exact + triangleSolidAngle(tri.v, c[0], c[1], c[2]);
+      if (rho > 0) {
+        const double td = windingBoxDistance(tri.lo, tri.hi, lo, hi);
+        if (!(td > 0)) return false;
+        exactError = exactError + 2.0 * tri.area * rho / (td * td * td);
+      }
+    }
+    return true;
+  };
+  for (;;) {
+    // The nodes on the stack: approximated when far, taken apart otherwise.
+    while (top > 0) {
+      const uint32_t id = stack[--top];
+      double e, err;
+      if (heap.count < kWindingOpen && windingNodeFarField(t.nodes[id], lo, hi, c, rho, e, err)) {
+        heap.push(id, e, err);
+      } else if (!takeApart(t.nodes[id])) {
+        return WindingSum{exact, 0.0, false};
+      }
+    }
+    // The running totals drift by a few ulps as nodes come and go: far below
+    // the margin, and the same operations in the same order on both drivers.
+    const WindingSum s{exact + heap.sumTotal, exactError + (heap.errorTotal > 0 ? heap.errorTotal : 0.0), true};
+    if (windingVerdict(s, t.triangleCount) != kWindingUnsure || heap.count == 0) return s;
+    if (opened++ >= maxOpen) return WindingSum{s.sum, s.error, false};
+    if (!takeApart(t.nodes[heap.pop()])) return WindingSum{exact, 0.0, false}; // the worst approximation
+  }
+}
+
+// The exact sum at a point over every triangle in tree order (the fallback).
+HDT_HD double windingSumAll(const WindingTreeView& t, double px, double py, double pz) {
+  double s = 0;
+  for (uint32_t i = 0; i < t.triangleCount; ++i) s = s + triangleSolidAngle(t.triangles[i].v, px, py, pz);
+  return s;
+}
+
+// The decision at one point: the refined sum, and where even the exact sum
+// is within the rounding margin of 1/2, the exact sum in tree order; ties
+// (w == 1/2 as computed) are inside.
+HDT_HD bool windingInsideAt(const WindingTreeView& t, double px, double py, double pz) {
+  const double p[3] = {px, py, pz};
+  const int v = windingVerdict(windingSumOverBox(t, p, p, 1 << 30), t.triangleCount);
+  if (v != kWindingUnsure) return v == kWindingInside;
+  return windingSumAll(t, px, py, pz) >= 2.0 * kWindingPi;
+}
+
+// A box query that needs more openings than this is split instead.
+constexpr int kWindingBoxOpenings = 8;
+
+// A box of voxels [lo, hi) (integer voxel coordinates).
+struct VoxelBox {
+  int lo[3], hi[3];
+  HDT_HD int size(int a) const { return hi[a] - lo[a]; }
+  HDT_HD bool single() const { return size(0) == 1 && size(1) == 1 && size(2) == 1; }
+};
+
+// Decides every voxel centre of `box`: calls settle(box, inside) for boxes
+// whose centres are all certified on one side, settling single voxels by
+// windingInsideAt. skip(box) drops boxes that need no answer (all surface);
+// direct(box) says a box surely holds a triangle (it holds a surface voxel):
+// it is split without a try; done() stops early. Boxes are split in halves along each axis longer than
+// one voxel, in a fixed order.
+template <class Skip, class Split, class Settle, class Done>
+HDT_HD void windingDecideBox(const WindingTreeView& t, const VoxelBox& box, Skip&& skip, Split&& direct, Settle&& settle,
+                             Done&& done) {
+  VoxelBox stack[8 * 20];
+  int top = 0;
+  stack[top++] = box;
+  while (top > 0 && !done()) {
+    const VoxelBox b = stack[--top];
+    if (skip(b)) continue;
+    const double lo[3] = {b.lo[0] + 0.5, b.lo[1] + 0.5, b.lo[2] + 0.5};
+    const double hi[3] = {b.hi[0] - 0.5, b.hi[1] - 0.5, b.hi[2] - 0.5};
+    if (b.single()) {
+      settle(b, windingInsideAt(t, lo[0], lo[1], lo[2]));
+      continue;
+    }
+    const int v = direct(b) ? int(kWindingUnsure)
+                            : windingVerdict(windingSumOverBox(t, lo, hi, kWindingBoxOpenings), t.triangleCount);
+    if (v != kWindingUnsure) {
+      settle(b, v == kWindingInside);
+      continue;
+    }
+    for (int k = 7; k >= 0; --k) { // child 0 (low x, y, z) is taken first
+      VoxelBox s = b;
+      bool exists = true;
+      for (int a = 0; a < 3; ++a) {
+        const int mid = b.lo[a] + b.size(a) / 2;
+        if ((k >> a) & 1) {
+          if (b.size(a) == 1) exists = false;
+          s.lo[a] = mid;
+        } else if (b.size(a) > 1) {
+          s.hi[a] = mid;
+        }
+      }
+      if (exists) stack[top++] = s;
+    }
+  }
+}
+
+} // namespace hdt

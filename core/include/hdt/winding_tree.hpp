@@ -1,0 +1,61 @@
+// The host side of the winding-number inside test (winding.hpp): the tree
+// over the triangles, built once per build on the host and used as is by
+// both drivers, and the classification of a built volume by it.
+#pragma once
+
+#include "hdt/config.hpp"
+#include "hdt/lattice.hpp"
+#include "hdt/winding.hpp"
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace hdt {
+
+struct Volume;
+struct PreparedMesh;
+
+// Nodes in a fixed layout (root 0, children contiguous) and triangles in
+// tree order. A function of the triangles only: median splits on exact
+// integer centroid keys with the triangle index as tie-break, triangles of
+// a leaf in input order.
+struct WindingTree {
+  std::vector<WindingNode> nodes;
+  std::vector<WindingTriangle> triangles;
+  WindingTreeView view() const { return {nodes.data(), triangles.data(), uint32_t(triangles.size())}; }
+};
+
+WindingTree buildWindingTree(const std::vector<LatticeTriangle>& triangles);
+
+// The test a build runs: Auto is Parity for closed meshes, WindingNumber for
+// open ones; Parity and WindingNumber are taken as asked.
+InsideTest resolveInsideTest(InsideTest requested, bool closedMesh);
+const char* insideTestName(InsideTest test); // "auto", "parity", "winding"
+// Why the test ran, one sentence: "Auto: the mesh is open", ...
+std::string insideTestReason(InsideTest requested, InsideTest ran, bool closedMesh);
+
+// What the classification met: uniform elements whose voxel centres lie on
+// both sides of w = 1/2 (no triangle meets them, but the w = 1/2 surface
+// spanning a hole does). Each is refined: a Branch of 8 children, or at the
+// last level a Boundary with a leaf grid of decided voxels and no surface.
+struct WindingOutcome {
+  uint64_t refinedElements = 0;
+};
+
+// Rewrites the inside plane of every leaf word and the state of every uniform
+// element of a solid volume from the winding number of the voxel centres,
+// refining the elements that w = 1/2 crosses (then the tree is re-laid in
+// canonical level order and the leaf grids copied once).
+// Parallel (oneTBB) over leaves and elements; the result does not depend on
+// the thread count.
+WindingOutcome classifyByWindingNumber(const WindingTree& tree, Volume& volume);
+
+// The drivers' last step of a solid build: when the mesh's test is
+// WindingNumber, builds the tree and classifies the volume by it (the parity
+// classification it replaces may have run or not); records the test that ran
+// in volume.insideTest and the refined elements in its statistics. Returns the
+// milliseconds spent (0 under Parity). Call before the statistics are computed.
+double applyInsideTest(const PreparedMesh& mesh, Volume& volume);
+
+} // namespace hdt

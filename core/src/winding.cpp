@@ -1,0 +1,378 @@
+// The winding-number tree and the classification of a volume by it
+// (winding.hpp, docs/design.md "Winding number").
+#include "hdt/winding_tree.hpp"
+
+#include "hdt/error.hpp"
+#include "hdt/mesh.hpp"
+#include "hdt/volume.hpp"
+#include "hdt/volume_walk.hpp"
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <numeric>
+
+#include <tbb/parallel_for.h>
+
+namespace hdt {
+namespace {
+
+constexpr uint32_t kLeafTriangles = 8;
+
+WindingTriangle windingTriangle(const LatticeTriangle& t) {
+  WindingTriangle w;
+  for (int j = 0; j < 3; ++j)
+    for (int a = 0; a < 3; ++a) w.v[3 * j + a] = double(t.v[j][a]) / double(kLatticePerVoxel);
+  for (int a = 0; a < 3; ++a) {
+    w.lo[a] = std::min({w.v[a], w.v[3 + a], w.v[6 + a]});
+    w.hi[a] = std::max({w.v[a], w.v[3 + a], w.v[6 + a]});
+  }
+  const double ex = w.v[3] - w.v[0], ey = w.v[4] - w.v[1], ez = w.v[5] - w.v[2];
+  const double fx = w.v[6] - w.v[0], fy = w.v[7] - w.v[1], fz = w.v[8] - w.v[2];
+  const double cx = ey * fz - ez * fy, cy = ez * fx - ex * fz, cz = ex * fy - ey * fx;
+  w.area = 0.5 * std::sqrt(cx * cx + cy * cy + cz * cz);
+  return w;
+}
+
+void halfCross(const WindingTriangle& w, double out[3]) {
+  const double ex = w.v[3] - w.v[0], ey = w.v[4] - w.v[1], ez = w.v[5] - w.v[2];
+  const double fx = w.v[6] - w.v[0], fy = w.v[7] - w.v[1], fz = w.v[8] - w.v[2];
+  out[0] = 0.5 * (ey * fz - ez * fy);
+  out[1] = 0.5 * (ez * fx - ex * fz);
+  out[2] = 0.5 * (ex * fy - ey * fx);
+}
+
+struct TreeBuilder {
+  const std::vector<LatticeTriangle>& tris;
+  std::vector<uint32_t> order;             // triangle indices, partitioned in place
+  std::vector<std::array<int64_t, 3>> key; // 3 x centroid, exact
+  WindingTree& tree;
+
+  void fill(uint32_t node, uint32_t first, uint32_t count) {
+    WindingNode n{};
+    for (int a = 0; a < 3; ++a) {
+      n.lo[a] = INFINITY;
+      n.hi[a] = -INFINITY;
+    }
+    int64_t klo[3] = {INT64_MAX, INT64_MAX, INT64_MAX}, khi[3] = {INT64_MIN, INT64_MIN, INT64_MIN};
+    for (uint32_t i = first; i < first + count; ++i) {
+      const uint32_t t = order[i];
+      const WindingTriangle w = windingTriangle(tris[t]);
+      double hc[3];
+      halfCross(w, hc);
+      for (int a = 0; a < 3; ++a) {
+        n.lo[a] = std::min(n.lo[a], w.lo[a]);
+        n.hi[a] = std::max(n.hi[a], w.hi[a]);
+        n.dipole[a] += hc[a];
+        klo[a] = std::min(klo[a], key[t][size_t(a)]);
+        khi[a] = std::max(khi[a], key[t][size_t(a)]);
+      }
+      n.area += w.area;
+    }
+    double r2 = 0;
+    for (int a = 0; a < 3; ++a) {
+      n.centre[a] = 0.5 * (n.lo[a] + n.hi[a]);
+      const double h = 0.5 * (n.hi[a] - n.lo[a]);
+      r2 += h * h;
+    }
+    // The quadrupole moment: integral of n (x - centre)^T = area n (centroid - centre)^T.
+    for (uint32_t i = first; i < first + count; ++i) {
+      const WindingTriangle w = windingTriangle(tris[order[i]]);
+      double hc[3];
+      halfCross(w, hc);
+      for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 3; ++c)
+          n.quad[3 * r + c] += hc[r] * ((w.v[c] + w.v[3 + c] + w.v[6 + c]) / 3.0 - n.centre[c]);
+    }
+    n.radius = std::sqrt(r2) * (1 + 1e-12); // covers the rounding of the half diagonal
+    if (count <= kLeafTriangles) {
+      std::sort(order.begin() + first, order.begin() + first + count);
+      n.first = first;
+      n.count = count;
+      tree.nodes[node] = n;
+      return;
+    }
+    int axis = 0;
+    for (int a = 1; a < 3; ++a)
+      if (khi[a] - klo[a] > khi[axis] - klo[axis]) axis = a;
+    const uint32_t half = count / 2;
+    std::nth_element(order.begin() + first, order.begin() + first + half, order.begin() + first + count,
+                     [&](uint32_t x, uint32_t y) {
+                       const int64_t kx = key[x][size_t(axis)], ky = key[y][size_t(axis)];
+                       return kx != ky ? kx < ky : x < y;
+                     });
+    const uint32_t child = uint32_t(tree.nodes.size());
+    tree.nodes.resize(tree.nodes.size() + 2);
+    n.first = child;
+    n.count = 0;
+    tree.nodes[node] = n;
+    fill(child, first, half);
+    fill(child + 1, first + half, count - half);
+  }
+};
+
+} // namespace
+
+WindingTree buildWindingTree(const std::vector<LatticeTriangle>& triangles) {
+  WindingTree tree;
+  if (triangles.empty()) return tree;
+  TreeBuilder b{triangles, std::vector<uint32_t>(triangles.size()), std::vector<std::array<int64_t, 3>>(triangles.size()),
+                tree};
+  std::iota(b.order.begin(), b.order.end(), 0u);
+  for (size_t t = 0; t < triangles.size(); ++t)
+    for (int a = 0; a < 3; ++a)
+      b.key[t][size_t(a)] = int64_t(triangles[t].v[0][a]) + triangles[t].v[1][a] + triangles[t].v[2][a];
+  tree.nodes.reserve(2 * (triangles.size() / kLeafTriangles + 1));
+  tree.nodes.resize(1);
+  b.fill(0, 0, uint32_t(triangles.size()));
+  tree.triangles.resize(triangles.size());
+  for (size_t i = 0; i < triangles.size(); ++i) tree.triangles[i] = windingTriangle(triangles[b.order[i]]);
+  return tree;
+}
+
+InsideTest resolveInsideTest(InsideTest requested, bool closedMesh) {
+  if (requested != InsideTest::Auto) return requested;
+  return closedMesh ? InsideTest::Parity : InsideTest::WindingNumber;
+}
+
+const char* insideTestName(InsideTest test) {
+  switch (test) {
+  case InsideTest::Auto: return "auto";
+  case InsideTest::Parity: return "parity";
+  case InsideTest::WindingNumber: return "winding";
+  }
+  return "unknown";
+}
+
+std::string insideTestReason(InsideTest requested, InsideTest ran, bool closedMesh) {
+  const std::string mesh = closedMesh ? "the mesh is closed" : "the mesh is open";
+  if (requested == InsideTest::Auto) {
+    return std::string("Auto: ") + mesh + (ran == InsideTest::Parity ? ", exact ray parity" : ", winding number");
+  }
+  return std::string(ran == InsideTest::Parity ? "Parity" : "Winding number") + " as requested; " + mesh;
+}
+
+namespace {
+
+// Sets the inside plane of the non-surface voxels of box b in one leaf.
+void settleLeafBox(uint32_t* words, int L, const VoxelBox& b, bool inside) {
+  if (!inside) return; // the plane was cleared first
+  for (int z = b.lo[2]; z < b.hi[2]; ++z)
+    for (int y = b.lo[1]; y < b.hi[1]; ++y)
+      for (int x = b.lo[0]; x < b.hi[0]; ++x) {
+        const uint32_t v = uint32_t(x + L * (y + L * z));
+        uint32_t& w = words[v / kVoxelsPerWord];
+        const uint32_t shift = 2 * (v % kVoxelsPerWord);
+        if (((w >> shift) & 3u) == 0) w |= 1u << shift;
+      }
+}
+
+bool hasSurfaceVoxel(const LeafView& view, const VoxelBox& b) {
+  for (int z = b.lo[2]; z < b.hi[2]; ++z)
+    for (int y = b.lo[1]; y < b.hi[1]; ++y)
+      for (int x = b.lo[0]; x < b.hi[0]; ++x)
+        if (view.voxel(x, y, z) == VoxelState::Surface) return true;
+  return false;
+}
+
+void classifyLeaf(const WindingTreeView& t, uint32_t* words, int L, const std::array<int, 3>& origin) {
+  for (uint32_t i = 0; i < leafWordCount(L); ++i) words[i] &= kSurfacePlaneBits;
+  const LeafView view{words, L};
+  VoxelBox box;
+  for (int a = 0; a < 3; ++a) {
+    box.lo[a] = origin[size_t(a)];
+    box.hi[a] = origin[size_t(a)] + L;
+  }
+  auto local = [&](const VoxelBox& b) {
+    VoxelBox l = b;
+    for (int a = 0; a < 3; ++a) {
+      l.lo[a] -= origin[size_t(a)];
+      l.hi[a] -= origin[size_t(a)];
+    }
+    return l;
+  };
+  windingDecideBox(
+      t, box,
+      [&](const VoxelBox& b) {
+        if (!b.single()) return false;
+        const VoxelBox l = local(b);
+        return view.voxel(l.lo[0], l.lo[1], l.lo[2]) == VoxelState::Surface;
+      },
+      [&](const VoxelBox& b) { return hasSurfaceVoxel(view, local(b)); },
+      [&](const VoxelBox& b, bool inside) { settleLeafBox(words, L, local(b), inside); }, [] { return false; });
+}
+
+// A uniform element's verdict: inside, or split when its voxel centres lie
+// on both sides of w = 1/2 (then it must be refined).
+struct UniformVerdict {
+  bool inside = false;
+  bool split = false;
+};
+
+UniformVerdict classifyUniform(const WindingTreeView& t, const std::array<int, 3>& origin, int edge) {
+  VoxelBox box;
+  for (int a = 0; a < 3; ++a) {
+    box.lo[a] = origin[size_t(a)];
+    box.hi[a] = origin[size_t(a)] + edge;
+  }
+  bool seen[2] = {false, false};
+  windingDecideBox(
+      t, box, [](const VoxelBox&) { return false; }, [](const VoxelBox&) { return false; },
+      [&](const VoxelBox&, bool inside) { seen[inside] = true; },
+      [&] { return seen[0] && seen[1]; });
+  if (seen[0] && seen[1]) return {false, true};
+  return {seen[1], false};
+}
+
+std::array<int, 3> childOrigin(const std::array<int, 3>& o, int edge, int c) {
+  const int h = edge / 2;
+  return {o[0] + (c & 1) * h, o[1] + ((c >> 1) & 1) * h, o[2] + ((c >> 2) & 1) * h};
+}
+
+// An element of the refined layout: an old one (by index) or a new child of
+// a split element.
+struct LaidElement {
+  uint64_t old = 0;
+  bool fresh = false;
+  bool split = false;
+  bool inside = false; // fresh uniform elements
+  std::array<int, 3> origin{0, 0, 0};
+};
+
+// Re-lays the tree in canonical level order with every split uniform element
+// refined: a Branch of 8 fresh children above the last level, a Boundary
+// with a new leaf grid (no surface voxel; every centre decided) at it.
+// Returns the number of elements refined.
+uint64_t refineSplitElements(const WindingTreeView& t, Volume& v, const std::vector<uint8_t>& split) {
+  const GridSpec& g = v.grid;
+  const int L = g.leafSize, height = g.height;
+  const uint64_t R = uint64_t(g.rootGrid);
+  std::vector<std::vector<LaidElement>> levels(size_t(height) + 1);
+  for (uint64_t i = 0; i < R * R * R; ++i) {
+    LaidElement e;
+    e.old = i;
+    e.split = split[i];
+    const int edge = g.rootCellVoxels();
+    e.origin = {int(i % R) * edge, int((i / R) % R) * edge, int(i / (R * R)) * edge};
+    levels[0].push_back(e);
+  }
+  uint64_t refined = 0;
+  for (int k = 0; k < height; ++k) {
+    std::vector<LaidElement>& next = levels[size_t(k) + 1];
+    const int edge = g.elementVoxels(k);
+    for (const LaidElement& e : levels[size_t(k)]) {
+      const bool oldBranch = !e.fresh && elementState(v.elements[e.old]) == ElementState::Branch;
+      if (!oldBranch && !e.split) continue;
+      refined += e.split;
+      for (int c = 0; c < 8; ++c) {
+        LaidElement child;
+        child.origin = childOrigin(e.origin, edge, c);
+        if (oldBranch) {
+          child.old = uint64_t(elementPayload(v.elements[e.old])) + uint64_t(c);
+          child.split = split[child.old];
+        } else {
+          child.fresh = true;
+        }
+        next.push_back(child);
+      }
+    }
+    const int childEdge = g.elementVoxels(k + 1);
+    tbb::parallel_for(size_t(0), next.size(), [&](size_t i) {
+      if (!next[i].fresh) return;
+      const UniformVerdict u = classifyUniform(t, next[i].origin, childEdge);
+      next[i].inside = u.inside;
+      next[i].split = u.split;
+    });
+  }
+  for (const LaidElement& e : levels[size_t(height)]) refined += e.split;
+
+  std::vector<ElementWord> elements;
+  std::vector<uint64_t> levelStart(size_t(height) + 2, 0);
+  for (int k = 0; k <= height; ++k) levelStart[size_t(k) + 1] = levelStart[size_t(k)] + levels[size_t(k)].size();
+  elements.reserve(levelStart.back());
+  std::vector<int64_t> leafSource;                  // old leaf index, or -1 - (index into freshLeaves)
+  std::vector<std::array<int, 3>> freshLeaves;
+  for (int k = 0; k <= height; ++k) {
+    uint64_t branches = 0;
+    for (const LaidElement& e : levels[size_t(k)]) {
+      const ElementWord old = e.fresh ? makeElement(e.inside ? ElementState::Full : ElementState::Empty, 0)
+                                      : v.elements[e.old];
+      const ElementState s = elementState(old);
+      if (s == ElementState::Branch || (e.split && k < height)) {
+        elements.push_back(makeElement(ElementState::Branch, uint32_t(levelStart[size_t(k) + 1] + 8 * branches++)));
+      } else if (s == ElementState::Boundary || e.split) {
+        elements.push_back(makeElement(ElementState::Boundary, uint32_t(leafSource.size())));
+        if (s == ElementState::Boundary) {
+          leafSource.push_back(int64_t(elementPayload(old)));
+        } else {
+          leafSource.push_back(-1 - int64_t(freshLeaves.size()));
+          freshLeaves.push_back(e.origin);
+        }
+      } else {
+        elements.push_back(old);
+      }
+    }
+  }
+  if (elements.size() - 1 > kMaxElementPayload || leafSource.size() > kMaxElementPayload) {
+    throw Error(ErrorKind::OutOfResources, "refining the winding number's w = 1/2 surface exceeds 2^30 elements");
+  }
+  const uint32_t wc = leafWordCount(L);
+  LeafWordVector words;
+  words.resize(leafSource.size() * wc);
+  tbb::parallel_for(size_t(0), leafSource.size(), [&](size_t i) {
+    uint32_t* to = words.data() + i * wc;
+    if (leafSource[i] >= 0) {
+      std::copy_n(v.leafWords.data() + uint64_t(leafSource[i]) * wc, wc, to);
+    } else {
+      std::fill_n(to, wc, 0u);
+      classifyLeaf(t, to, L, freshLeaves[size_t(-1 - leafSource[i])]);
+    }
+  });
+  v.elements = std::move(elements);
+  v.levelStart = std::move(levelStart);
+  v.leafWords = std::move(words);
+  return refined;
+}
+
+} // namespace
+
+WindingOutcome classifyByWindingNumber(const WindingTree& tree, Volume& volume) {
+  const WindingTreeView t = tree.view();
+  const int L = volume.grid.leafSize;
+  std::vector<uint8_t> split(volume.elements.size(), 0);
+  std::atomic<bool> anySplit{false};
+  const int deepest = int(volume.levelStart.size()) - 2;
+  parallelWalkVolume(volume, deepest, [&](const WalkedElement& e) {
+    switch (e.state()) {
+    case ElementState::Boundary:
+      classifyLeaf(t, volume.leafWords.data() + leafWordOffset(e.payload(), L), L, e.origin);
+      break;
+    case ElementState::Empty:
+    case ElementState::Full: {
+      const UniformVerdict u = classifyUniform(t, e.origin, e.edge);
+      volume.elements[e.index] = makeElement(u.inside ? ElementState::Full : ElementState::Empty, 0);
+      if (u.split) {
+        split[e.index] = 1;
+        anySplit.store(true, std::memory_order_relaxed);
+      }
+      break;
+    }
+    case ElementState::Branch: break;
+    }
+  });
+  WindingOutcome out;
+  if (anySplit.load()) out.refinedElements = refineSplitElements(t, volume, split);
+  return out;
+}
+
+double applyInsideTest(const PreparedMesh& mesh, Volume& volume) {
+  volume.insideTest = mesh.surfaceOnly ? InsideTest::Parity : mesh.insideTest;
+  if (mesh.surfaceOnly || mesh.insideTest != InsideTest::WindingNumber) return 0;
+  const auto t0 = std::chrono::steady_clock::now();
+  const WindingTree tree = buildWindingTree(mesh.triangles);
+  volume.stats.windingRefinedElements = classifyByWindingNumber(tree, volume).refinedElements;
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
+} // namespace hdt
