@@ -31,6 +31,8 @@ def main():
     rows = []
     for mesh in MESHES:
         path = os.path.join(a.meshes, mesh)
+        if not os.path.exists(path):  # the GPU machine carries the meshes as binary PLY
+            path = os.path.splitext(path)[0] + ".ply"
         if not os.path.exists(path):
             continue
         for n in a.sizes:

@@ -266,6 +266,39 @@ PY
 }
 
 : > "$SUMMARY"
+unpack_cli_bundle() { # .devdeps/mpi-runtime.tar.xz -> /tmp/hdt-mpi: Open MPI (a mirror of /usr under
+  # one prefix, relocated by OPAL_PREFIX) and hdt-voxelize / hdt-voxelize-mpi built on the development
+  # machine (CUDA and MPI on) with their libraries; see bench/gpu/README.md
+  CLI_DIR=/tmp/hdt-mpi
+  [ -x "$CLI_DIR/ompi/bin/hdt-voxelize" ] && return 0
+  [ -f "$DEPS/mpi-runtime.tar.xz" ] || { say "no $DEPS/mpi-runtime.tar.xz"; return 1; }
+  rm -rf "$CLI_DIR" && mkdir -p "$CLI_DIR/build/apps" && tar -xJf "$DEPS/mpi-runtime.tar.xz" -C "$CLI_DIR" &&
+    ln -s "$CLI_DIR/ompi/bin/hdt-voxelize" "$CLI_DIR/ompi/bin/hdt-voxelize-mpi" "$CLI_DIR/build/apps/"
+}
+
+step_mpigpu() { # hdt-voxelize-mpi, 1-4 ranks sharing the GPU (issue 14): bench/gpu/mpi_gpu_bench.sh
+  local t0=$SECONDS
+  unpack_cli_bundle || return 0
+  ( export OPAL_PREFIX=$CLI_DIR/ompi PATH=$CLI_DIR/ompi/bin:$PATH \
+      LD_LIBRARY_PATH=$CLI_DIR/ompi/lib/x86_64-linux-gnu:$LD_LIBRARY_PATH OMPI_MCA_btl=self,vader TMPDIR=/tmp
+    timeout "${MPIGPU_TIMEOUT:-300}" bash "$ROOT/bench/gpu/mpi_gpu_bench.sh" "$CLI_DIR/build" \
+      "$DEPS/meshes/${MPIGPU_MESH:-stanford-dragon-100k.ply}" ${MPIGPU_RES:-2048 4096} ) > "$OUT/mpigpu.log" 2>&1
+  say "mpigpu: rc=$? in $((SECONDS - t0)) s"
+  tail -14 "$OUT/mpigpu.log" | tee -a "$SUMMARY"
+  cp "$ROOT/bench/results/mpi-gpu-runs.jsonl" "$OUT/" 2>/dev/null || true
+}
+
+step_labels() { # CUDA == CPU labelled builds, and labelled vs plain CUDA builds (issue 17): bench/run_label_bench.py
+  local t0=$SECONDS
+  run_tests label-tests '*CudaLabels*' "${TESTS_TIMEOUT:-240}"
+  unpack_cli_bundle || return 0
+  LD_LIBRARY_PATH=$CLI_DIR/ompi/lib/x86_64-linux-gnu:$LD_LIBRARY_PATH timeout "${LABELS_TIMEOUT:-300}" \
+    python3 "$ROOT/bench/run_label_bench.py" --tool "$CLI_DIR/ompi/bin/hdt-voxelize" --meshes "$DEPS/meshes" \
+    --backend cuda --sizes ${LABELS_RES:-2048 4096 8192} --repeat 3 --out "$OUT/labels-gpu.md" > "$OUT/labels-gpu.log" 2>&1
+  say "labels bench: rc=$? in $((SECONDS - t0)) s"
+  tail -12 "$OUT/labels-gpu.log" | tee -a "$SUMMARY"
+}
+
 step_winding() {
   run_tests winding-tests '*CudaWinding*' "${TESTS_TIMEOUT:-240}"
   local t0=$SECONDS args=()
