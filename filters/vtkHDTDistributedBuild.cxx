@@ -399,6 +399,7 @@ vtkHDTDistributedPiece vtkHDTDistributed::Build(
   });
   volume->surfaceOnly = mesh.surfaceOnly;
   volume->closedMesh = mesh.closed;
+  volume->insideTest = mesh.insideTest;
   volume->stats = stats;
   piece.Volume = volume;
   return piece;

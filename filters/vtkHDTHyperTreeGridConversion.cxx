@@ -435,12 +435,16 @@ vtkHDTConversionInfo vtkHDTToHyperTreeGrid::Convert(
   vtkHDTConversionInfo info;
   const int fullDepth = FullDepth(volume);
   const int depthCut = DepthCut(volume, options.MaxDepth);
-  Context ctx;
-  arena.execute([&] { prepareContext(volume, depthCut, options.MaskOutside, ctx); });
-
   const uint64_t R = uint64_t(volume.grid.rootGrid);
   const uint64_t first = std::min(options.FirstTree, R * R * R);
   const uint64_t trees = std::max(first, std::min(options.EndTree, R * R * R)) - first;
+  // A process's share of a distributed volume carries the job's statistics
+  // (vtkHDTDistributedBuild); a share of every tree holds the whole volume.
+  const hdt::StatisticsOf statistics =
+    trees == R * R * R ? hdt::StatisticsOf::Contents : hdt::StatisticsOf::WholeJob;
+  Context ctx;
+  arena.execute([&] { prepareContext(volume, depthCut, options.MaskOutside, statistics, ctx); });
+
   info.ContextMilliseconds = msSince(t0);
 
   // 1. Walk the trees; refuse a grid too large to show before allocating it.

@@ -123,9 +123,10 @@ Tally Context::elementTally(const hdt::WalkedElement& e) const
 
 //------------------------------------------------------------------------------
 // Context::elementSurface is filled bottom-up, level by level.
-void prepareContext(const hdt::Volume& v, int depthCut, bool mask, Context& ctx)
+void prepareContext(
+  const hdt::Volume& v, int depthCut, bool mask, hdt::StatisticsOf statistics, Context& ctx)
 {
-  hdt::validateVolume(v);
+  hdt::validateVolume(v, statistics);
   const hdt::GridSpec& g = v.grid;
   ctx.volume = &v;
   ctx.depthCut = depthCut;

@@ -69,7 +69,9 @@ struct Context
 
 // Checks the volume (hdt::validateVolume, so the walk can trust every index;
 // throws hdt::Error(BadInput) otherwise) and fills the context for the given cut.
-void prepareContext(const hdt::Volume& v, int depthCut, bool mask, Context& ctx);
+// `statistics`: WholeJob for one process's piece of a distributed volume.
+void prepareContext(
+  const hdt::Volume& v, int depthCut, bool mask, hdt::StatisticsOf statistics, Context& ctx);
 
 // What VTK needs to know of a tree besides its descriptor bits.
 struct TreeShape

@@ -79,8 +79,14 @@ TEST_P(RangeExchange, ProcessesGiveTheSerialVolume) {
       // The piece volume holds the range's trees as they are.
       std::vector<RangeTree> own;
       own.push_back(t);
-      const Volume piece = pieceVolume(mesh.grid, std::move(own));
+      Volume piece = pieceVolume(mesh.grid, std::move(own));
       EXPECT_TRUE(sameTree(sliceVolume(piece, t.cells), t));
+      // Shown with the job's statistics (what every rank's field data says),
+      // a piece is still a valid volume of its own contents' structure.
+      piece.stats = whole.stats;
+      EXPECT_NO_THROW(validateVolume(piece, StatisticsOf::WholeJob));
+      if (t.cells.size() < cells && piece.elements.size() != whole.elements.size())
+        EXPECT_THROW(validateVolume(piece), Error);
       // The faces of the range's cells, read from the whole volume.
       SurfaceOptions so;
       so.cellsFirst = t.cells.first;

@@ -482,7 +482,7 @@ void checkLabels(const Volume& v) {
 }
 
 // Everything at once, for the writer.
-void checkVolume(const Volume& v) {
+void checkVolume(const Volume& v, StatisticsOf statistics = StatisticsOf::Contents) {
   const GridSpec& g = v.grid;
   checkGrid(g.resolution, g.rootGrid, g.leafSize, g.height, g.origin, g.voxelSize);
   checkInsideTest(uint32_t(v.insideTest));
@@ -495,7 +495,8 @@ void checkVolume(const Volume& v) {
   if (v.leafWords.size() != tree.leaves * leafWordCount(g.leafSize)) {
     invalid(str(v.leafWords.size()) + " leaf words for " + str(tree.leaves) + " Boundary elements");
   }
-  checkStructure(v.stats, v, tree, checkLeaves(v.leafWords, g.leafSize, v.surfaceOnly));
+  const auto leaves = checkLeaves(v.leafWords, g.leafSize, v.surfaceOnly);
+  if (statistics == StatisticsOf::Contents) checkStructure(v.stats, v, tree, leaves);
   checkLabels(v);
 }
 
@@ -1338,9 +1339,9 @@ Volume readVolume(Source& in) {
 
 } // namespace
 
-void validateVolume(const Volume& v) {
+void validateVolume(const Volume& v, StatisticsOf statistics) {
   try {
-    checkVolume(v);
+    checkVolume(v, statistics);
   } catch (const Invalid& e) {
     throw Error(ErrorKind::BadInput, std::string("inconsistent HDT volume: ") + e.what());
   }

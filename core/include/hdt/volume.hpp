@@ -75,7 +75,12 @@ void computeStructureStatistics(Volume& volume);
 // contents. Throws Error(BadInput) naming the first problem. The .hdt reader
 // applies the same checks section by section as it reads; the writer refuses
 // a volume that fails them.
-void validateVolume(const Volume& volume);
+// What a volume's structural statistics (elements, leaves, voxel counts,
+// bytes) describe: its own contents, or, for one process's piece of a build
+// spread over processes (range_exchange.hpp), the whole volume of the job;
+// those are not checked against the piece's contents.
+enum class StatisticsOf { Contents, WholeJob };
+void validateVolume(const Volume& volume, StatisticsOf statistics = StatisticsOf::Contents);
 
 // Voxel state at global voxel (x, y, z), by walking the tree. Slow: for tests,
 // dense export and spot checks.
