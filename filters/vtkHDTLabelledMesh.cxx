@@ -76,46 +76,21 @@ void appendOne(vtkPolyData* pd, bool byBlock, const std::string& arrayName, hdt:
 void vtkHDTAppendLabelledMesh(vtkDataObject* input, bool byBlock, const std::string& arrayName,
   hdt::TriangleMesh& mesh, vtkHDTMeshConversionInfo& info)
 {
-  if (auto* pd = vtkPolyData::SafeDownCast(input))
-  {
-    appendOne(pd, byBlock, arrayName, 1, mesh, info);
-    return;
-  }
-  auto* composite = vtkCompositeDataSet::SafeDownCast(input);
-  if (!composite)
-  {
-    vtkHDTMeshConversion::AppendDataObject(input, mesh, info); // counts what it ignores
-    return;
-  }
-  vtkSmartPointer<vtkCompositeDataIterator> it;
-  it.TakeReference(composite->NewIterator());
-  it->SkipEmptyNodesOn();
-  for (it->InitTraversal(); !it->IsDoneWithTraversal(); it->GoToNextItem())
-  {
-    vtkDataObject* leaf = it->GetCurrentDataObject();
-    auto* pd = vtkPolyData::SafeDownCast(leaf);
-    if (!pd)
-    {
-      if (leaf)
+  // A lone polydata is block 1; a composite's blocks are their flat indices.
+  const bool composite = vtkCompositeDataSet::SafeDownCast(input) != nullptr;
+  vtkHDTMeshConversion::ForEachPolyData(
+    input, info, [&](vtkPolyData* pd, unsigned int flat, const char* name) {
+      const unsigned int block = composite ? flat : 1;
+      if (byBlock && (block < 1 || block > 65535))
       {
-        ++info.OtherBlocks;
-        if (info.FirstOtherBlockType.empty())
-        {
-          info.FirstOtherBlockType = leaf->GetClassName();
-        }
+        throw hdt::Error(hdt::ErrorKind::BadInput,
+          "Label By Block: flat block index " + std::to_string(block) +
+            " is beyond the 65535 labels");
       }
-      continue;
-    }
-    const unsigned int flat = it->GetCurrentFlatIndex();
-    if (byBlock && (flat < 1 || flat > 65535))
-    {
-      throw hdt::Error(hdt::ErrorKind::BadInput,
-        "Label By Block: flat block index " + std::to_string(flat) + " is beyond the 65535 labels");
-    }
-    appendOne(pd, byBlock, arrayName, hdt::Label(flat), mesh, info);
-    if (byBlock && it->HasCurrentMetaData() && it->GetCurrentMetaData()->Has(vtkCompositeDataSet::NAME()))
-    {
-      mesh.labelNames[hdt::Label(flat)] = it->GetCurrentMetaData()->Get(vtkCompositeDataSet::NAME());
-    }
-  }
+      appendOne(pd, byBlock, arrayName, hdt::Label(block), mesh, info);
+      if (byBlock && name)
+      {
+        mesh.labelNames[hdt::Label(block)] = name;
+      }
+    });
 }

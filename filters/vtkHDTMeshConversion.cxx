@@ -9,6 +9,7 @@
 #include "vtkDoubleArray.h"
 #include "vtkFloatArray.h"
 #include "vtkIdList.h"
+#include "vtkInformation.h"
 #include "vtkNew.h"
 #include "vtkPoints.h"
 #include "vtkPolyData.h"
@@ -191,9 +192,24 @@ void vtkHDTMeshConversion::AppendPolyData(
 void vtkHDTMeshConversion::AppendDataObject(
   vtkDataObject* input, hdt::TriangleMesh& mesh, vtkHDTMeshConversionInfo& info)
 {
+  ForEachPolyData(input, info,
+    [&](vtkPolyData* pd, unsigned int, const char*) { AppendPolyData(pd, mesh, info); });
+}
+
+//------------------------------------------------------------------------------
+void vtkHDTMeshConversion::ForEachPolyData(
+  vtkDataObject* input, vtkHDTMeshConversionInfo& info, const PolyDataVisitor& visit)
+{
+  auto countOther = [&info](vtkDataObject* object) {
+    ++info.OtherBlocks;
+    if (info.FirstOtherBlockType.empty())
+    {
+      info.FirstOtherBlockType = object->GetClassName();
+    }
+  };
   if (auto* pd = vtkPolyData::SafeDownCast(input))
   {
-    AppendPolyData(pd, mesh, info);
+    visit(pd, 0, nullptr);
     return;
   }
   auto* composite = vtkCompositeDataSet::SafeDownCast(input);
@@ -201,11 +217,7 @@ void vtkHDTMeshConversion::AppendDataObject(
   {
     if (input)
     {
-      ++info.OtherBlocks;
-      if (info.FirstOtherBlockType.empty())
-      {
-        info.FirstOtherBlockType = input->GetClassName();
-      }
+      countOther(input);
     }
     return;
   }
@@ -217,15 +229,14 @@ void vtkHDTMeshConversion::AppendDataObject(
     vtkDataObject* leaf = it->GetCurrentDataObject();
     if (auto* pd = vtkPolyData::SafeDownCast(leaf))
     {
-      AppendPolyData(pd, mesh, info);
+      const bool named =
+        it->HasCurrentMetaData() && it->GetCurrentMetaData()->Has(vtkCompositeDataSet::NAME());
+      visit(pd, it->GetCurrentFlatIndex(),
+        named ? it->GetCurrentMetaData()->Get(vtkCompositeDataSet::NAME()) : nullptr);
     }
     else if (leaf)
     {
-      ++info.OtherBlocks;
-      if (info.FirstOtherBlockType.empty())
-      {
-        info.FirstOtherBlockType = leaf->GetClassName();
-      }
+      countOther(leaf);
     }
   }
 }

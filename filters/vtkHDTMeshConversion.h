@@ -12,6 +12,7 @@
 #include "HDTFiltersModule.h" // export macro
 #include "vtkType.h"
 
+#include <functional>
 #include <string>
 
 class vtkDataObject;
@@ -45,4 +46,12 @@ public:
   // mesh. Other data objects count as OtherBlocks.
   static void AppendDataObject(vtkDataObject* input, hdt::TriangleMesh& mesh,
     vtkHDTMeshConversionInfo& info);
+
+  // Calls `visit` for `input` when it is a vtkPolyData (flat index 0, no name)
+  // or for every non-empty vtkPolyData leaf of a vtkCompositeDataSet, in
+  // order, with its flat index and its NAME (null when it has none). Other
+  // data objects count as OtherBlocks in `info`.
+  using PolyDataVisitor = std::function<void(vtkPolyData*, unsigned int flatIndex, const char* name)>;
+  static void ForEachPolyData(
+    vtkDataObject* input, vtkHDTMeshConversionInfo& info, const PolyDataVisitor& visit);
 };
