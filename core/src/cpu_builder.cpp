@@ -214,7 +214,11 @@ private:
   // ---- T3: leaf grids --------------------------------------------------------
   void processLeaves() {
     const size_t leaves = leafCoords_.size();
-    leafWords_.assign(leaves * leafWordCount(L_), 0u);
+    // Unwritten here (LeafWordVector's resize does not zero): each leaf zeroes
+    // its own words in the parallel loop below, so the one serial stretch of a
+    // build that could not be aborted is gone. An aborted build leaves words
+    // unwritten, but it throws at the next report() and never reads them.
+    leafWords_.resize(leaves * leafWordCount(L_));
     leafPairStart_.assign(leaves + 1, 0);
     for (Pair p : leafPairs_) ++leafPairStart_[pairElement(p) + 1];
     for (size_t i = 0; i < leaves; ++i) leafPairStart_[i + 1] += leafPairStart_[i];
@@ -252,6 +256,7 @@ private:
         }
       }
       uint32_t* words = leafWordsAt(leafWords_.data(), leaf, L_);
+      std::fill(words, words + leafWordCount(L_), 0u); // pass 1 and pass 2 OR into these
       for (int r = 0; r < L_ * L_; ++r) orRowIntoLeaf(words, L_, r, rows[r], kSurfacePlane);
     });
   }

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <fstream>
+#include <sstream>
 #include <string>
 
 namespace hdt {
@@ -20,18 +21,18 @@ uint64_t memAvailable() {
   return 0;
 }
 
-// The first number in a file, or 0 when the file is missing or says "max".
+// The first number in a file, or 0 when the file is missing, says "max" or
+// does not start with a number.
 uint64_t numberIn(const std::string& path) {
   std::ifstream in(path);
   uint64_t v = 0;
   return (in >> v) ? v : 0;
 }
 
-// Room left under this process's cgroup memory limit (v2 memory.max, or v1
-// memory.limit_in_bytes), or 0 when there is no limit. A container's limit
-// can be far below what /proc/meminfo reports for the host.
-uint64_t cgroupRoom() {
-  std::ifstream in("/proc/self/cgroup");
+} // namespace
+
+uint64_t cgroupRoomFrom(const std::string& procSelfCgroup, const std::string& cgroupRoot) {
+  std::istringstream in(procSelfCgroup);
   std::string line;
   uint64_t room = 0;
   auto consider = [&](uint64_t limit, uint64_t usage) {
@@ -48,16 +49,28 @@ uint64_t cgroupRoom() {
     if (controllers.empty()) {
       // v2: the limit of this cgroup and of every ancestor applies.
       for (std::string p = path;; p = p.substr(0, p.find_last_of('/'))) {
-        const std::string dir = "/sys/fs/cgroup" + (p == "/" ? std::string() : p);
+        const std::string dir = cgroupRoot + (p == "/" ? std::string() : p);
         consider(numberIn(dir + "/memory.max"), numberIn(dir + "/memory.current"));
         if (p.empty() || p == "/" || p.find('/') == std::string::npos) break;
       }
     } else if (("," + controllers + ",").find(",memory,") != std::string::npos) {
-      const std::string dir = "/sys/fs/cgroup/memory" + (path == "/" ? std::string() : path);
+      const std::string dir = cgroupRoot + "/memory" + (path == "/" ? std::string() : path);
       consider(numberIn(dir + "/memory.limit_in_bytes"), numberIn(dir + "/memory.usage_in_bytes"));
     }
   }
   return room;
+}
+
+namespace {
+
+// Room left under this process's cgroup memory limit, or 0 when there is no
+// limit. A container's limit can be far below what /proc/meminfo reports for
+// the host.
+uint64_t cgroupRoom() {
+  std::ifstream in("/proc/self/cgroup");
+  std::ostringstream contents;
+  contents << in.rdbuf();
+  return cgroupRoomFrom(contents.str(), "/sys/fs/cgroup");
 }
 
 } // namespace
