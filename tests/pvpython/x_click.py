@@ -1,6 +1,9 @@
-"""x_click.py X Y DELAY_S DONE_FILE: after DELAY_S seconds, a left click at
+"""x_click.py X Y DELAY_S DONE_FILE: after DELAY_S seconds, left clicks at
 screen point (X, Y) sent through the X server (XTest, libXtst of Debian's
-libxtst6), as a user's mouse would; then writes DONE_FILE. Started by
+libxtst6), as a user's mouse would: one every 0.5 s (a user clicks again when
+the first click finds the button still grey, e.g. before the build reports
+progress) until the caller stops this process, at most 60; the time of the
+first click goes to DONE_FILE. Started by
 test_gui_abort.py as a separate process, since the GUI's own thread is busy
 with the build it is meant to stop."""
 import ctypes
@@ -20,14 +23,17 @@ xtest.XTestFakeButtonEvent.argtypes = [ctypes.c_void_p, ctypes.c_uint, ctypes.c_
 display = xlib.XOpenDisplay(None)
 if not display:
     sys.exit("x_click.py: cannot open the X display")
-xtest.XTestFakeMotionEvent(display, -1, x, y, 0)
-xlib.XFlush(display)
-time.sleep(0.2)
-xtest.XTestFakeButtonEvent(display, 1, True, 0)
-xlib.XFlush(display)
-time.sleep(0.05)
-xtest.XTestFakeButtonEvent(display, 1, False, 0)
-xlib.XFlush(display)
+for click in range(60):
+    xtest.XTestFakeMotionEvent(display, -1, x, y, 0)
+    xlib.XFlush(display)
+    time.sleep(0.05)
+    xtest.XTestFakeButtonEvent(display, 1, True, 0)
+    xlib.XFlush(display)
+    time.sleep(0.05)
+    xtest.XTestFakeButtonEvent(display, 1, False, 0)
+    xlib.XFlush(display)
+    if click == 0:
+        with open(done, "w") as f:
+            f.write("%f\n" % time.time())
+    time.sleep(0.5)
 xlib.XCloseDisplay(display)
-with open(done, "w") as f:
-    f.write("%f\n" % time.time())
