@@ -82,19 +82,6 @@ int localRank() {
   return rank;
 }
 
-// All ranks on their GPU, or none (they must agree on the protocol).
-bool useCuda(const BuildOptions& options) {
-  if (options.backend == Backend::Cpu) return false;
-  std::string why;
-  const int here = cudaAvailable(&why) ? 1 : 0;
-  if (options.backend == Backend::Cuda && !here)
-    throw Error(ErrorKind::InvalidArgument, "backend cuda: " + why);
-  int all = 0;
-  MPI_Allreduce(&here, &all, 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
-  if (!all && options.log) options.log("backend auto: using the CPU driver on every rank (not every rank has a usable GPU)");
-  return all != 0;
-}
-
 double msSince(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
 
 } // namespace
@@ -123,30 +110,33 @@ Volume buildAcrossRanks(const MpiSession& session, const PreparedMesh& mesh, con
   const int K = session.size(), me = session.rank();
   const uint64_t R = uint64_t(g.rootGrid);
   const std::vector<RootRange> ranges = planRootRanges(cellLoads(mesh), R * R * R, K, R);
+  // Each rank on its own driver: the GPU of its local rank modulo the node's
+  // devices, or (Auto, no usable device or the CUDA driver failed) the CPU.
+  BuildOptions rankOptions = options;
+  const int local = localRank(); // collective: on every rank
+  if (options.backend != Backend::Cpu) rankOptions.device = local % std::max(1, cudaDeviceCount());
+  tbb::task_arena arena(options.threads > 0 ? options.threads : tbb::task_arena::automatic);
+  std::unique_ptr<RootRangeBuild> build;
+  const int rw = rowWordsFor(g.leafSize);
+  RangeBoundary boundary;
+  arena.execute([&] {
+    build = makeRangeBuild(mesh, rankOptions, ranges[size_t(me)]);
+    boundary = build->buildTree();
+  });
+  std::vector<RangeBoundary> boundaries;
+  for (const std::vector<uint8_t>& b : allGather(packBoundary(boundary, rw), K))
+    boundaries.push_back(unpackBoundary(b.data(), b.size(), rw));
+  const std::vector<RangeBoundary> beyond = parityBeyondRanges(boundaries, classifiedAxes(mesh.closed), rw);
   RangeTree own;
-  PhaseTimes times;
-  std::string backend = "cpu";
-  if (useCuda(options)) {
-    BuildOptions cuda = options;
-    cuda.backend = Backend::Cuda;
-    cuda.device = localRank() % std::max(1, cudaDeviceCount());
-    const Volume whole = buildCuda(mesh, cuda);
-    own = sliceVolume(whole, ranges[size_t(me)]);
-    times = whole.stats.time;
-    backend = "cuda";
-  } else {
-    tbb::task_arena arena(options.threads > 0 ? options.threads : tbb::task_arena::automatic);
-    CpuRangeBuild build(mesh, options, ranges[size_t(me)]);
-    const int rw = rowWordsFor(g.leafSize);
-    RangeBoundary boundary;
-    arena.execute([&] { boundary = build.buildTree(); });
-    std::vector<RangeBoundary> boundaries;
-    for (const std::vector<uint8_t>& b : allGather(packBoundary(boundary, rw), K))
-      boundaries.push_back(unpackBoundary(b.data(), b.size(), rw));
-    const std::vector<RangeBoundary> beyond = parityBeyondRanges(boundaries, classifiedAxes(mesh.closed), rw);
-    arena.execute([&] { own = build.finish(&beyond[size_t(me)]); });
-    times = build.times();
-  }
+  arena.execute([&] { own = build->finish(&beyond[size_t(me)]); });
+  const PhaseTimes times = build->times();
+  const int device = build->device();
+  build.reset(); // the device's memory goes back now
+  // What ran on each rank: "cpu", "cuda" or both.
+  int gpuRanks = 0;
+  const int onGpu = device >= 0 ? 1 : 0;
+  MPI_Allreduce(&onGpu, &gpuRanks, 1, MPI_INT, MPI_SUM, MPI_COMM_WORLD);
+  const std::string backend = gpuRanks == 0 ? "cpu" : gpuRanks == K ? "cuda" : "cuda+cpu";
   // The slowest rank's phases.
   const double mine[4] = {times.mapping, times.branching, times.leaf, times.classify};
   double slowest[4] = {0, 0, 0, 0};

@@ -218,35 +218,12 @@ void reduceStatistics(vtkMultiProcessController* c, const hdt::GridSpec& g, cons
   }
 }
 
-// Whether every rank builds on its GPU (collective: all or none, so the
-// ranks agree on the protocol). Backend CUDA on a rank without a device is
-// that rank's error.
-bool useCuda(vtkMultiProcessController* c, const hdt::BuildOptions& options)
+// What ran over the ranks, from every rank's device (-1: the CPU).
+std::string backendOf(const std::vector<int>& rankDevices)
 {
-  if (options.backend == hdt::Backend::Cpu)
-  {
-    return false;
-  }
-  std::string why;
-  const bool here = hdt::cudaAvailable(&why);
-  const bool missingSomewhere = vtkHDTDistributed::Any(c, !here);
-  if (options.backend == hdt::Backend::Cuda)
-  {
-    collectively(c, [&] {
-      if (!here)
-      {
-        throw hdt::Error(hdt::ErrorKind::InvalidArgument, "backend cuda on rank " +
-            std::to_string(c->GetLocalProcessId()) + ": " + why);
-      }
-    });
-    return true;
-  }
-  if (missingSomewhere && options.log)
-  {
-    options.log("backend auto: using the CPU driver on every rank (" +
-      (here ? std::string("a rank has no usable GPU") : why) + ")");
-  }
-  return !missingSomewhere;
+  const bool gpu = std::any_of(rankDevices.begin(), rankDevices.end(), [](int d) { return d >= 0; });
+  const bool cpu = std::any_of(rankDevices.begin(), rankDevices.end(), [](int d) { return d < 0; });
+  return gpu && cpu ? "cuda+cpu" : gpu ? "cuda" : "cpu";
 }
 } // namespace
 
@@ -337,53 +314,54 @@ vtkHDTDistributedPiece vtkHDTDistributed::Build(
   piece.Ranges = hdt::planRootRanges(hdt::cellLoads(mesh), R * R * R, K, R);
   piece.Cells = piece.Ranges[size_t(me)];
 
-  hdt::RangeTree own;
-  hdt::PhaseTimes times;
-  if (useCuda(c, options))
+  // Each rank on its own driver (makeRangeBuild): with a GPU (Backend CUDA,
+  // or Auto where a device is usable) the device of its local rank modulo the
+  // node's devices, else (Auto) the CPU. Both drivers give the same boundary
+  // parities and pieces, so the ranks need not agree.
+  hdt::BuildOptions rankOptions = options;
+  const int localRank = LocalRank(c); // collective: on every rank
+  if (options.backend != hdt::Backend::Cpu)
   {
-    // No range build in the CUDA driver yet: the whole volume on this rank's
-    // GPU, of which the rank keeps its range.
-    hdt::BuildOptions cuda = options;
-    cuda.backend = hdt::Backend::Cuda;
-    collectively(c, [&] {
-      cuda.device = LocalRank(c) % std::max(1, hdt::cudaDeviceCount());
-      piece.Device = cuda.device;
-      const hdt::Volume whole = hdt::buildCuda(mesh, cuda);
-      own = hdt::sliceVolume(whole, piece.Cells);
-      times = whole.stats.time;
-    });
-    piece.Backend = "cuda";
+    rankOptions.device = localRank % std::max(1, hdt::cudaDeviceCount());
   }
-  else
-  {
-    const int threads = options.threads > 0 ? options.threads : tbb::task_arena::automatic;
-    tbb::task_arena arena(threads);
-    std::unique_ptr<hdt::CpuRangeBuild> build;
-    hdt::RangeBoundary boundary;
-    collectively(c, [&] {
+  const int threads = options.threads > 0 ? options.threads : tbb::task_arena::automatic;
+  tbb::task_arena arena(threads);
+  std::unique_ptr<hdt::RootRangeBuild> build;
+  hdt::RangeBoundary boundary;
+  collectively(c, [&] {
+    try
+    {
       arena.execute([&] {
-        build.reset(new hdt::CpuRangeBuild(mesh, options, piece.Cells));
+        build = hdt::makeRangeBuild(mesh, rankOptions, piece.Cells);
         boundary = build->buildTree();
       });
-    });
-    const int rw = hdt::rowWordsFor(g.leafSize);
-    const std::vector<std::vector<uint8_t>> sent = allGatherBytes(c, hdt::packBoundary(boundary, rw));
-    collectively(c, [&] {
-      std::vector<hdt::RangeBoundary> boundaries;
-      for (const std::vector<uint8_t>& b : sent)
-      {
-        boundaries.push_back(hdt::unpackBoundary(b.data(), b.size(), rw));
-      }
-      const std::vector<hdt::RangeBoundary> beyond =
-        hdt::parityBeyondRanges(boundaries, hdt::classifiedAxes(mesh.closed), rw);
-      arena.execute([&] { own = build->finish(&beyond[size_t(me)]); });
-      times = build->times();
-    });
-    piece.Backend = "cpu";
-  }
+    }
+    catch (const hdt::Error& e)
+    {
+      throw hdt::Error(e.kind(), "rank " + std::to_string(me) + ": " + e.what());
+    }
+  });
+  const int rw = hdt::rowWordsFor(g.leafSize);
+  const std::vector<std::vector<uint8_t>> sent = allGatherBytes(c, hdt::packBoundary(boundary, rw));
+  hdt::RangeTree own;
+  hdt::PhaseTimes times;
+  collectively(c, [&] {
+    std::vector<hdt::RangeBoundary> boundaries;
+    for (const std::vector<uint8_t>& b : sent)
+    {
+      boundaries.push_back(hdt::unpackBoundary(b.data(), b.size(), rw));
+    }
+    const std::vector<hdt::RangeBoundary> beyond =
+      hdt::parityBeyondRanges(boundaries, hdt::classifiedAxes(mesh.closed), rw);
+    arena.execute([&] { own = build->finish(&beyond[size_t(me)]); });
+    times = build->times();
+    piece.Device = build->device(); // after finish: Auto may have fallen back in it
+    build.reset();                  // the device's memory goes back now
+  });
   times.total = msSince(t0);
   piece.RankDevices.assign(static_cast<size_t>(K), -1);
   c->AllGather(&piece.Device, piece.RankDevices.data(), 1);
+  piece.Backend = backendOf(piece.RankDevices);
 
   hdt::Statistics stats;
   reduceStatistics(c, g, own, times, piece, stats);

@@ -8,8 +8,9 @@
 //      are the same everywhere;
 //   2. the root grid is planned into K ranges of whole rows along x, balanced
 //      by T1 pairs (hdt::planRootRanges, align R): +x rays never leave a rank;
-//   3. each rank builds its range (hdt::CpuRangeBuild), the ranks exchange the
-//      per-line boundary parities (AllGatherV), each finishes its range;
+//   3. each rank builds its range (hdt::makeRangeBuild: the CPU or the CUDA
+//      driver), the ranks exchange the per-line boundary parities
+//      (AllGatherV), each finishes its range;
 //   4. neighbouring ranks send each other the trees of the root cells next to
 //      their range (the halo: R^2 cells each side), so the voxel surface of a
 //      rank's cells sees its true neighbours.
@@ -21,9 +22,10 @@
 // RankTimes (K x 5: mapping, branching, leaf, classify, total ms) and
 // RankDevices (K: each rank's CUDA device, -1 for the CPU) describe the split. The writer gathers the ranks' trees into one volume on rank 0.
 //
-// With a GPU (Backend CUDA, or Auto with a usable device) a rank builds on
-// device (local rank mod device count); the CUDA driver has no range build
-// yet, so such a rank builds the whole volume and keeps its range of it.
+// With a GPU (Backend CUDA, or Auto with a usable device) a rank builds its
+// range only on device (local rank mod device count); Auto falls back to the
+// CPU per rank where there is no usable device or the CUDA driver fails, and
+// RankDevices says what ran where (Backend: "cpu", "cuda" or "cuda+cpu").
 //
 // Internal to HDT::Filters and HDT::Readers (MPI stays out of the core).
 #pragma once
@@ -52,7 +54,7 @@ struct vtkHDTDistributedPiece
   std::vector<hdt::RootRange> Ranges;        // every rank's root cells
   hdt::RootRange Cells;                      // this rank's
   std::vector<hdt::PhaseTimes> RankTimes;    // every rank's build times
-  std::string Backend;                       // what ran on the ranks ("cpu", "cuda": all alike)
+  std::string Backend;                       // what ran on the ranks ("cpu", "cuda", "cuda+cpu")
   int Device = -1;                           // this rank's CUDA device, -1 for the CPU
   std::vector<int> RankDevices;              // every rank's
 };

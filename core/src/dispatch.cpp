@@ -2,6 +2,10 @@
 #include "hdt/builder.hpp"
 
 #include "hdt/error.hpp"
+#include "hdt/root_ranges.hpp"
+
+#include <memory>
+#include <utility>
 
 namespace hdt {
 
@@ -16,6 +20,10 @@ Volume buildCuda(const PreparedMesh&, const BuildOptions&) {
               "backend cuda requested but this build has no CUDA driver (HDT_ENABLE_CUDA=OFF)");
 }
 void prepareCuda(const BuildConfig&, const BuildOptions&) {}
+std::unique_ptr<RootRangeBuild> makeCudaRangeBuild(const PreparedMesh&, const BuildOptions&, RootRange) {
+  throw Error(ErrorKind::InvalidArgument,
+              "backend cuda requested but this build has no CUDA driver (HDT_ENABLE_CUDA=OFF)");
+}
 #endif
 
 Volume build(const PreparedMesh& mesh, const BuildOptions& options) {
@@ -37,6 +45,76 @@ Volume build(const PreparedMesh& mesh, const BuildOptions& options) {
                                  "); falling back to the CPU driver");
     return buildCpu(mesh, options);
   }
+}
+
+namespace {
+
+// Auto on a range: the CUDA driver, and the CPU driver from the start of the
+// failed stage when it fails (both drivers give the same boundary parities,
+// so the other ranges of the build never notice).
+class FallbackRangeBuild final : public RootRangeBuild {
+public:
+  FallbackRangeBuild(const PreparedMesh& mesh, const BuildOptions& options, RootRange cells)
+      : mesh_(mesh), options_(options), cells_(cells) {
+    try {
+      build_ = makeCudaRangeBuild(mesh, options, cells);
+    } catch (const Error& e) {
+      fallBack(e);
+    }
+  }
+  const RangeBoundary& buildTree() override {
+    try {
+      return build_->buildTree();
+    } catch (const Error& e) {
+      if (!build_ || std::string(build_->backend()) == "cpu") throw;
+      fallBack(e);
+      return build_->buildTree();
+    }
+  }
+  RangeTree finish(const RangeBoundary* beyond) override {
+    try {
+      return build_->finish(beyond);
+    } catch (const Error& e) {
+      if (std::string(build_->backend()) == "cpu") throw;
+      fallBack(e);
+      build_->buildTree();
+      return build_->finish(beyond);
+    }
+  }
+  const PhaseTimes& times() const override { return build_->times(); }
+  const char* backend() const override { return build_->backend(); }
+  int device() const override { return build_->device(); }
+
+private:
+  void fallBack(const Error& e) {
+    if (e.kind() == ErrorKind::Aborted) throw e;
+    if (options_.log) options_.log(std::string("backend auto: CUDA driver unavailable or failed (") + e.what() +
+                                   "); this range is built by the CPU driver");
+    build_.reset(); // releases the device before the CPU build
+    build_.reset(new CpuRangeBuild(mesh_, options_, cells_));
+  }
+
+  const PreparedMesh& mesh_;
+  const BuildOptions options_;
+  const RootRange cells_;
+  std::unique_ptr<RootRangeBuild> build_;
+};
+
+} // namespace
+
+std::unique_ptr<RootRangeBuild> makeRangeBuild(const PreparedMesh& mesh, const BuildOptions& options,
+                                               RootRange cells) {
+  switch (options.backend) {
+  case Backend::Cpu: return std::unique_ptr<RootRangeBuild>(new CpuRangeBuild(mesh, options, cells));
+  case Backend::Cuda: return makeCudaRangeBuild(mesh, options, cells);
+  case Backend::Auto: break;
+  }
+  std::string why;
+  if (!cudaAvailable(&why)) {
+    if (options.log) options.log("backend auto: using the CPU driver for this range (" + why + ")");
+    return std::unique_ptr<RootRangeBuild>(new CpuRangeBuild(mesh, options, cells));
+  }
+  return std::unique_ptr<RootRangeBuild>(new FallbackRangeBuild(mesh, options, cells));
 }
 
 Volume voxelize(const TriangleMesh& mesh, const BuildConfig& config, const BuildOptions& options) {

@@ -178,6 +178,47 @@ Volume joinRanges(const GridSpec& g, std::vector<RangeTree>&& ranges, LeafWordVe
   return v;
 }
 
+RangeTree joinRangeTrees(std::vector<RangeTree>&& ranges, LeafWordVector&& leafWords) {
+  if (ranges.empty()) throw Error(ErrorKind::InvalidArgument, "joinRangeTrees: no ranges");
+  const bool placed = !leafWords.empty();
+  if (ranges.size() == 1) {
+    RangeTree out = std::move(ranges[0]);
+    if (placed) out.leafWords = std::move(leafWords);
+    return out;
+  }
+  const size_t levels = ranges.front().levels.size();
+  RangeTree out;
+  out.cells = RootRange{ranges.front().cells.first, ranges.back().cells.end};
+  out.levels.resize(levels);
+  if (placed) out.leafWords = std::move(leafWords);
+  uint64_t leafBase = 0, cellsSoFar = 0;
+  std::vector<uint64_t> base(levels + 1, 0); // earlier ranges' elements per level
+  for (size_t r = 0; r < ranges.size(); ++r) {
+    RangeTree& t = ranges[r];
+    if (t.levels.size() != levels) throw Error(ErrorKind::InvalidArgument, "joinRangeTrees: levels differ");
+    if (t.cells.first != out.cells.first + cellsSoFar)
+      throw Error(ErrorKind::InvalidArgument, "joinRangeTrees: the ranges are not contiguous");
+    cellsSoFar += t.cells.size();
+    for (size_t k = 0; k < levels; ++k) {
+      std::vector<ElementWord>& words = out.levels[k];
+      for (const ElementWord w : t.levels[k]) {
+        switch (elementState(w)) {
+        case ElementState::Branch: words.push_back(makeElement(ElementState::Branch, uint32_t(elementPayload(w) + base[k + 1]))); break;
+        case ElementState::Boundary: words.push_back(makeElement(ElementState::Boundary, uint32_t(elementPayload(w) + leafBase))); break;
+        default: words.push_back(w);
+        }
+      }
+    }
+    for (size_t k = 0; k < levels; ++k) base[k] += t.levels[k].size();
+    const uint64_t leaves = t.leafCoord.size();
+    leafBase += leaves;
+    out.leafCoord.insert(out.leafCoord.end(), t.leafCoord.begin(), t.leafCoord.end());
+    if (!placed) out.leafWords.insert(out.leafWords.end(), t.leafWords.begin(), t.leafWords.end());
+    t = RangeTree();
+  }
+  return out;
+}
+
 // ---- lines of leaves ------------------------------------------------------------------
 
 RangeLines lineParity(const GridSpec& g, const std::vector<uint64_t>& leafCoord, int axis, uint32_t* parity,

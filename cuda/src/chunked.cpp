@@ -5,6 +5,7 @@
 #include "hdt/error.hpp"
 #include "hdt/root_ranges.hpp"
 
+#include <chrono>
 #include <deque>
 #include <string>
 
@@ -21,14 +22,12 @@ uint64_t mib(uint64_t bytes) { return (bytes + (uint64_t(1) << 20) - 1) >> 20; }
                   std::to_string(mib(available)) + " MiB available; lower the resolution or raise the budget");
 }
 
-// The T1 load of every root cell, from one T1 run on the device.
-std::vector<CellLoad> deviceCellLoads(Session& s) {
-  const GridSpec& g = s.grid;
-  const uint64_t cells = uint64_t(g.rootGrid) * g.rootGrid * g.rootGrid;
+// The T1 load of every root cell of `cells`, from one T1 run on the device.
+std::vector<CellLoad> deviceCellLoads(Session& s, RootRange cells) {
   std::vector<uint32_t> cellOf, triOf;
   s.clock.start();
   {
-    RootMapping root = mapTrianglesToRootCells(s.memory, s.scalars, s.deviceMesh, g, 0, cells, false);
+    RootMapping root = mapTrianglesToRootCells(s.memory, s.scalars, s.deviceMesh, s.grid, cells.first, cells.end, false);
     cellOf.resize(root.pairs.count);
     triOf.resize(root.pairs.count);
     if (root.pairs.count) {
@@ -41,15 +40,20 @@ std::vector<CellLoad> deviceCellLoads(Session& s) {
     s.sync();
   }
   s.clock.collect(s.ms);
-  return cellLoads(s.mesh, cellOf.data(), triOf.data(), cellOf.size());
+  std::vector<CellLoad> loads = cellLoads(s.mesh, cellOf.data(), triOf.data(), cellOf.size());
+  for (CellLoad& l : loads) l.cell += cells.first; // T1 numbers the cells from the range's first
+  return loads;
 }
 
-// Greedy: contiguous cell ranges whose estimates fit next to the fixed part.
-std::vector<RootRange> planChunks(const Session& s, const std::vector<CellLoad>& loads, uint64_t cells) {
+// Greedy: contiguous cell ranges of `cells` whose estimates fit next to the
+// fixed part (`loads` not empty).
+std::vector<RootRange> planChunks(const Session& s, const std::vector<CellLoad>& loads, RootRange cells) {
   const uint64_t fixed = fixedBytes(s.mesh) + (uint64_t(4) << 20);
   const uint64_t avail = s.memory.budget() > fixed ? s.memory.budget() - fixed : 0;
-  return planRootRangesWithin(
-      loads, cells, [&s](const CellLoad& c) { return estimateBytes(s.mesh, c.area, c.pairs, 1); }, avail);
+  std::vector<RootRange> chunks = planRootRangesWithin(
+      loads, cells.end, [&s](const CellLoad& c) { return estimateBytes(s.mesh, c.area, c.pairs, 1); }, avail);
+  chunks.front().first = cells.first; // every chunk starts at a loaded cell but the first
+  return chunks;
 }
 
 // A chunk's phase-A result as the range's piece of the tree.
@@ -61,26 +65,18 @@ RangeTree rangeTreeOf(const RootRange& cells, ChunkTree& t) {
   return r;
 }
 
-// The host half of classification (root_ranges.hpp): per chunk the lines
-// and their exit parity (in place in t.parity), stitched with the parity
-// beyond the chunk, and the chunk's uniform elements.
-void classifyOnHost(const GridSpec& g, int axes, std::vector<ChunkTree>& trees, std::vector<RangeTree>& ranges) {
-  const int rw = rowWordsFor(g.leafSize);
-  std::vector<std::vector<RangeLines>> lines(trees.size());
-  std::vector<RangeBoundary> boundary(trees.size());
-  for (size_t c = 0; c < trees.size(); ++c)
-    for (int a = 0; a < axes; ++a)
-      lines[c].push_back(lineParity(g, ranges[c].leafCoord, a, trees[c].parity[a].data(), &boundary[c].axis[a]));
-  const std::vector<RangeBoundary> beyond = parityBeyondRanges(boundary, axes, rw);
-  for (size_t c = 0; c < trees.size(); ++c) {
-    const RangeLines* l[3] = {nullptr, nullptr, nullptr};
-    for (int a = 0; a < axes; ++a) {
-      stitchLineParity(lines[c][a], beyond[c].axis[a], trees[c].parity[a].data(), rw);
-      l[a] = &lines[c][a];
-    }
-    classifyUniformElements(g, ranges[c], axes, l, &beyond[c]);
-    lines[c].clear();
-  }
+// The phase-A result of cells without triangles: Empty root cells, no
+// leaves (the uniform elements classify them), no device work.
+ChunkTree emptyChunkTree(const GridSpec& g, RootRange cells) {
+  ChunkTree t;
+  t.levelWords.resize(size_t(g.height) + 1);
+  t.levelWords[0].assign(cells.size(), makeElement(ElementState::Empty, 0));
+  return t;
+}
+
+using HostClock = std::chrono::steady_clock;
+double msSince(HostClock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(HostClock::now() - t0).count();
 }
 
 } // namespace
@@ -116,49 +112,94 @@ uint64_t estimateBytes(const PreparedMesh& mesh, double area, uint64_t rootPairs
   return uint64_t(1.25 * bytes);
 }
 
-Volume buildChunked(Session& s, CudaBuildReport& report) {
-  const GridSpec& g = s.grid;
-  const uint64_t cells = uint64_t(g.rootGrid) * g.rootGrid * g.rootGrid;
-  const bool solid = !s.mesh.surfaceOnly;
-  const int axes = classifiedAxes(s.mesh.closed);
-  const size_t rowWords = size_t(rowWordsFor(g.leafSize));
-  const uint32_t wordsPerLeaf = leafWordCount(g.leafSize);
-
+void ChunkedRange::planAndBuildTrees() {
+  const GridSpec& g = s_.grid;
+  const std::vector<CellLoad> loads = s_.mesh.triangles.empty() ? std::vector<CellLoad>() : deviceCellLoads(s_, cells_);
+  if (loads.empty()) { // also an empty range: one chunk, no device work
+    done_.push_back(cells_);
+    trees_.push_back(emptyChunkTree(g, cells_));
+    return;
+  }
   // Phase A, chunk by chunk, splitting what does not fit.
   std::deque<RootRange> todo;
-  for (const RootRange& c : planChunks(s, deviceCellLoads(s), cells)) todo.push_back(c);
-  std::vector<RootRange> done;
-  std::vector<ChunkTree> trees;
+  for (const RootRange& c : planChunks(s_, loads, cells_)) todo.push_back(c);
   while (!todo.empty()) {
     const RootRange c = todo.front();
     todo.pop_front();
     try {
-      trees.push_back(buildChunkTree(s, c.first, c.end));
-      done.push_back(c);
-      s.progress(0.1 + 0.5 * double(c.end) / double(cells), "branching");
+      trees_.push_back(buildChunkTree(s_, c.first, c.end));
+      done_.push_back(c);
+      s_.progress(0.1 + 0.5 * double(c.end - cells_.first) / double(cells_.size()), "branching");
     } catch (const DeviceMemoryExhausted& e) {
-      s.sync();
-      s.clock.collect(s.ms);
-      if (c.size() == 1) tooLarge(s, c.first, e.neededBytes(), s.memory.budget());
+      s_.sync();
+      s_.clock.collect(s_.ms);
+      if (c.size() == 1) tooLarge(s_, c.first, e.neededBytes(), s_.memory.budget());
       const auto halves = splitRootRange(c);
       todo.push_front(halves.second);
       todo.push_front(halves.first);
     }
   }
-  report.chunks = int(done.size());
-  std::vector<RangeTree> ranges;
-  for (size_t c = 0; c < done.size(); ++c) ranges.push_back(rangeTreeOf(done[c], trees[c]));
-  checkJoinedElementLimit(g, ranges);
-  if (solid) classifyOnHost(g, axes, trees, ranges);
-  s.progress(0.7, "leaf processing");
+}
+
+const RangeBoundary& ChunkedRange::buildTree() {
+  const GridSpec& g = s_.grid;
+  planAndBuildTrees();
+  chunks_ = int(done_.size());
+  for (size_t c = 0; c < done_.size(); ++c) pieces_.push_back(rangeTreeOf(done_[c], trees_[c]));
+  checkJoinedElementLimit(g, pieces_);
+  if (s_.mesh.surfaceOnly) return boundary_;
+  // The host half of classification (root_ranges.hpp), first part: per
+  // chunk the lines and their exit parity within the chunk (in place in
+  // trees_[c].parity), and the chunks' boundary parities.
+  const auto t0 = HostClock::now();
+  const int axes = classifiedAxes(s_.mesh.closed), rw = rowWordsFor(g.leafSize);
+  lines_.resize(done_.size());
+  chunkBoundary_.resize(done_.size());
+  for (size_t c = 0; c < done_.size(); ++c)
+    for (int a = 0; a < axes; ++a)
+      lines_[c].push_back(lineParity(g, pieces_[c].leafCoord, a, trees_[c].parity[a].data(), &chunkBoundary_[c].axis[a]));
+  // The range's: the XOR of all its chunks' (the parity beyond a range
+  // before them).
+  std::vector<RangeBoundary> withHead(1);
+  withHead.insert(withHead.end(), chunkBoundary_.begin(), chunkBoundary_.end());
+  boundary_ = parityBeyondRanges(withHead, axes, rw)[0];
+  hostMs_ += msSince(t0);
+  return boundary_;
+}
+
+std::vector<RangeTree> ChunkedRange::finish(const RangeBoundary* beyond, LeafWordVector& leafWords) {
+  const GridSpec& g = s_.grid;
+  const bool solid = !s_.mesh.surfaceOnly;
+  const int axes = classifiedAxes(s_.mesh.closed);
+  const size_t rowWords = size_t(rowWordsFor(g.leafSize));
+  const uint32_t wordsPerLeaf = leafWordCount(g.leafSize);
+  if (solid) {
+    // Second part: each chunk's lines stitched with the parity beyond it
+    // (the later chunks' boundaries and what lies beyond the range), and its
+    // uniform elements.
+    const auto t0 = HostClock::now();
+    std::vector<RangeBoundary> boundaries = chunkBoundary_;
+    if (beyond) boundaries.push_back(*beyond);
+    const std::vector<RangeBoundary> beyondChunk = parityBeyondRanges(boundaries, axes, int(rowWords));
+    for (size_t c = 0; c < done_.size(); ++c) {
+      const RangeLines* l[3] = {nullptr, nullptr, nullptr};
+      for (int a = 0; a < axes; ++a) {
+        stitchLineParity(lines_[c][a], beyondChunk[c].axis[a], trees_[c].parity[a].data(), int(rowWords));
+        l[a] = &lines_[c][a];
+      }
+      classifyUniformElements(g, pieces_[c], axes, l, &beyondChunk[c]);
+      lines_[c].clear();
+    }
+    hostMs_ += msSince(t0);
+  }
+  s_.progress(0.7, "leaf processing");
 
   // Phase B: leaf grids per chunk, copied straight to their place in the
   // joined order (the only host copy of the leaf grids; LeafWordVector's
   // resize touches no page before that); a chunk that does not fit after all
   // is split.
-  std::vector<uint64_t> leafStart(done.size() + 1, 0);
-  for (size_t c = 0; c < done.size(); ++c) leafStart[c + 1] = leafStart[c] + ranges[c].leafCoord.size();
-  LeafWordVector leafWords;
+  std::vector<uint64_t> leafStart(done_.size() + 1, 0);
+  for (size_t c = 0; c < done_.size(); ++c) leafStart[c + 1] = leafStart[c] + pieces_[c].leafCoord.size();
   leafWords.resize(leafStart.back() * wordsPerLeaf);
   const uint64_t leavesPerRoot = uint64_t(g.rootCellVoxels() / g.leafSize);
   struct Piece {
@@ -167,35 +208,48 @@ Volume buildChunked(Session& s, CudaBuildReport& report) {
     uint64_t firstLeaf, endLeaf; // within the chunk
   };
   auto rootOfLeaf = [&](const Piece& p, uint64_t leaf) {
-    const uint64_t c = ranges[p.chunk].leafCoord[leaf];
+    const uint64_t c = pieces_[p.chunk].leafCoord[leaf];
     return unpackCoord(c, 0) / leavesPerRoot +
            uint64_t(g.rootGrid) * (unpackCoord(c, 1) / leavesPerRoot + uint64_t(g.rootGrid) * (unpackCoord(c, 2) / leavesPerRoot));
   };
-  std::deque<Piece> pieces;
-  for (size_t c = 0; c < done.size(); ++c) pieces.push_back(Piece{c, done[c], 0, ranges[c].leafCoord.size()});
-  while (!pieces.empty()) {
-    const Piece p = pieces.front();
-    pieces.pop_front();
+  std::deque<Piece> todo;
+  for (size_t c = 0; c < done_.size(); ++c)
+    if (!pieces_[c].leafCoord.empty()) todo.push_back(Piece{c, done_[c], 0, pieces_[c].leafCoord.size()});
+  while (!todo.empty()) {
+    const Piece p = todo.front();
+    todo.pop_front();
     try {
       const uint32_t* exitParity[3] = {nullptr, nullptr, nullptr};
-      for (int a = 0; solid && a < axes; ++a) exitParity[a] = trees[p.chunk].parity[a].data() + p.firstLeaf * rowWords;
-      buildChunkLeaves(s, p.cells.first, p.cells.end, uint32_t(p.endLeaf - p.firstLeaf), exitParity,
+      for (int a = 0; solid && a < axes; ++a) exitParity[a] = trees_[p.chunk].parity[a].data() + p.firstLeaf * rowWords;
+      buildChunkLeaves(s_, p.cells.first, p.cells.end, uint32_t(p.endLeaf - p.firstLeaf), exitParity,
                        leafWords.data() + (leafStart[p.chunk] + p.firstLeaf) * wordsPerLeaf);
-      s.progress(0.7 + 0.3 * double(p.cells.end) / double(cells), solid ? "classification" : "leaf processing");
+      s_.progress(0.7 + 0.3 * double(p.cells.end - cells_.first) / double(cells_.size()),
+                  solid ? "classification" : "leaf processing");
     } catch (const DeviceMemoryExhausted& e) {
-      s.sync();
-      s.clock.collect(s.ms);
-      if (p.cells.size() == 1) tooLarge(s, p.cells.first, e.neededBytes(), s.memory.budget());
+      s_.sync();
+      s_.clock.collect(s_.ms);
+      if (p.cells.size() == 1) tooLarge(s_, p.cells.first, e.neededBytes(), s_.memory.budget());
       const auto halves = splitRootRange(p.cells);
       uint64_t mid = p.firstLeaf; // leaves are grouped by root cell, in root order
       while (mid < p.endLeaf && rootOfLeaf(p, mid) < halves.second.first) ++mid;
-      pieces.push_front(Piece{p.chunk, halves.second, mid, p.endLeaf});
-      pieces.push_front(Piece{p.chunk, halves.first, p.firstLeaf, mid});
-      ++report.chunks;
+      todo.push_front(Piece{p.chunk, halves.second, mid, p.endLeaf});
+      todo.push_front(Piece{p.chunk, halves.first, p.firstLeaf, mid});
+      ++chunks_;
     }
   }
-  trees.clear();
-  Volume v = joinRanges(g, std::move(ranges), std::move(leafWords));
+  trees_.clear();
+  return std::move(pieces_);
+}
+
+Volume buildChunked(Session& s, CudaBuildReport& report) {
+  const GridSpec& g = s.grid;
+  const uint64_t cells = uint64_t(g.rootGrid) * g.rootGrid * g.rootGrid;
+  ChunkedRange range(s, RootRange{0, cells});
+  range.buildTree();
+  LeafWordVector leafWords;
+  std::vector<RangeTree> pieces = range.finish(nullptr, leafWords);
+  report.chunks = range.chunks();
+  Volume v = joinRanges(g, std::move(pieces), std::move(leafWords));
   v.surfaceOnly = s.mesh.surfaceOnly;
   v.closedMesh = s.mesh.closed;
   return v;

@@ -43,19 +43,7 @@ Volume build(const PreparedMesh& mesh, const BuildOptions& options, CudaBuildRep
   report.budgetBytes = s.memory.budget();
   s.progress(0.0, "mapping");
 
-  s.clock.start();
-  const uint32_t triangleCount = uint32_t(mesh.triangles.size());
-  try {
-    s.triangles = DeviceBuffer<LatticeTriangle>(s.memory, triangleCount);
-  } catch (const DeviceMemoryExhausted& e) {
-    throw Error(ErrorKind::OutOfResources, "the mesh needs " + std::to_string(mib(e.neededBytes())) +
-                                               " MiB of device memory for its triangles, " +
-                                               std::to_string(mib(s.memory.budget())) + " MiB available");
-  }
-  HDT_CUDA_CHECK(cudaMemcpyAsync(s.triangles.data(), mesh.triangles.data(), s.triangles.bytes(),
-                                 cudaMemcpyHostToDevice, s.stream.get()));
-  s.clock.mark(kUpload);
-  s.deviceMesh = DeviceMesh{s.triangles.data(), triangleCount};
+  uploadTriangles(s);
 
   Volume v;
   bool whole = false;

@@ -112,6 +112,23 @@ Session::Session(const PreparedMesh& m, const BuildOptions& o)
   deviceName = nameOf(device);
 }
 
+void uploadTriangles(Session& s) {
+  s.clock.start();
+  const uint32_t triangleCount = uint32_t(s.mesh.triangles.size());
+  try {
+    s.triangles = DeviceBuffer<LatticeTriangle>(s.memory, triangleCount);
+  } catch (const DeviceMemoryExhausted& e) {
+    const auto mib = [](uint64_t bytes) { return std::to_string((bytes + (uint64_t(1) << 20) - 1) >> 20); };
+    throw Error(ErrorKind::OutOfResources, "the mesh needs " + mib(e.neededBytes()) +
+                                               " MiB of device memory for its triangles, " + mib(s.memory.budget()) +
+                                               " MiB available");
+  }
+  HDT_CUDA_CHECK(cudaMemcpyAsync(s.triangles.data(), s.mesh.triangles.data(), s.triangles.bytes(),
+                                 cudaMemcpyHostToDevice, s.stream.get()));
+  s.clock.mark(kUpload);
+  s.deviceMesh = DeviceMesh{s.triangles.data(), triangleCount};
+}
+
 void Session::progress(double fraction, const char* phase) const {
   if (options.progress && !options.progress(fraction, phase)) {
     throw Error(ErrorKind::Aborted, std::string("build aborted during ") + phase);

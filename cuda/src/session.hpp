@@ -86,6 +86,10 @@ struct Session {
   uint64_t copyBackBytes = 0;
 };
 
+// The mesh's triangles to the device (s.triangles, s.deviceMesh), timed as
+// the upload; Error(OutOfResources) when they do not fit.
+void uploadTriangles(Session& s);
+
 // The budget: BuildOptions::deviceMemoryBudget (0: no limit) capped by what
 // the device can give right now.
 uint64_t deviceBudget(int device, uint64_t requested);

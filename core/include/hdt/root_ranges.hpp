@@ -19,8 +19,9 @@
 //      elements.
 // Nothing else crosses ranges, so ranges can live in different processes:
 // they exchange boundary parities between the stages and send their
-// RangeTree to the join. The CPU driver builds a range (CpuRangeBuild); the
-// CUDA driver's chunked path builds its chunks as ranges.
+// RangeTree to the join. Both drivers build a range in these two stages
+// (RootRangeBuild: CpuRangeBuild, makeCudaRangeBuild; makeRangeBuild picks
+// one by backend); the CUDA driver's chunked path builds its chunks as ranges.
 //
 // Host only; VTK-free and MPI-free.
 #pragma once
@@ -102,6 +103,11 @@ void checkJoinedElementLimit(const GridSpec& grid, const std::vector<RangeTree>&
 // driver that wrote each range's leaves in place); the ranges carry none.
 Volume joinRanges(const GridSpec& grid, std::vector<RangeTree>&& ranges, LeafWordVector&& leafWords = {});
 
+// Contiguous ranges' pieces (in root-cell order, at least one, with their
+// leaf coordinates) as the one piece of the cells they cover together,
+// payloads local to it. `leafWords` as for joinRanges.
+RangeTree joinRangeTrees(std::vector<RangeTree>&& ranges, LeafWordVector&& leafWords = {});
+
 // ---- lines of leaves ---------------------------------------------------------------
 // Per line of leaves along one axis, one parity word set (rowWords words,
 // one bit per leaf row), sorted by line.
@@ -141,20 +147,36 @@ void stitchLineParity(RangeLines& lines, const LineParities& beyond, uint32_t* e
 void classifyUniformElements(const GridSpec& grid, RangeTree& tree, int axes, const RangeLines* const lines[3],
                              const RangeBoundary* beyond);
 
-// ---- the CPU driver on a range ------------------------------------------------------
-class CpuRangeBuild {
+// ---- a driver on a range -----------------------------------------------------------
+// One range built in the two stages; every driver gives the same boundary
+// parities and the same piece (bytes), so the ranges of one build may run on
+// different drivers.
+class RootRangeBuild {
+public:
+  virtual ~RootRangeBuild() = default;
+  // Stage 1: tree, surfaces, pass 1; the range's boundary parities (solid builds).
+  virtual const RangeBoundary& buildTree() = 0;
+  // Stage 2: classification with the parity beyond the range (null: nothing
+  // beyond, as for the whole grid); returns the range's piece.
+  virtual RangeTree finish(const RangeBoundary* beyond) = 0;
+  virtual const PhaseTimes& times() const = 0;
+  // What built it: "cpu" or "cuda", and the CUDA device (-1 for the CPU).
+  virtual const char* backend() const = 0;
+  virtual int device() const = 0;
+};
+
+class CpuRangeBuild final : public RootRangeBuild {
 public:
   CpuRangeBuild(const PreparedMesh& mesh, const BuildOptions& options, RootRange cells);
-  ~CpuRangeBuild();
+  ~CpuRangeBuild() override;
   CpuRangeBuild(const CpuRangeBuild&) = delete;
   CpuRangeBuild& operator=(const CpuRangeBuild&) = delete;
 
-  // Stage 1: tree, surfaces, pass 1; the range's boundary parities (solid builds).
-  const RangeBoundary& buildTree();
-  // Stage 2: classification with the parity beyond the range (null: nothing
-  // beyond, as for the whole grid); returns the range's piece.
-  RangeTree finish(const RangeBoundary* beyond);
-  const PhaseTimes& times() const;
+  const RangeBoundary& buildTree() override;
+  RangeTree finish(const RangeBoundary* beyond) override;
+  const PhaseTimes& times() const override;
+  const char* backend() const override { return "cpu"; }
+  int device() const override { return -1; }
 
 private:
   struct Impl;
@@ -164,5 +186,21 @@ private:
 // The CPU driver over the given ranges (in root-cell order, covering the
 // root grid), all in this process, joined: the same bytes as buildCpu.
 Volume buildCpuRanges(const PreparedMesh& mesh, const BuildOptions& options, const std::vector<RootRange>& ranges);
+
+// The CUDA driver on a range, on options.device: the root cells of the range
+// only (T1, T2, leaves and pass 1 on the device in chunks that fit its
+// memory; lines and uniform elements on the host; pass 2 on the device).
+// Error(InvalidArgument) without a CUDA driver or device, Error(OutOfResources)
+// when a root cell does not fit. Holds the device from construction to
+// destruction.
+std::unique_ptr<RootRangeBuild> makeCudaRangeBuild(const PreparedMesh& mesh, const BuildOptions& options,
+                                                   RootRange cells);
+
+// The range build of options.backend: Cpu, Cuda, or Auto: the CUDA driver on
+// options.device when it is usable, else (or when it fails in either stage,
+// other than by an abort) the CPU driver, logged through options.log.
+// backend()/device() say which ran.
+std::unique_ptr<RootRangeBuild> makeRangeBuild(const PreparedMesh& mesh, const BuildOptions& options,
+                                               RootRange cells);
 
 } // namespace hdt

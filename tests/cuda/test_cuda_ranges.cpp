@@ -1,0 +1,192 @@
+// The CUDA driver on root ranges (makeCudaRangeBuild), as the ranks of a
+// distributed build run it: every range built in its two stages, the
+// boundary parities exchanged between them (parityBeyondRanges), the pieces
+// joined. Whatever the split (1-5 balanced ranges, aligned to rows or not,
+// ranges without triangles, empty ranges, more ranges than rows, a cut
+// inside a row) the joined volume must be the one-piece build's bytes, and
+// each range's boundary parities and piece the CPU driver's for that range
+// (CpuRangeBuild), so ranges of one build may run on different drivers.
+#include "cuda_compare.hpp"
+
+#include "hdt/builder.hpp"
+#include "hdt/error.hpp"
+#include "hdt/mesh.hpp"
+#include "hdt/root_ranges.hpp"
+#include "support/shapes.hpp"
+
+#include <gtest/gtest.h>
+
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace hdt {
+namespace test {
+namespace {
+
+std::string describe(const std::vector<RootRange>& ranges) {
+  std::string s;
+  for (const RootRange& r : ranges) s += "[" + std::to_string(r.first) + "," + std::to_string(r.end) + ")";
+  return s;
+}
+
+std::vector<RootRange> cutAt(std::vector<uint64_t> cuts, uint64_t cells) {
+  std::vector<RootRange> out;
+  uint64_t start = 0;
+  for (uint64_t c : cuts) {
+    out.push_back(RootRange{start, c});
+    start = c;
+  }
+  out.push_back(RootRange{start, cells});
+  return out;
+}
+
+// The splits of the CPU driver's RootRanges tests.
+std::vector<std::vector<RootRange>> splitsOf(const PreparedMesh& mesh) {
+  const uint64_t R = uint64_t(mesh.grid.rootGrid), cells = R * R * R;
+  const std::vector<CellLoad> loads = cellLoads(mesh);
+  std::vector<std::vector<RootRange>> splits;
+  for (int k = 1; k <= 5; ++k) {
+    splits.push_back(planRootRanges(loads, cells, k));
+    splits.push_back(planRootRanges(loads, cells, k, R));
+  }
+  splits.push_back(planRootRanges(loads, cells, int(R * R) + 3, R));
+  splits.push_back(cutAt({1, 2, cells - 1}, cells));
+  splits.push_back(cutAt({0, cells / 3, cells / 3, cells}, cells));
+  splits.push_back(cutAt({cells / 2 + 1}, cells));
+  return splits;
+}
+
+bool sameLines(const LineParities& a, const LineParities& b) { return a.line == b.line && a.words == b.words; }
+
+bool samePiece(const RangeTree& a, const RangeTree& b) {
+  return a.cells == b.cells && a.levels == b.levels && a.leafCoord == b.leafCoord && a.leafWords == b.leafWords;
+}
+
+// What the ranks of a distributed build do, all in this process: the two
+// stages of every range with the boundary exchange between them.
+struct RangesRun {
+  std::vector<RangeBoundary> boundaries;
+  std::vector<RangeTree> pieces;
+  std::vector<std::string> backends;
+};
+
+RangesRun runRanges(const PreparedMesh& mesh, const std::vector<BuildOptions>& options,
+                    const std::vector<RootRange>& ranges) {
+  RangesRun run;
+  std::vector<std::unique_ptr<RootRangeBuild>> builds;
+  for (size_t r = 0; r < ranges.size(); ++r) {
+    builds.push_back(makeRangeBuild(mesh, options[r % options.size()], ranges[r]));
+    run.boundaries.push_back(builds.back()->buildTree());
+  }
+  const std::vector<RangeBoundary> beyond =
+      parityBeyondRanges(run.boundaries, classifiedAxes(mesh.closed), rowWordsFor(mesh.grid.leafSize));
+  for (size_t r = 0; r < ranges.size(); ++r) {
+    run.pieces.push_back(builds[r]->finish(&beyond[r]));
+    run.backends.push_back(builds[r]->backend());
+  }
+  return run;
+}
+
+Volume joined(const PreparedMesh& mesh, std::vector<RangeTree> pieces) {
+  Volume v = joinRanges(mesh.grid, std::move(pieces));
+  computeStructureStatistics(v);
+  return v;
+}
+
+class CudaRangeBuildTest : public ::testing::TestWithParam<ShapeCase> {};
+
+TEST_P(CudaRangeBuildTest, JoinedRangesEqualTheOnePieceBuildAndEachRangeTheCpus) {
+  HDT_REQUIRE_CUDA();
+  const PreparedMesh mesh = prepareShapeCase(GetParam());
+  const Volume whole = build(mesh, cudaOptions());
+  ASSERT_TRUE(sameVolume(whole, build(mesh, cpuOptions())));
+  for (const std::vector<RootRange>& ranges : splitsOf(mesh)) {
+    const RangesRun gpu = runRanges(mesh, {cudaOptions()}, ranges);
+    const RangesRun cpu = runRanges(mesh, {cpuOptions()}, ranges);
+    for (size_t r = 0; r < ranges.size(); ++r) {
+      EXPECT_EQ(gpu.backends[r], "cuda");
+      for (int a = 0; a < 3; ++a)
+        EXPECT_TRUE(sameLines(gpu.boundaries[r].axis[a], cpu.boundaries[r].axis[a]))
+            << "boundary parities of range " << r << " axis " << a << " of " << describe(ranges);
+      EXPECT_TRUE(samePiece(gpu.pieces[r], cpu.pieces[r])) << "range " << r << " of " << describe(ranges);
+    }
+    EXPECT_EQ(firstDifference(whole, joined(mesh, gpu.pieces)), "") << describe(ranges);
+  }
+}
+
+// Ranges alternately on the GPU and the CPU (ranks of one build where some
+// have no device) give the same bytes.
+TEST_P(CudaRangeBuildTest, RangesOnBothDriversGiveTheSameBytes) {
+  HDT_REQUIRE_CUDA();
+  const PreparedMesh mesh = prepareShapeCase(GetParam());
+  const Volume whole = build(mesh, cpuOptions());
+  const uint64_t R = uint64_t(mesh.grid.rootGrid);
+  for (int k : {2, 3, 5}) {
+    const std::vector<RootRange> ranges = planRootRanges(cellLoads(mesh), R * R * R, k, R);
+    const RangesRun run = runRanges(mesh, {cudaOptions(), cpuOptions()}, ranges);
+    EXPECT_EQ(run.backends[0], "cuda");
+    EXPECT_EQ(run.backends[1], "cpu");
+    EXPECT_EQ(firstDifference(whole, joined(mesh, run.pieces)), "") << describe(ranges);
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Cuda, CudaRangeBuildTest,
+                         ::testing::Values(ShapeCase{"sphere", 128, 4, 8, false},
+                                           ShapeCase{"hollow_sphere", 128, 2, 16, false},
+                                           ShapeCase{"open_hemisphere", 128, 4, 8, false},
+                                           ShapeCase{"two_bodies", 128, 4, 8, false},
+                                           ShapeCase{"torus", 128, 4, 8, true},
+                                           ShapeCase{"two_bodies", 512, 8, 16, false}),
+                         [](const ::testing::TestParamInfo<ShapeCase>& info) { return shapeCaseName(info.param); });
+
+// A range larger than the device memory budget is built in chunks inside
+// the range (the parity beyond the range joins the chunks' own).
+TEST(CudaRangeBuild, RangesChunkedByTheBudgetGiveTheSameBytes) {
+  HDT_REQUIRE_CUDA();
+  for (const char* shape : {"sphere", "open_hemisphere"}) {
+    const PreparedMesh mesh = prepareShapeCase(ShapeCase{shape, 512, 16, 16, false});
+    const Volume whole = build(mesh, cudaOptions());
+    BuildOptions small = cudaOptions();
+    small.deviceMemoryBudget = whole.stats.peakDeviceBytes / 3;
+    const uint64_t R = uint64_t(mesh.grid.rootGrid);
+    for (int k : {1, 2, 3}) {
+      const std::vector<RootRange> ranges = planRootRanges(cellLoads(mesh), R * R * R, k, R);
+      const RangesRun run = runRanges(mesh, {small}, ranges);
+      EXPECT_EQ(firstDifference(whole, joined(mesh, run.pieces)), "") << shape << " as " << describe(ranges);
+    }
+  }
+}
+
+// Auto falls back to the CPU driver per range when the CUDA driver cannot
+// build it (here: a budget below one root cell), and says so.
+TEST(CudaRangeBuild, AutoFallsBackToTheCpuPerRange) {
+  HDT_REQUIRE_CUDA();
+  const PreparedMesh mesh = prepareShapeCase(ShapeCase{"sphere", 256, 2, 16, false});
+  const Volume whole = build(mesh, cpuOptions());
+  BuildOptions tiny;
+  tiny.backend = Backend::Auto;
+  tiny.deviceMemoryBudget = 4096; // not even the triangles fit
+  std::vector<std::string> log;
+  tiny.log = [&](const std::string& m) { log.push_back(m); };
+  BuildOptions autoOk;
+  autoOk.backend = Backend::Auto;
+  const std::vector<RootRange> ranges = planRootRanges(cellLoads(mesh), 8, 2, 2);
+  const RangesRun run = runRanges(mesh, {tiny, autoOk}, ranges);
+  EXPECT_EQ(run.backends[0], "cpu");
+  EXPECT_EQ(run.backends[1], "cuda");
+  ASSERT_FALSE(log.empty());
+  EXPECT_NE(log[0].find("CPU driver"), std::string::npos) << log[0];
+  EXPECT_EQ(firstDifference(whole, joined(mesh, run.pieces)), "");
+}
+
+TEST(CudaRangeBuild, CellsOutsideTheRootGridAreRefused) {
+  HDT_REQUIRE_CUDA();
+  const PreparedMesh mesh = prepareShapeCase(ShapeCase{"sphere", 128, 4, 8, false});
+  EXPECT_THROW(makeCudaRangeBuild(mesh, cudaOptions(), RootRange{0, 65}), Error);
+  EXPECT_THROW(makeCudaRangeBuild(mesh, cudaOptions(), RootRange{5, 3}), Error);
+}
+
+} // namespace
+} // namespace test
+} // namespace hdt
