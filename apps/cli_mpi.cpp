@@ -105,6 +105,9 @@ void MpiSession::abort(int code) const {
 
 Volume buildAcrossRanks(const MpiSession& session, const PreparedMesh& mesh, const BuildOptions& options) {
   requireDistributable(mesh);
+  // One rank: nothing to exchange, and the CUDA driver's one-piece path
+  // (classification on the device) beats its range build.
+  if (session.size() == 1) return build(mesh, options);
   const auto t0 = Clock::now();
   const GridSpec& g = mesh.grid;
   const int K = session.size(), me = session.rank();

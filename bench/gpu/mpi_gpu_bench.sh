@@ -4,8 +4,8 @@
 # no speed-up expected on one GPU), against the serial hdt-voxelize on CUDA.
 # Needs a build with CUDA and MPI (cmake -DHDT_ENABLE_CUDA=ON -DHDT_WITH_MPI=ON;
 # Debian: libopenmpi-dev openmpi-bin). Each rank builds on device
-# (local rank mod device count); the CUDA driver has no range build yet, so
-# every rank builds the whole volume and keeps its range (cli_mpi.hpp).
+# (local rank mod device count) and builds its own range of root cells
+# (makeCudaRangeBuild; one rank: the one-piece build).
 # Appends JSON lines to bench/results/mpi-gpu-runs.jsonl and checks every
 # result against the serial file (tests/cli/compare_hdt.py).
 set -euo pipefail
