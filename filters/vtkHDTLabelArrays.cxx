@@ -1,6 +1,6 @@
 // Part labels on a converted vtkHyperTreeGrid: every tree walked with a
 // cursor (trees in parallel), each leaf cell's label histogram read from the
-// HDT, refined cells merging their children's histograms.
+// HDT (hdt::cellLabelHistogram), refined cells merging their children's.
 #include "vtkHDTLabelArrays.h"
 
 #include "hdt/labels.hpp"
@@ -27,108 +27,7 @@
 namespace
 {
 
-// Voxel counts per label (> 0), sorted by label.
-using Histogram = std::vector<std::pair<hdt::Label, uint64_t>>;
-
-void add(Histogram& h, hdt::Label label, uint64_t count)
-{
-  if (label == hdt::kOutsideLabel || count == 0)
-  {
-    return;
-  }
-  auto it = std::lower_bound(h.begin(), h.end(), label,
-    [](const std::pair<hdt::Label, uint64_t>& e, hdt::Label l) { return e.first < l; });
-  if (it != h.end() && it->first == label)
-  {
-    it->second += count;
-  }
-  else
-  {
-    h.insert(it, { label, count });
-  }
-}
-
-hdt::Label majority(const Histogram& h)
-{
-  hdt::Label best = hdt::kOutsideLabel;
-  uint64_t most = 0;
-  for (const auto& entry : h)
-  {
-    if (entry.second > most) // strictly: ties keep the lower label
-    {
-      best = entry.first;
-      most = entry.second;
-    }
-  }
-  return best;
-}
-
 using Box = std::array<int, 3>;
-
-// The labels of the voxels of box [o, o + edge)^3 that lie in Boundary element e.
-void addLeafVoxels(const hdt::Volume& v, const hdt::WalkedElement& e, const Box& o, int edge, Histogram& h)
-{
-  const hdt::LabelField& f = v.labels;
-  const int L = v.grid.leafSize;
-  const uint32_t* words = v.leaf(e.payload());
-  const hdt::Label label = f.elementLabels[e.index];
-  const hdt::Label* mixed = label == hdt::kOutsideLabel
-    ? f.voxelLabels.data() + size_t(f.mixedBlock[e.payload()]) * size_t(L) * L * L
-    : nullptr;
-  Box lo, hi;
-  for (int a = 0; a < 3; ++a)
-  {
-    lo[a] = std::max(o[a], e.origin[a]) - e.origin[a];
-    hi[a] = std::min(o[a] + edge, e.origin[a] + L) - e.origin[a];
-  }
-  uint64_t occupied = 0;
-  for (int z = lo[2]; z < hi[2]; ++z)
-  {
-    for (int y = lo[1]; y < hi[1]; ++y)
-    {
-      for (int x = lo[0]; x < hi[0]; ++x)
-      {
-        const int voxel = x + L * (y + L * z);
-        if (mixed)
-        {
-          add(h, mixed[voxel], 1);
-        }
-        else
-        {
-          occupied += ((words[voxel / hdt::kVoxelsPerWord] >> (2 * (voxel % hdt::kVoxelsPerWord))) & 3u) != 0;
-        }
-      }
-    }
-  }
-  add(h, label, occupied);
-}
-
-// The labels of the voxels of the cell [o, o + edge)^3 of the grid.
-Histogram cellHistogram(const hdt::Volume& v, const Box& o, int edge)
-{
-  Histogram h;
-  const int rootEdge = v.grid.rootCellVoxels();
-  int level = 0;
-  while ((rootEdge >> level) > edge && level < v.grid.height)
-  {
-    ++level;
-  }
-  const hdt::WalkedElement start = hdt::locateElement(v, o[0], o[1], o[2], level);
-  auto visit = [&](const hdt::WalkedElement& e) {
-    if (e.state() == hdt::ElementState::Boundary)
-    {
-      addLeafVoxels(v, e, o, edge, h);
-    }
-    else if (e.state() == hdt::ElementState::Full)
-    {
-      // A uniform element larger than the cell counts only the cell's voxels.
-      const uint64_t side = uint64_t(std::min(edge, e.edge));
-      add(h, v.labels.elementLabels[e.index], side * side * side);
-    }
-  };
-  hdt::walkSubtree(v, start, v.grid.height, visit);
-  return h;
-}
 
 class TreeLabels
 {
@@ -139,12 +38,12 @@ public:
   {
   }
 
-  Histogram Visit(vtkHyperTreeGridNonOrientedCursor* cursor, const Box& o, int edge) const
+  hdt::LabelHistogram Visit(vtkHyperTreeGridNonOrientedCursor* cursor, const Box& o, int edge) const
   {
-    Histogram h;
+    hdt::LabelHistogram h;
     if (cursor->IsLeaf() || edge == 1)
     {
-      h = cellHistogram(this->V, o, edge);
+      h = hdt::cellLabelHistogram(this->V, o[0], o[1], o[2], edge);
     }
     else
     {
@@ -155,12 +54,12 @@ public:
         const Box child = { o[0] + (c & 1) * half, o[1] + ((c >> 1) & 1) * half, o[2] + (c >> 2) * half };
         for (const auto& entry : this->Visit(cursor, child, half))
         {
-          add(h, entry.first, entry.second);
+          hdt::addToHistogram(h, entry.first, entry.second);
         }
         cursor->ToParent();
       }
     }
-    this->Out[cursor->GetGlobalNodeIndex()] = majority(h);
+    this->Out[cursor->GetGlobalNodeIndex()] = hdt::majorityLabel(h);
     return h;
   }
 

@@ -14,7 +14,9 @@
 #include "vtkPolyData.h"
 #include "vtkSMPTools.h"
 #include "vtkTypeInt32Array.h"
+#include "vtkSmartPointer.h"
 #include "vtkUnsignedCharArray.h"
+#include "vtkUnsignedShortArray.h"
 
 #include <chrono>
 #include <limits>
@@ -64,12 +66,24 @@ vtkHDTVoxelSurfaceInfo vtkHDTFillVoxelSurface(const hdt::Volume& volume, int max
   coordinates->SetNumberOfComponents(3);
   vtkNew<vtkUnsignedCharArray> states;
   states->SetName("VoxelState");
+  // Part labels beside the states, named as on the hyper tree grid.
+  vtkSmartPointer<vtkUnsignedShortArray> labels;
+  if (!volume.labels.empty())
+  {
+    labels = vtkSmartPointer<vtkUnsignedShortArray>::New();
+    labels->SetName("Label");
+  }
   vtkIdType quads = 0;
   hdt::extractVoxelSurfaceInto(volume, options, [&](size_t count) {
     quads = vtkIdType(count);
     coordinates->SetNumberOfTuples(4 * quads);
     states->SetNumberOfValues(quads);
-    return hdt::SurfaceBuffers{ coordinates->GetPointer(0), states->GetPointer(0) };
+    if (labels)
+    {
+      labels->SetNumberOfValues(quads);
+    }
+    return hdt::SurfaceBuffers{ coordinates->GetPointer(0), states->GetPointer(0),
+      labels ? labels->GetPointer(0) : nullptr };
   });
   vtkNew<vtkPoints> points;
   points->SetData(coordinates);
@@ -88,6 +102,10 @@ vtkHDTVoxelSurfaceInfo vtkHDTFillVoxelSurface(const hdt::Volume& volume, int max
   output->SetPoints(points);
   output->SetPolys(cells);
   output->GetCellData()->SetScalars(states);
+  if (labels)
+  {
+    output->GetCellData()->AddArray(labels);
+  }
 
   vtkHDTVoxelSurfaceInfo info;
   info.Quads = quads;

@@ -1,6 +1,7 @@
 // The voxel surface of an hdt::Volume (hdt/voxel_surface.hpp) as vtkPolyData:
 // quads with cell data "VoxelState" (1 inside, 2 surface: the state of the
-// occupied cell the face bounds). Shared by vtkHDTVoxelizer and vtkHDTReader
+// occupied cell the face bounds) and, for a labelled volume, "Label"
+// (unsigned short, that cell's part label, as on the hyper tree grid). Shared by vtkHDTVoxelizer and vtkHDTReader
 // (their second output port). Internal to HDT::Filters like the conversion.
 #pragma once
 

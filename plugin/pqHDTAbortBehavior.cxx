@@ -13,7 +13,10 @@
 #include "vtkCommand.h"
 #include "vtkSMProxy.h"
 
+#include <QApplication>
+#include <QDockWidget>
 #include <QEventLoop>
+#include <QToolButton>
 #include <QWidget>
 #include <QWindow>
 #include <QThread>
@@ -33,6 +36,13 @@ pqProgressManager* progressManager()
 {
   pqApplicationCore* core = pqApplicationCore::instance();
   return core ? core->getProgressManager() : nullptr;
+}
+
+// The status bar's Abort button (pqProgressWidget names it "AbortButton").
+QToolButton* abortButton()
+{
+  QWidget* mainWindow = pqCoreUtilities::mainWidget();
+  return mainWindow ? mainWindow->findChild<QToolButton*>(QStringLiteral("AbortButton")) : nullptr;
 }
 } // namespace
 
@@ -155,6 +165,38 @@ void pqHDTAbortBehavior::onAlgorithmProgress(vtkObject* caller, unsigned long, v
       this->letClicksReachTheButton(progress);
       progress->setEnableAbort(true);
     }
+    uncoverAbortButton();
+  }
+}
+
+//-----------------------------------------------------------------------------
+// On any warning or error ParaView 5.11 pops its Output Messages dock up as a
+// floating window over the bottom centre of the main window
+// (ParaViewMainWindow::handleMessage), that is over the status bar: on a
+// 1152-pixel wide window it covers the Abort button, and every click on the
+// button then lands on that window instead (a warning before or during a
+// build was enough for a whole build's clicks to be lost). Floating docks
+// that overlap the button are moved up just clear of it; nothing else changes.
+void pqHDTAbortBehavior::uncoverAbortButton()
+{
+  QToolButton* button = abortButton();
+  if (!button || !button->isVisible())
+  {
+    return;
+  }
+  const QRect target(button->mapToGlobal(QPoint(0, 0)), button->size());
+  for (QWidget* window : QApplication::topLevelWidgets())
+  {
+    auto* dock = qobject_cast<QDockWidget*>(window);
+    if (!dock || !dock->isVisible() || !dock->isFloating())
+    {
+      continue;
+    }
+    const QRect frame = dock->frameGeometry();
+    if (frame.intersects(target))
+    {
+      dock->move(frame.left(), frame.top() - (frame.bottom() - target.top() + 1));
+    }
   }
 }
 
@@ -193,6 +235,8 @@ void pqHDTAbortBehavior::onProgress(const QString&, int value)
   {
     return;
   }
+  // A warning during the build may have popped a window over the button.
+  uncoverAbortButton();
   // Input and paint events only: no timers, so nothing timer-driven (a view's
   // deferred render, the Welcome dialog of a fresh start, a pending script
   // step) starts inside the build.

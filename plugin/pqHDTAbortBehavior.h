@@ -17,6 +17,10 @@
 //    from the X server reaches that QWindow first, and the filter would drop
 //    it there (a click sent straight to the button widget, as QTest does,
 //    passes without it; a real one did not);
+//  - floating docks over the button are moved up, clear of it: on any warning
+//    ParaView pops its Output Messages dock up over the bottom centre of the
+//    main window, status bar included, and every click on the button then
+//    landed on that window (the lost clicks of the intermittent GUI test);
 //  - each progress report of such a build lets Qt process pending events
 //    (at most every 0.1 s, the progress handler's rate). pqProgressManager's
 //    event filter still swallows key presses and mouse presses on everything
@@ -70,6 +74,7 @@ private:
   void onAlgorithmProgress(vtkObject* caller, unsigned long event, void* data);
   void onAlgorithmEnd(vtkObject* caller, unsigned long event, void* data);
   static void letClicksReachTheButton(pqProgressManager* progress);
+  static void uncoverAbortButton();
 
   // The algorithm of each watched source and the ids of our observers on it.
   struct Watch

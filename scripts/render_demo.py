@@ -48,6 +48,9 @@ def parse_args():
     p.add_argument("--cut-axis", choices="xyz", help="--cutaway: the axis the cut crosses "
                    "(default: the one the camera mostly looks along)")
     p.add_argument("--edges", action="store_true", help="draw the cell edges")
+    p.add_argument("--color-by", choices=("VoxelState", "Label"), default="VoxelState",
+                   help="cell array to colour by: VoxelState, or Label for a labelled volume "
+                   "(categorical, named after the parts by the plugin)")
     p.add_argument("--view", default="1,-1.6,0.9", help="view direction from the focal point, x,y,z")
     p.add_argument("--up", default="0,0,1", help="view up, x,y,z")
     p.add_argument("--plugin", help="path of HDTVoxelizer.so")
@@ -142,17 +145,19 @@ def main():
     view.KeyLightIntensity = 0.85
     view.FillLightKFRatio = 5.0
 
-    lut = simple.GetColorTransferFunction("VoxelState")
-    lut.InterpretValuesAsCategories = 1
-    lut.Annotations = sum(([str(s), STATE_NAMES[s]] for s in (1, 2)), [])
-    lut.IndexedColors = sum((list(STATE_COLOURS[s]) for s in (1, 2)), [])
+    lut = simple.GetColorTransferFunction(args.color_by)
+    if args.color_by == "VoxelState":
+        lut.InterpretValuesAsCategories = 1
+        lut.Annotations = sum(([str(s), STATE_NAMES[s]] for s in (1, 2)), [])
+        lut.IndexedColors = sum((list(STATE_COLOURS[s]) for s in (1, 2)), [])
 
     def show(proxy):
         display = simple.Show(proxy, view)
         display.Representation = "Surface With Edges" if args.edges else "Surface"
         display.EdgeColor = [0.1, 0.1, 0.1]
-        simple.ColorBy(display, ("CELLS", "VoxelState"))
-        display.LookupTable = lut
+        simple.ColorBy(display, ("CELLS", args.color_by))  # Label: the plugin names the colours
+        if args.color_by == "VoxelState":
+            display.LookupTable = lut
         display.Ambient = 0.15
         display.Diffuse = 0.9
         display.Specular = 0.15
@@ -188,11 +193,12 @@ def main():
         simple.Hide(surface, view)
         display = show(clip)
 
-    display.SetScalarBarVisibility(view, True)
-    bar = simple.GetScalarBar(lut, view)
-    bar.Title = "VoxelState"
-    bar.ComponentTitle = ""
-    bar.TitleColor = bar.LabelColor = [0.1, 0.1, 0.1]
+    if args.color_by == "VoxelState":  # (a bar of many part names says little)
+        display.SetScalarBarVisibility(view, True)
+        bar = simple.GetScalarBar(lut, view)
+        bar.Title = "VoxelState"
+        bar.ComponentTitle = ""
+        bar.TitleColor = bar.LabelColor = [0.1, 0.1, 0.1]
 
     os.makedirs(os.path.dirname(os.path.abspath(args.png)), exist_ok=True)
     simple.SaveScreenshot(args.png, view, ImageResolution=[width, height])

@@ -2,9 +2,11 @@
 // export: the merged quads, rasterized back to cell faces, must be exactly the
 // faces between an occupied and an unoccupied cell of the dense volume
 // coarsened by the same rule (largest state of each c^3 block), each once and
-// with the state of its occupied cell.
+// with the state of its occupied cell and, for labelled volumes, the label of
+// that cell (majority of its voxels' labels in the dense label export).
 #include "hdt/builder.hpp"
 #include "hdt/dense.hpp"
+#include "hdt/labels.hpp"
 #include "hdt/volume_walk.hpp"
 #include "hdt/voxel_surface.hpp"
 #include "support/shapes.hpp"
@@ -13,6 +15,7 @@
 #include <tbb/global_control.h>
 
 #include <algorithm>
+#include <map>
 #include <random>
 #include <sstream>
 
@@ -21,11 +24,42 @@ namespace test {
 namespace {
 
 // A unit face (axis, outward, plane, u, v in cells of edge c) packed in a
-// key, with its state; sorted by key.
+// key, with its state and label (faceValue); sorted by key.
 using FaceMap = std::vector<std::pair<uint64_t, int>>;
 uint64_t faceKey(int axis, int outward, int plane, int u, int v) {
   return (uint64_t(axis) << 50) | (uint64_t(outward > 0) << 48) | (uint64_t(plane) << 32) | (uint64_t(u) << 16) |
          uint64_t(v);
+}
+
+int faceValue(int state, int label) { return state | (label << 8); }
+
+// Label of each cell of edge c: the majority of the labels of its non-Outside
+// voxels in the dense label export, ties to the lowest (brute force); all 0
+// for an unlabelled volume.
+std::vector<uint16_t> referenceCellLabels(const Volume& v, int c) {
+  const int N = v.grid.resolution, n = N / c;
+  std::vector<uint16_t> labels(size_t(n) * n * n, 0);
+  if (v.labels.empty()) return labels;
+  const std::vector<uint16_t> dense = denseLabels(v);
+  for (int cz = 0; cz < n; ++cz)
+    for (int cy = 0; cy < n; ++cy)
+      for (int cx = 0; cx < n; ++cx) {
+        std::map<int, int> count;
+        for (int z = cz * c; z < (cz + 1) * c; ++z)
+          for (int y = cy * c; y < (cy + 1) * c; ++y)
+            for (int x = cx * c; x < (cx + 1) * c; ++x) {
+              const int l = dense[size_t(x) + size_t(N) * (size_t(y) + size_t(N) * size_t(z))];
+              if (l) ++count[l];
+            }
+        int best = 0, most = 0;
+        for (const auto& entry : count) // ascending labels: ties keep the lowest
+          if (entry.second > most) {
+            best = entry.first;
+            most = entry.second;
+          }
+        labels[size_t(cx) + size_t(n) * (size_t(cy) + size_t(n) * size_t(cz))] = uint16_t(best);
+      }
+  return labels;
 }
 
 int uAxisOf(int axis) { return axis == 0 ? 1 : 0; }
@@ -42,6 +76,7 @@ FaceMap referenceFaces(const Volume& v, int c) {
         uint8_t& cell = cells[size_t(x / c) + size_t(n) * (size_t(y / c) + size_t(n) * size_t(z / c))];
         cell = std::max(cell, dense[size_t(x) + size_t(N) * (size_t(y) + size_t(N) * size_t(z))]);
       }
+  const std::vector<uint16_t> labels = referenceCellLabels(v, c);
   auto occupied = [&](int x, int y, int z) {
     if (x < 0 || y < 0 || z < 0 || x >= n || y >= n || z >= n) return 0;
     const int s = cells[size_t(x) + size_t(n) * (size_t(y) + size_t(n) * size_t(z))];
@@ -61,7 +96,7 @@ FaceMap referenceFaces(const Volume& v, int c) {
             if (occupied(q[0], q[1], q[2])) continue;
             faces.emplace_back(faceKey(axis, outward, p[axis] + (outward > 0 ? 1 : 0), p[uAxisOf(axis)],
                                        p[vAxisOf(axis)]),
-                               s);
+                               faceValue(s, labels[size_t(x) + size_t(n) * (size_t(y) + size_t(n) * size_t(z))]));
           }
       }
   std::sort(faces.begin(), faces.end());
@@ -79,7 +114,7 @@ FaceMap rasterize(const std::vector<SurfaceQuad>& quads, int c, std::string& pro
     }
     for (int v = q.v; v < q.v + q.dv; v += c)
       for (int u = q.u; u < q.u + q.du; u += c) {
-        faces.emplace_back(faceKey(q.axis, q.outward, q.plane / c, u / c, v / c), q.state);
+        faces.emplace_back(faceKey(q.axis, q.outward, q.plane / c, u / c, v / c), faceValue(q.state, q.label));
       }
   }
   std::sort(faces.begin(), faces.end());
@@ -224,6 +259,77 @@ TEST(VoxelSurface, FullElementIsSixRectangles) {
   }
 }
 
+// Labels 1..3 on a random tree: Full elements one label each, leaves either
+// one label for all their occupied voxels or mixed (a label per voxel).
+Volume randomLabelledVolume(unsigned seed, int R, int L, int height) {
+  Volume v = randomVolume(seed, R, L, height, false);
+  std::mt19937 rng(seed + 100);
+  const size_t voxels = size_t(L) * L * L;
+  v.labels.elementLabels.assign(v.elements.size(), kOutsideLabel);
+  for (size_t i = 0; i < v.elements.size(); ++i) {
+    const ElementState s = elementState(v.elements[i]);
+    if (s == ElementState::Full) v.labels.elementLabels[i] = Label(1 + rng() % 3);
+    if (s != ElementState::Boundary) continue;
+    if (rng() % 2) {
+      v.labels.elementLabels[i] = Label(1 + rng() % 3);
+      continue;
+    }
+    const uint32_t* words = v.leaf(elementPayload(v.elements[i]));
+    const bool blocky = rng() % 2; // label by half-space or voxel by voxel
+    const int split = int(rng() % L);
+    for (size_t k = 0; k < voxels; ++k) {
+      const bool occupied = (words[k / kVoxelsPerWord] >> (2 * (k % kVoxelsPerWord))) & 3u;
+      const Label label = blocky ? Label(int(k % size_t(L)) < split ? 1 : 2) : Label(1 + rng() % 3);
+      v.labels.voxelLabels.push_back(occupied ? label : kOutsideLabel);
+    }
+  }
+  indexMixedLeaves(v);
+  return v;
+}
+
+TEST(VoxelSurface, LabelledRandomTreesMatchDenseLabelsAtEveryDepth) {
+  for (unsigned seed : {1u, 2u, 3u}) {
+    const Volume v = randomLabelledVolume(seed, 2, 8, 2);
+    ASSERT_FALSE(v.labels.voxelLabels.empty()) << "no mixed leaf: the test would not check them";
+    for (int depth = -1; depth <= fullDepth(v.grid); ++depth)
+      expectSurfaceMatchesDense(v, depth, "labelled random tree seed " + std::to_string(seed));
+  }
+}
+
+// Two labelled cubes sharing a face, built: at the aligned placement the
+// shared face splits no cell of any depth, at the shifted one it cuts coarse
+// cells (majority labels). The quads of the first cube's outer faces carry
+// label 1 only, and a merged face never spans the two.
+TEST(VoxelSurface, TouchingLabelledCubesMatchDenseLabels) {
+  const int n = 64;
+  BuildConfig config;
+  config.resolution = n;
+  config.rootGrid = 2;
+  config.leafSize = 8;
+  config.hasBounds = true;
+  config.boundsMin = {-31, -31, -31};
+  config.boundsMax = {31, 31, 31};
+  auto plane = [&](int x, int y, int z) { return Vec3{voxelPlane(n, x), voxelPlane(n, y), voxelPlane(n, z)}; };
+  BuildOptions options;
+  options.backend = Backend::Cpu;
+  for (int shift : {0, 5}) {
+    TriangleMesh mesh = box(plane(16 - shift, 20, 20), plane(32 - shift, 40, 40));
+    mesh.triangleLabels.assign(mesh.triangleCount(), 1);
+    const TriangleMesh second = box(plane(32 - shift, 20, 20), plane(48, 40, 40));
+    append(mesh, second);
+    mesh.triangleLabels.resize(mesh.triangleCount(), 2);
+    const Volume v = voxelizeLabelled(mesh, config, options);
+    ASSERT_FALSE(v.labels.empty());
+    for (int depth : {-1, 4, 3, 2, 1, 0})
+      expectSurfaceMatchesDense(v, depth, "touching cubes shifted by " + std::to_string(shift));
+    std::map<int, int> perLabel;
+    for (const SurfaceQuad& q : extractSurfaceQuads(v)) ++perLabel[q.label];
+    EXPECT_EQ(perLabel.size(), 2u);
+    const VoxelSurface surface = extractVoxelSurface(v);
+    ASSERT_EQ(surface.labels.size(), surface.quadCount());
+  }
+}
+
 TEST(VoxelSurface, OrderDoesNotDependOnThreads) {
   const Shape shape = makeShape("torus", 128);
   BuildOptions options;
@@ -238,6 +344,7 @@ TEST(VoxelSurface, OrderDoesNotDependOnThreads) {
   ASSERT_GT(all.quadCount(), 0u);
   EXPECT_TRUE(all.points == one.points);
   EXPECT_TRUE(all.states == one.states);
+  EXPECT_TRUE(all.labels.empty()); // unlabelled volume
 }
 
 // Mesh units and winding: corners on the grid, counter-clockwise seen from outside.

@@ -11,6 +11,7 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <map>
 #include <utility>
@@ -286,6 +287,78 @@ Label labelAt(const Volume& v, int x, int y, int z) {
     return leafVoxel(v.leaf(e.payload()), L, lx, ly, lz) == VoxelState::Outside ? kOutsideLabel : label;
   const size_t block = v.labels.mixedBlock.at(e.payload());
   return v.labels.voxelLabels[block * size_t(L) * L * L + size_t(lx + L * (ly + L * lz))];
+}
+
+void addToHistogram(LabelHistogram& h, Label label, uint64_t count) {
+  if (label == kOutsideLabel || count == 0) return;
+  auto it = std::lower_bound(h.begin(), h.end(), label,
+                             [](const std::pair<Label, uint64_t>& e, Label l) { return e.first < l; });
+  if (it != h.end() && it->first == label)
+    it->second += count;
+  else
+    h.insert(it, {label, count});
+}
+
+Label majorityLabel(const LabelHistogram& h) {
+  Label best = kOutsideLabel;
+  uint64_t most = 0;
+  for (const auto& entry : h)
+    if (entry.second > most) { // strictly: ties keep the lower label
+      best = entry.first;
+      most = entry.second;
+    }
+  return best;
+}
+
+namespace {
+
+// The labels of the voxels of the box [o, o + edge)^3 that lie in Boundary element e.
+void addLeafVoxels(const Volume& v, const WalkedElement& e, const std::array<int, 3>& o, int edge,
+                   LabelHistogram& h) {
+  const LabelField& f = v.labels;
+  const int L = v.grid.leafSize;
+  const uint32_t* words = v.leaf(e.payload());
+  const Label label = f.elementLabels[e.index];
+  const Label* mixed =
+      label == kOutsideLabel ? f.voxelLabels.data() + size_t(f.mixedBlock[e.payload()]) * size_t(L) * L * L : nullptr;
+  std::array<int, 3> lo, hi;
+  for (int a = 0; a < 3; ++a) {
+    lo[size_t(a)] = std::max(o[size_t(a)], e.origin[a]) - e.origin[a];
+    hi[size_t(a)] = std::min(o[size_t(a)] + edge, e.origin[a] + L) - e.origin[a];
+  }
+  uint64_t occupied = 0;
+  for (int z = lo[2]; z < hi[2]; ++z)
+    for (int y = lo[1]; y < hi[1]; ++y)
+      for (int x = lo[0]; x < hi[0]; ++x) {
+        const int voxel = x + L * (y + L * z);
+        if (mixed)
+          addToHistogram(h, mixed[voxel], 1);
+        else
+          occupied += ((words[voxel / kVoxelsPerWord] >> (2 * (voxel % kVoxelsPerWord))) & 3u) != 0;
+      }
+  addToHistogram(h, label, occupied);
+}
+
+} // namespace
+
+LabelHistogram cellLabelHistogram(const Volume& v, int x, int y, int z, int edge) {
+  LabelHistogram h;
+  if (v.labels.empty()) return h;
+  const int rootEdge = v.grid.rootCellVoxels();
+  int level = 0;
+  while ((rootEdge >> level) > edge && level < v.grid.height) ++level;
+  const std::array<int, 3> o = {x, y, z};
+  auto visit = [&](const WalkedElement& e) {
+    if (e.state() == ElementState::Boundary) {
+      addLeafVoxels(v, e, o, edge, h);
+    } else if (e.state() == ElementState::Full) {
+      // A uniform element larger than the cell counts only the cell's voxels.
+      const uint64_t side = uint64_t(std::min(edge, e.edge));
+      addToHistogram(h, v.labels.elementLabels[e.index], side * side * side);
+    }
+  };
+  walkSubtree(v, locateElement(v, x, y, z, level), v.grid.height, visit);
+  return h;
 }
 
 std::vector<LabelStatistics> labelStatistics(const Volume& v) {

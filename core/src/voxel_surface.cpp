@@ -21,6 +21,7 @@
 
 #include "hdt/error.hpp"
 #include "hdt/huge_pages.hpp"
+#include "hdt/labels.hpp"
 #include "hdt/volume_walk.hpp"
 
 #include <tbb/enumerable_thread_specific.h>
@@ -75,6 +76,7 @@ struct Context {
   int n = 1;        // cells per leaf axis (when c <= L)
   int cutLevel = 0; // the walk's depth limit
   bool surfaceOnly = false;
+  bool labelled = false;
   std::vector<uint8_t> largest; // largest state below each element of level >= cutLevel (cut < h only)
 
   explicit Context(const Volume& vol) : v(vol) {}
@@ -166,6 +168,9 @@ public:
   void leaf(const WalkedElement& e) {
     const int n = ctx_.n;
     const uint32_t* words = ctx_.v.leaf(e.payload());
+    leafLabel_ = ctx_.labelled ? ctx_.v.labels.elementLabels[e.index] : kOutsideLabel;
+    mixed_ = ctx_.labelled && leafLabel_ == kOutsideLabel;
+    if (mixed_) computeCellLabels(e);
     for (int z = 0; z < n; ++z)
       for (int y = 0; y < n; ++y) {
         uint32_t in;
@@ -176,17 +181,18 @@ public:
       for (int outward : {1, -1}) leafSide(e, axis, outward);
   }
 
-  void solid(const WalkedElement& e, uint8_t state) {
+  void solid(const WalkedElement& e, uint8_t state, Label label) {
     for (int axis = 0; axis < 3; ++axis)
-      for (int outward : {1, -1}) solidSide(e, state, axis, outward);
+      for (int outward : {1, -1}) solidSide(e, state, label, axis, outward);
   }
 
 private:
-  void emit(int axis, int outward, int plane, int u, int v, int du, int dv, int state) {
+  void emit(int axis, int outward, int plane, int u, int v, int du, int dv, int state, Label label) {
     SurfaceQuad q;
     q.axis = uint8_t(axis);
     q.outward = int8_t(outward);
     q.state = uint8_t(state);
+    q.label = label;
     q.plane = plane;
     q.u = u;
     q.v = v;
@@ -256,10 +262,72 @@ private:
       const int plane = e.origin[axis] + (outward > 0 ? i + 1 : i) * c;
       for (int state : {int(VoxelState::Surface), int(VoxelState::Inside)}) {
         uint32_t* rows = state == int(VoxelState::Surface) ? surfaceMask_[i] : insideMask_[i];
-        greedyRectangles(rows, n, merge_, [&](int u, int v, int du, int dv) {
-          emit(axis, outward, plane, ou + u * c, ov + v * c, du * c, dv * c, state);
+        sliceRectangles(axis, i, rows, [&](int u, int v, int du, int dv, Label label) {
+          emit(axis, outward, plane, ou + u * c, ov + v * c, du * c, dv * c, state, label);
         });
       }
+    }
+  }
+
+  // Labels of the cells of a leaf holding several labels: a voxel's own, a
+  // coarser cell's the majority of its voxels (the hyper tree grid's rule).
+  void computeCellLabels(const WalkedElement& e) {
+    const int L = ctx_.L, n = ctx_.n, c = ctx_.c;
+    const Label* voxels = ctx_.v.labels.voxelLabels.data() +
+                          size_t(ctx_.v.labels.mixedBlock[e.payload()]) * size_t(L) * L * L;
+    cellLabels_.resize(size_t(n) * n * n);
+    LabelHistogram histogram;
+    for (int z = 0; z < n; ++z)
+      for (int y = 0; y < n; ++y)
+        for (int x = 0; x < n; ++x) {
+          histogram.clear();
+          for (int vz = z * c; vz < (z + 1) * c; ++vz)
+            for (int vy = y * c; vy < (y + 1) * c; ++vy)
+              for (int vx = x * c; vx < (x + 1) * c; ++vx) addToHistogram(histogram, voxels[vx + L * (vy + L * vz)], 1);
+          cellLabels_[size_t(x + n * (y + n * z))] = majorityLabel(histogram);
+        }
+  }
+
+  // Label of the cell at bit `bit` of row `row` of slice `slice` of the face
+  // masks across `axis` (the layout leafSide writes).
+  Label cellLabel(int axis, int slice, int row, int bit) const {
+    int x = bit, y = row, z = slice; // axis 2
+    if (axis == 1) {
+      y = slice;
+      z = row;
+    } else if (axis == 0) {
+      x = slice;
+      y = bit;
+      z = row;
+    }
+    return cellLabels_[size_t(x + ctx_.n * (y + ctx_.n * z))];
+  }
+
+  // Rectangles of the face mask rows of one slice and state, emitted with
+  // their label: in a leaf of several labels one greedy pass per label, so
+  // that no rectangle spans two. Clears the rows.
+  template <class Emit> void sliceRectangles(int axis, int slice, uint32_t* rows, Emit&& emit) {
+    const int n = ctx_.n;
+    if (!mixed_) {
+      greedyRectangles(rows, n, merge_, [&](int u, int v, int du, int dv) { emit(u, v, du, dv, leafLabel_); });
+      return;
+    }
+    uint32_t part[kMaxCells];
+    for (int first = 0; first < n;) {
+      if (!rows[first]) {
+        ++first;
+        continue;
+      }
+      const Label label = cellLabel(axis, slice, first, __builtin_ctz(rows[first]));
+      for (int v = 0; v < n; ++v) {
+        part[v] = 0;
+        for (uint32_t bits = rows[v]; bits; bits &= bits - 1) {
+          const int u = __builtin_ctz(bits);
+          if (cellLabel(axis, slice, v, u) == label) part[v] |= 1u << u;
+        }
+        rows[v] &= ~part[v];
+      }
+      greedyRectangles(part, n, merge_, [&](int u, int v, int du, int dv) { emit(u, v, du, dv, label); });
     }
   }
 
@@ -299,7 +367,7 @@ private:
     }
   }
 
-  void solidSide(const WalkedElement& e, int state, int axis, int outward) {
+  void solidSide(const WalkedElement& e, int state, Label label, int axis, int outward) {
     const int plane = e.origin[axis] + (outward > 0 ? e.edge : 0);
     const int ua = uAxis(axis), va = vAxis(axis);
     parts_.clear();
@@ -314,16 +382,16 @@ private:
     int64_t area = 0;
     for (const Rect& r : parts_) area += int64_t(r.du) * r.dv;
     if (merge_ && area == int64_t(e.edge) * e.edge) {
-      emit(axis, outward, plane, e.origin[ua], e.origin[va], e.edge, e.edge, state);
+      emit(axis, outward, plane, e.origin[ua], e.origin[va], e.edge, e.edge, state, label);
       return;
     }
     for (const Rect& r : parts_) {
       if (merge_) {
-        emit(axis, outward, plane, r.u, r.v, r.du, r.dv, state);
+        emit(axis, outward, plane, r.u, r.v, r.du, r.dv, state, label);
         continue;
       }
       for (int dv = 0; dv < r.dv; dv += ctx_.c) // unmerged: one quad a cell
-        for (int du = 0; du < r.du; du += ctx_.c) emit(axis, outward, plane, r.u + du, r.v + dv, ctx_.c, ctx_.c, state);
+        for (int du = 0; du < r.du; du += ctx_.c) emit(axis, outward, plane, r.u + du, r.v + dv, ctx_.c, ctx_.c, state, label);
     }
   }
 
@@ -334,6 +402,9 @@ private:
   uint32_t occupied_[kMaxCells][kMaxCells]; // [z][y], bit x
   uint32_t surfaceMask_[kMaxCells][kMaxCells], insideMask_[kMaxCells][kMaxCells]; // [slice][v], bit u
   std::vector<Rect> parts_;
+  Label leafLabel_ = kOutsideLabel; // the label of every occupied cell of the leaf, unless mixed_
+  bool mixed_ = false;              // the leaf holds several labels: cellLabels_
+  std::vector<Label> cellLabels_;   // [x + n (y + n z)]
 };
 
 // Largest state below every element of levels h .. cutLevel, bottom-up.
@@ -398,6 +469,13 @@ struct SurfaceChunks {
   std::vector<ChunkQuads> chunks;                  // walk order
 };
 
+// Label of a uniform element or of a Branch cut by the level of detail.
+Label solidLabel(const Volume& v, const WalkedElement& e) {
+  if (v.labels.empty()) return kOutsideLabel;
+  if (e.state() == ElementState::Full) return v.labels.elementLabels[e.index];
+  return majorityLabel(cellLabelHistogram(v, e.origin[0], e.origin[1], e.origin[2], e.edge));
+}
+
 // The quads of every unit, in fixed chunks of units (walk order): the order
 // does not depend on how tasks are scheduled.
 void extractChunks(const Volume& volume, const SurfaceOptions& options, SurfaceChunks& out) {
@@ -410,6 +488,7 @@ void extractChunks(const Volume& volume, const SurfaceOptions& options, SurfaceC
   ctx.n = std::max(1, ctx.L / ctx.c);
   ctx.cutLevel = std::min(g.height, log2Exact(g.rootCellVoxels() / ctx.c));
   ctx.surfaceOnly = volume.surfaceOnly;
+  ctx.labelled = !volume.labels.empty();
   if (ctx.cutLevel < g.height) computeLargestStates(ctx);
 
   // Units that can have faces, in walk order.
@@ -442,8 +521,8 @@ void extractChunks(const Volume& volume, const SurfaceOptions& options, SurfaceC
       const WalkedElement& e = units[i];
       switch (e.state()) {
       case ElementState::Boundary: faces.leaf(e); break;
-      case ElementState::Full: faces.solid(e, uint8_t(VoxelState::Inside)); break;
-      default: faces.solid(e, ctx.largest[e.index]); break;
+      case ElementState::Full: faces.solid(e, uint8_t(VoxelState::Inside), solidLabel(volume, e)); break;
+      default: faces.solid(e, ctx.largest[e.index], solidLabel(volume, e)); break;
       }
     }
     out.chunks[chunk] = ChunkQuads{&list, begin, list.size()};
@@ -509,6 +588,7 @@ void extractVoxelSurfaceInto(const Volume& volume, const SurfaceOptions& options
       const size_t quad = offset[i] + k;
       quadCorners(volume.grid, quads[k], out.points + 12 * quad);
       out.states[quad] = quads[k].state;
+      if (out.labels) out.labels[quad] = quads[k].label;
     }
   });
 }
@@ -518,7 +598,8 @@ VoxelSurface extractVoxelSurface(const Volume& volume, const SurfaceOptions& opt
   extractVoxelSurfaceInto(volume, options, [&](size_t quads) {
     resizeFresh(s.points, 12 * quads);
     s.states.resize(quads);
-    return SurfaceBuffers{s.points.data(), s.states.data()};
+    if (!volume.labels.empty()) s.labels.resize(quads);
+    return SurfaceBuffers{s.points.data(), s.states.data(), volume.labels.empty() ? nullptr : s.labels.data()};
   });
   return s;
 }

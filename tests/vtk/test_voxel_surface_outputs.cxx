@@ -20,7 +20,12 @@
 #include "vtkNew.h"
 #include "vtkPoints.h"
 #include "vtkPolyData.h"
+#include "vtkCompositeDataSet.h"
+#include "vtkInformation.h"
+#include "vtkMultiBlockDataSet.h"
+#include "vtkStringArray.h"
 #include "vtkUnsignedCharArray.h"
+#include "vtkUnsignedShortArray.h"
 
 #include <gtest/gtest.h>
 
@@ -83,6 +88,23 @@ std::string compareWithCore(vtkPolyData* surface, const hdt::Volume& volume, int
     if (states->GetValue(c) != core.states[size_t(c)])
     {
       return "VoxelState of cell " + std::to_string(c) + " differs";
+    }
+  }
+  vtkDataArray* labelArray = surface->GetCellData()->GetArray("Label");
+  if (core.labels.empty())
+  {
+    return labelArray ? "a Label array on the surface of an unlabelled volume" : "";
+  }
+  auto* labels = vtkUnsignedShortArray::SafeDownCast(labelArray);
+  if (!labels || labels->GetNumberOfValues() != quads)
+  {
+    return "no Label cell array (unsigned short) of one value a quad";
+  }
+  for (vtkIdType c = 0; c < quads; ++c)
+  {
+    if (labels->GetValue(c) != core.labels[size_t(c)])
+    {
+      return "Label of cell " + std::to_string(c) + " differs";
     }
   }
   return "";
@@ -179,6 +201,53 @@ TEST(VoxelSurfaceOutput, ReaderGivesTheHyperTreeGridAndTheSurface)
   reader->Update();
   EXPECT_FALSE(log->Errors.empty());
   EXPECT_EQ(reader->GetSurfaceOutput()->GetNumberOfCells(), 0);
+  std::remove(path.c_str());
+}
+
+// Label By Block on two named blocks that touch: the surface carries the
+// core's labels (checked against the dense label export in hdt_tests) and the
+// label names, from the voxelizer and from the reader of its .hdt file.
+TEST(VoxelSurfaceOutput, LabelledBuildsCarryTheLabelOnBothPorts)
+{
+  vtkNew<vtkMultiBlockDataSet> blocks;
+  blocks->SetBlock(0, hdtvtk::MakeSphere(32, 0.5, -0.3, 0, 0));
+  blocks->SetBlock(1, hdtvtk::MakeSphere(32, 0.4, 0.4, 0, 0));
+  blocks->GetMetaData(0u)->Set(vtkCompositeDataSet::NAME(), "left");
+  blocks->GetMetaData(1u)->Set(vtkCompositeDataSet::NAME(), "right");
+  Voxelizer v;
+  v.Filter->SetInputData(blocks);
+  v.Filter->SetResolution(64);
+  v.Filter->SetRootGridSize(2);
+  v.Filter->SetLabelBy(vtkHDTVoxelizer::LABEL_BLOCK);
+  const char* tmp = std::getenv("HDT_TEST_TMPDIR");
+  const std::string path = std::string(tmp ? tmp : "/tmp") + "/voxel_surface_labels.hdt";
+  vtkNew<vtkHDTReader> reader;
+  reader->SetFileName(path.c_str());
+  for (int depth : { -1, 4, 2 })
+  {
+    v.Filter->SetMaxDepth(depth);
+    v.Filter->Update();
+    ASSERT_TRUE(v.Log->Errors.empty());
+    const auto volume = v.Filter->GetVolume();
+    ASSERT_TRUE(volume && !volume->labels.empty());
+    vtkPolyData* surface = v.Filter->GetSurfaceOutput();
+    EXPECT_EQ(compareWithCore(surface, *volume, depth), "") << "MaxDepth " << depth;
+    auto* names = vtkStringArray::SafeDownCast(surface->GetFieldData()->GetAbstractArray("LabelNames"));
+    ASSERT_TRUE(names);
+    ASSERT_EQ(names->GetNumberOfValues(), 2);
+    EXPECT_EQ(names->GetValue(0), "left");
+    EXPECT_EQ(names->GetValue(1), "right");
+    double range[2];
+    surface->GetCellData()->GetArray("Label")->GetRange(range);
+    EXPECT_EQ(range[0], 1);
+    EXPECT_EQ(range[1], 2);
+
+    hdt::writeHdt(*volume, path);
+    reader->SetMaxDepth(depth);
+    reader->Modified();
+    reader->Update();
+    EXPECT_EQ(compareWithCore(reader->GetSurfaceOutput(), *volume, depth), "") << "reader, MaxDepth " << depth;
+  }
   std::remove(path.c_str());
 }
 

@@ -27,6 +27,7 @@
 
 #include <cstdint>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace hdt {
@@ -69,6 +70,18 @@ void indexMixedLeaves(Volume& volume);
 // Label of global voxel (x, y, z) (0 outside the grid or in an unlabelled
 // volume). Slow: for tests and spot checks.
 Label labelAt(const Volume& volume, int x, int y, int z);
+
+// The label of a cell larger than a voxel (a refined or cut cell of the
+// hyper tree grid, a coarse cell of the voxel surface): the majority label of
+// the non-Outside voxels below it, ties to the lowest label, kOutsideLabel
+// when all are outside. Histograms hold voxel counts of labels >= 1,
+// ascending by label, so children's histograms add up to their parent's.
+using LabelHistogram = std::vector<std::pair<Label, uint64_t>>;
+void addToHistogram(LabelHistogram& histogram, Label label, uint64_t count);
+Label majorityLabel(const LabelHistogram& histogram);
+// The histogram of the cell [x, x + edge) x [y, y + edge) x [z, z + edge) of
+// the grid (edge a power of two, the cell aligned to it).
+LabelHistogram cellLabelHistogram(const Volume& volume, int x, int y, int z, int edge);
 
 // Per-label figures of a labelled volume, for the labels that have a voxel
 // or a name, ascending. Surface and inside voxels add up over the labels to

@@ -13,10 +13,15 @@
 // limit counts as occupied when any voxel below it is; elements larger than c
 // keep their own state. This is the dense volume coarsened by c with max().
 //
+// In a labelled volume (labels.hpp) each face also carries the part label of
+// its occupied cell; a cell coarser than a voxel takes the hyper tree grid's
+// label, the majority of its non-Outside voxels (hdt::majorityLabel).
+//
 // Faces are extracted per leaf grid and per uniform element in parallel, and
-// coplanar faces of one state are merged into rectangles (greedy, per slice of
-// a leaf grid; an element face bordering only unoccupied space is one
-// rectangle). The order of the output depends on the volume only.
+// coplanar faces of one state and one label are merged into rectangles
+// (greedy, per slice of a leaf grid; an element face bordering only
+// unoccupied space is one rectangle). The order of the output depends on the
+// volume only.
 #pragma once
 
 #include "hdt/volume.hpp"
@@ -34,7 +39,8 @@ namespace hdt {
 struct SurfaceQuad {
   uint8_t axis = 0;
   int8_t outward = 1;
-  uint8_t state = 0; // VoxelState of the occupied cell
+  uint8_t state = 0;  // VoxelState of the occupied cell
+  uint16_t label = 0; // its part label (labelled volumes; 0 otherwise)
   int32_t plane = 0, u = 0, v = 0, du = 0, dv = 0;
 };
 
@@ -56,7 +62,8 @@ std::vector<SurfaceQuad> extractSurfaceQuads(const Volume& volume, const Surface
 struct VoxelSurface {
   std::vector<float> points;   // 4 corners a quad, xyz, in mesh units (grid origin + voxel size);
                                // counter-clockwise seen from the unoccupied side
-  std::vector<uint8_t> states; // VoxelState a quad
+  std::vector<uint8_t> states;  // VoxelState a quad
+  std::vector<uint16_t> labels; // part label a quad; empty for an unlabelled volume
   size_t quadCount() const { return states.size(); }
 };
 
@@ -64,10 +71,11 @@ VoxelSurface extractVoxelSurface(const Volume& volume, const SurfaceOptions& opt
 
 // The same arrays written straight into the caller's memory (a VTK array, no
 // copy): `allocate` is called once with the quad count and returns room for
-// 12 * quads floats and quads states.
+// 12 * quads floats, quads states and, when not null, quads labels.
 struct SurfaceBuffers {
   float* points = nullptr;
   uint8_t* states = nullptr;
+  uint16_t* labels = nullptr;
 };
 void extractVoxelSurfaceInto(const Volume& volume, const SurfaceOptions& options,
                              const std::function<SurfaceBuffers(size_t quads)>& allocate);
