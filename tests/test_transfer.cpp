@@ -317,6 +317,28 @@ TEST(Transfer, BadArraysAreRefused) {
   EXPECT_THROW(serializeHdt(broken), Error);
 }
 
+TEST(Transfer, PlyPropertiesBecomeArrays) {
+  const std::string path = ::testing::TempDir() + "/transfer_props.ply";
+  {
+    std::FILE* f = std::fopen(path.c_str(), "w");
+    ASSERT_TRUE(f);
+    std::fputs("ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n"
+               "property double t\nelement face 2\nproperty list uchar int vertex_indices\nproperty short side\n"
+               "end_header\n0 0 0 0.5\n1 0 0 1.5\n1 1 0 2.5\n0 1 1 3.5\n4 0 1 2 3 7\n3 0 1 3 -2\n",
+               f);
+    std::fclose(f);
+  }
+  std::vector<MeshArray> arrays = {{"side", ArraySource::Point, 0, {}}, {"t", ArraySource::Cell, 0, {}}};
+  const TriangleMesh m = readMesh(path, {}, arrays);
+  ASSERT_EQ(m.triangleCount(), 3u);
+  EXPECT_EQ(arrays[0].source, ArraySource::Cell); // found on the faces: one value per triangle of the face
+  EXPECT_EQ(arrays[0].values, (std::vector<double>{7, 7, -2}));
+  EXPECT_EQ(arrays[1].source, ArraySource::Point);
+  EXPECT_EQ(arrays[1].values, (std::vector<double>{0.5, 1.5, 2.5, 3.5}));
+  std::vector<MeshArray> missing = {{"nothere", ArraySource::Point, 0, {}}};
+  EXPECT_THROW(readMesh(path, {}, missing), Error);
+}
+
 // A cell array on a real scan (the triangle index): skips without the shared meshes.
 TEST(Transfer, OgreTriangleIndexMatchesReference) {
   const std::string path = std::string(HDT_SHARED_MESHES_DIR) + "/ogre.obj";

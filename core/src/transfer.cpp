@@ -269,9 +269,9 @@ std::vector<uint32_t> chosenTriangles(const TriangleMesh& mesh, const Volume& v)
 }
 
 void transferArrays(const TriangleMesh& mesh, const std::vector<MeshArray>& arrays, Volume& v) {
+  if (arrays.empty()) return; // nothing asked: the mesh may be gone already
   checkMesh(mesh, v);
   checkArrays(mesh, arrays, v);
-  if (arrays.empty()) return;
   const LeafIndex leaves(v);
   const std::vector<uint64_t> start = surfaceVoxelStart(v);
   const std::vector<uint32_t> chosen = chooseTriangles(mesh, v, leaves, start);
