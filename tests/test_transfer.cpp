@@ -92,6 +92,18 @@ double distance2(const TriangleMesh& m, size_t t, const Vec3& p) {
   return dot3(minus(p, q), minus(p, q));
 }
 
+// The squared distance as the library computes it, for the tie rule only.
+double libraryDistance2(const TriangleMesh& m, size_t t, const Vec3& p) {
+  const Vec3 a = corner(m, t, 0), b = corner(m, t, 1), c = corner(m, t, 2);
+  const std::array<double, 3> w = closestPointWeights(p.data(), a.data(), b.data(), c.data());
+  double d2 = 0;
+  for (size_t k = 0; k < 3; ++k) {
+    const double q = w[0] * a[k] + w[1] * b[k] + w[2] * c[k];
+    d2 += (p[k] - q) * (p[k] - q);
+  }
+  return d2;
+}
+
 // Per voxel (dense, x fastest): the triangles that touch it (build predicate,
 // label filter), the smallest reference distance among them.
 struct Reference {
@@ -169,9 +181,10 @@ void expectMatchesReference(const TriangleMesh& m, const Volume& v, size_t first
         if ((!touches || d > best + 1e-12 * (best + g.voxelSize * g.voxelSize)) && ++failures < 10)
           ADD_FAILURE() << "voxel " << x << " " << y << " " << z << ": triangle " << t << " at d2 " << d
                         << ", nearest touching at " << best;
-        // Among exact ties the lowest index wins (equal reference distances: same closest point).
+        // Among exact ties the lowest index wins. Ties are the library's own
+        // metric's (closestPointWeights): another method's rounding differs.
         for (uint32_t c : cand)
-          if (c < t && distance2(m, c, p) == d && ++failures < 10)
+          if (c < t && libraryDistance2(m, c, p) == libraryDistance2(m, t, p) && ++failures < 10)
             ADD_FAILURE() << "voxel " << x << " " << y << " " << z << ": triangle " << t << " ties with lower " << c;
         const Vec3 q = referenceClosestPoint(p, corner(m, t, 0), corner(m, t, 1), corner(m, t, 2));
         for (uint32_t c = 0; c < 3; ++c) {

@@ -158,9 +158,15 @@ std::vector<uint32_t> chooseTriangles(const TriangleMesh& mesh, const Volume& v,
   constexpr uint32_t kNone = 0xFFFFFFFFu;
   tbb::parallel_for(uint64_t(0), v.leafCount(), [&](uint64_t leaf) {
     Best& best = scratch.local();
-    std::fill(best.distance.begin(), best.distance.end(), std::numeric_limits<double>::infinity());
-    std::fill(best.triangle.begin(), best.triangle.end(), kNone);
     const uint32_t* words = v.leaf(leaf);
+    // Only surface voxels are ever read: reset those (a leaf holds few).
+    for (uint32_t w = 0; w < voxels / kVoxelsPerWord; ++w) {
+      for (uint32_t bits = planeOf(words[w], kSurfacePlane); bits; bits &= bits - 1) {
+        const uint32_t vox = w * kVoxelsPerWord + uint32_t(__builtin_ctz(bits)) / 2;
+        best.distance[vox] = std::numeric_limits<double>::infinity();
+        best.triangle[vox] = kNone;
+      }
+    }
     const std::array<int, 3>& o = leaves.origin[leaf];
     const int64_t v0[3] = {o[0], o[1], o[2]};
     auto p = std::lower_bound(pairs.begin(), pairs.end(), leaf << 32);
