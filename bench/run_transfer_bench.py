@@ -52,11 +52,15 @@ def read_binary_ply(path):
             pts = np.stack([v["x"], v["y"], v["z"]], 1).astype(np.float64)
         elif name == "face":
             p = props[0]
-            dt = np.dtype([("n", PLY_TYPES[p[1]]), ("i", PLY_TYPES[p[2]], 3)])
-            f = np.frombuffer(data, dt, count, pos)
-            assert np.all(f["n"] == 3), "only triangle faces"
-            pos += dt.itemsize * count
-            tris = f["i"].astype(np.int64)
+            assert len(props) == 1 and p[0] == "list", "faces: one vertex index list"
+            nt, it = np.dtype(PLY_TYPES[p[1]]), np.dtype(PLY_TYPES[p[2]])
+            tris = []
+            for _ in range(count):  # polygons as fans
+                n = int(np.frombuffer(data, nt, 1, pos)[0])
+                idx = np.frombuffer(data, it, n, pos + nt.itemsize)
+                pos += nt.itemsize + n * it.itemsize
+                tris += [(idx[0], idx[k], idx[k + 1]) for k in range(1, n - 1)]
+            tris = np.array(tris, np.int64)
     return pts, tris
 
 

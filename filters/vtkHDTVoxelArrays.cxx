@@ -12,6 +12,8 @@
 #include "vtkFloatArray.h"
 #include "vtkHyperTreeGrid.h"
 #include "vtkHyperTreeGridNonOrientedCursor.h"
+#include "vtkImageData.h"
+#include "vtkPointData.h"
 #include "vtkNew.h"
 #include "vtkPolyData.h"
 #include "vtkStringArray.h"
@@ -266,6 +268,35 @@ void vtkHDTAddVoxelArrays(const hdt::Volume& volume, vtkHyperTreeGrid* grid)
     grid->GetCellData()->AddArray(out);
   }
   addNames(volume, grid->GetFieldData());
+}
+
+//------------------------------------------------------------------------------
+void vtkHDTAddVoxelImageArrays(const hdt::Volume& volume, const long long lo[3], int level, vtkImageData* image)
+{
+  if (volume.arrays.empty() || !image)
+  {
+    return;
+  }
+  int dims[3];
+  image->GetDimensions(dims);
+  const int edge = 1 << level;
+  const vtkIdType points = vtkIdType(dims[0]) * dims[1] * dims[2];
+  for (const hdt::VoxelArray& a : volume.arrays)
+  {
+    vtkNew<vtkFloatArray> out = newArray(a, points);
+    const CellMeans means(volume, a);
+    float* dst = out->GetPointer(0);
+    tbb::parallel_for(vtkIdType(0), points, [&](vtkIdType i) {
+      const int x = int(i % dims[0]), y = int((i / dims[0]) % dims[1]), z = int(i / (vtkIdType(dims[0]) * dims[1]));
+      std::array<double, hdt::kMaxArrayComponents> value;
+      means.Cell({ int(lo[0]) + x * edge, int(lo[1]) + y * edge, int(lo[2]) + z * edge }, edge, value.data());
+      for (uint32_t j = 0; j < a.components; ++j)
+      {
+        dst[i * a.components + j] = float(value[j]);
+      }
+    });
+    image->GetPointData()->AddArray(out);
+  }
 }
 
 //------------------------------------------------------------------------------

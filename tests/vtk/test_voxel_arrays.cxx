@@ -6,6 +6,7 @@
 #include "vtkHDTHyperTreeGridConversion.h"
 #include "vtkHDTVoxelArrays.h"
 #include "vtkHDTVoxelSurface.h"
+#include "vtkHDTToImage.h"
 #include "vtkHDTVoxelizer.h"
 
 #include "hdt/builder.hpp"
@@ -19,6 +20,8 @@
 #include "vtkFloatArray.h"
 #include "vtkHyperTreeGrid.h"
 #include "vtkHyperTreeGridNonOrientedCursor.h"
+#include "vtkImageData.h"
+#include "vtkPointData.h"
 #include "vtkNew.h"
 #include "vtkPolyData.h"
 #include "vtkSphereSource.h"
@@ -242,6 +245,29 @@ TEST(VoxelArrays, VoxelizerTransfersTheSelectedArrays)
   }
   EXPECT_EQ(checked, 2) << "the line crosses the sphere's surface twice";
   EXPECT_TRUE(vox->GetSurfaceOutput()->GetCellData()->GetArray("Elevation"));
+  // HDT To Image: a point per block, the block's NaN-aware mean.
+  for (int level : { 0, 1 })
+  {
+    vtkNew<vtkHDTToImage> image;
+    image->SetInputConnection(vox->GetOutputPort(0));
+    image->SetLevel(level);
+    image->Update();
+    auto* p = vtkFloatArray::SafeDownCast(image->GetOutput()->GetPointData()->GetArray("Elevation"));
+    ASSERT_TRUE(p);
+    int dims[3];
+    image->GetOutput()->GetDimensions(dims);
+    ASSERT_EQ(dims[0], n >> level);
+    int wrong = 0, finite = 0;
+    for (vtkIdType i = 0; i < p->GetNumberOfTuples(); ++i)
+    {
+      const int x = int(i % dims[0]), y = int((i / dims[0]) % dims[1]), z = int(i / (dims[0] * dims[1]));
+      const int e = 1 << level;
+      wrong += !same(p->GetValue(i), bruteMean(*volume, 0, 0, x * e, y * e, z * e, e));
+      finite += !std::isnan(p->GetValue(i));
+    }
+    EXPECT_EQ(wrong, 0) << "level " << level;
+    EXPECT_GT(finite, 0);
+  }
   vox->GetCellDataArraySelection()->EnableArray("NoSuchArray");
   vox->Update();
   EXPECT_EQ(vox->GetOutput()->GetNumberOfCells(), 0) << "a missing array is an error";
