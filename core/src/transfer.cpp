@@ -153,8 +153,9 @@ std::vector<uint32_t> chooseTriangles(const TriangleMesh& mesh, const Volume& v,
   struct Best {
     std::vector<double> distance;
     std::vector<uint32_t> triangle;
+    RowClipper clipper;
   };
-  tbb::enumerable_thread_specific<Best> scratch([&] { return Best{std::vector<double>(voxels), std::vector<uint32_t>(voxels)}; });
+  tbb::enumerable_thread_specific<Best> scratch([&] { return Best{std::vector<double>(voxels), std::vector<uint32_t>(voxels), {}}; });
   constexpr uint32_t kNone = 0xFFFFFFFFu;
   tbb::parallel_for(uint64_t(0), v.leafCount(), [&](uint64_t leaf) {
     Best& best = scratch.local();
@@ -172,22 +173,33 @@ std::vector<uint32_t> chooseTriangles(const TriangleMesh& mesh, const Volume& v,
     auto p = std::lower_bound(pairs.begin(), pairs.end(), leaf << 32);
     for (; p != pairs.end() && (*p >> 32) == leaf; ++p) { // increasing triangle index
       const uint32_t t = uint32_t(*p & 0xFFFFFFFFu);
-      const LatticeTriangle& lt = m.triangles[t];
-      int64_t first[3], last[3];
-      leafVoxelRanges(lt, v0, L, g.resolution, first, last);
-      for (int64_t z = first[2]; z <= last[2]; ++z)
-        for (int64_t y = first[1]; y <= last[1]; ++y)
-          for (int64_t x = first[0]; x <= last[0]; ++x) {
+      // The voxels the triangle touches, row by row as T3 finds them: rows
+      // along the triangle's row axis, clipped by the 13 separating axes,
+      // exactly the voxels triangleOverlapsCube accepts (build_steps.hpp).
+      const int axis = rowAxisFor(m.triangles[t]);
+      const LatticeTriangle tri = permuteToRowAxis(m.triangles[t], axis);
+      RowClipper& clip = best.clipper;
+      makeRowClipper(tri, clip);
+      int64_t o[3], first[3], last[3];
+      permutedOrigin(v0, axis, o);
+      leafVoxelRanges(tri, o, L, g.resolution, first, last);
+      for (int64_t pz = first[2]; pz <= last[2]; ++pz)
+        for (int64_t py = first[1]; py <= last[1]; ++py) {
+          int64_t f = first[0], l = last[0];
+          clipRow(clip, py, pz, f, l);
+          for (int64_t px = f; px <= l; ++px) {
+            const int64_t q[3] = {px, py, pz}; // coordinate k of the row frame is (axis + k) % 3
+            const int64_t x = q[(3 - axis) % 3], y = q[(4 - axis) % 3], z = q[(5 - axis) % 3];
             const uint32_t vox = uint32_t((x - v0[0]) + L * ((y - v0[1]) + L * (z - v0[2])));
             if (VoxelState((words[vox / kVoxelsPerWord] >> (2 * (vox % kVoxelsPerWord))) & 3u) != VoxelState::Surface) continue;
             if (labelled && leafVoxelLabel(v, leaves, leaf, vox) != mesh.triangleLabels[t]) continue;
-            if (!triangleOverlapsCube(lt, latticeOfVoxel(x), latticeOfVoxel(y), latticeOfVoxel(z), kLatticePerVoxel)) continue;
             const double d = squaredDistanceToTriangle(mesh, t, voxelCentre(g, x, y, z));
             if (d < best.distance[vox]) { // strictly: ties keep the lower index
               best.distance[vox] = d;
               best.triangle[vox] = t;
             }
           }
+        }
     }
     uint64_t s = start[leaf];
     for (uint32_t vox = 0; vox < voxels; ++vox) {
