@@ -73,6 +73,8 @@ std::string usageText() {
          "  --overlap P      where parts claim one voxel: lowest (default), highest, or a\n"
          "                   priority list of labels, e.g. 3,1,2 (first wins; others lowest first)\n"
          "  --dense-labels OUT.nrrd  write the labels as a dense N^3 uint16 NRRD (N <= 1024)\n"
+         "  --transfer NAME  carry the PLY vertex (or else face) property NAME onto the surface\n"
+         "                   voxels (float32, in the .hdt file); repeatable\n"
          "  --json           print the statistics as one JSON object on stdout\n"
          "  --quiet          no progress, notes or warnings on stderr (errors still go there)\n"
          "  -h, --help       print this help and exit\n"
@@ -158,6 +160,7 @@ Options parseOptions(int argc, const char* const* argv) {
     else if (arg == "--labels") o.labels = parseLabelSource(value());
     else if (arg == "--overlap") o.overlap = parseOverlap(value());
     else if (arg == "--dense-labels") o.denseLabelsPath = value();
+    else if (arg == "--transfer") o.transfer.push_back(value());
     else if (arg == "--json") set(o.json);
     else if (arg == "--quiet") set(o.quiet);
     else if (arg.size() > 1 && arg[0] == '-') throw UsageError("unknown option '" + arg + "'");

@@ -8,6 +8,7 @@
 
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 namespace hdt::cli {
 
@@ -20,6 +21,7 @@ struct Options {
   MeshLabelSource labels;     // --labels
   LabelOptions overlap;       // --overlap
   std::string denseLabelsPath; // --dense-labels
+  std::vector<std::string> transfer; // --transfer (repeatable): PLY properties onto surface voxels
   bool json = false;
   bool quiet = false;
   bool help = false;

@@ -1,5 +1,7 @@
 #include "cli_report.hpp"
 
+#include "hdt/transfer.hpp"
+
 #include "hdt/winding_tree.hpp"
 
 #include <algorithm>
@@ -105,7 +107,8 @@ void writeJson(std::ostream& out, const Report& r) {
   JsonObject io;
   io.add("read", number(r.io.read, "%.3f"))
       .add("prepare", number(r.io.prepare, "%.3f"))
-      .add("write", number(r.io.write, "%.3f"));
+      .add("write", number(r.io.write, "%.3f"))
+      .add("transfer", number(r.io.transfer, "%.3f"));
 
   JsonObject o;
   o.add("mesh", quoted(r.mesh))
@@ -158,6 +161,15 @@ void writeJson(std::ostream& out, const Report& r) {
   o.add("labels", labels)
       .add("label_bytes", number(r.labelBytes))
       .add("dense_labels_file", orNull(r.denseLabelsPath));
+  std::string arrays = "[";
+  for (const VoxelArray& a : v.arrays) {
+    JsonObject row;
+    row.add("name", quoted(a.name))
+        .add("source", quoted(a.source == ArraySource::Point ? "point" : "cell"))
+        .add("components", number(uint64_t(a.components)));
+    arrays += (arrays.size() > 1 ? "," : "") + row.str();
+  }
+  o.add("transferred_arrays", arrays + "]").add("transferred_array_bytes", number(voxelArrayBytes(v)));
   out << o.str() << '\n';
 }
 
@@ -212,6 +224,10 @@ void writeTable(std::ostream& out, const Report& r) {
                         number(l.surfaceArea, "%.4g") + (l.name.empty() ? "" : ", " + l.name)});
   }
   if (!r.denseLabelsPath.empty()) rows.push_back({"wrote", r.denseLabelsPath, "dense uint16 label NRRD", false});
+  for (const VoxelArray& a : v.arrays)
+    rows.push_back({"transferred " + a.name, bytes(a.values.size() * sizeof(float)),
+                    std::string(a.source == ArraySource::Point ? "point" : "cell") + " data, " +
+                        std::to_string(a.components) + " component(s), " + ms(r.io.transfer)});
 
   size_t labelWidth = 0, valueWidth = 0;
   for (const Row& row : rows) {

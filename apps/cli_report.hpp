@@ -15,6 +15,7 @@ struct IoTimes {
   double read = 0;    // reading or generating the mesh
   double prepare = 0; // hdt::prepareMesh: validation, placement, snapping
   double write = 0;   // -o and --dense
+  double transfer = 0; // --transfer: hdt::transferArrays
 };
 
 struct Report {
@@ -38,12 +39,14 @@ struct Report {
 // active_voxels, inside_voxels, paper_bits_per_active_voxel, topology_bytes,
 // leaf_bytes, backend, threads, time_ms {mapping, branching, leaf, classify,
 // total}, peak_host_bytes, then degenerate_triangles, closed_mesh,
-// peak_device_bytes, surface_only, io_ms {read, prepare, write}, hdt_file,
+// peak_device_bytes, surface_only, io_ms {read, prepare, write, transfer}, hdt_file,
 // dense_file, duplicate_triangles, warnings [strings],
 // host_bytes_estimate, inside_test ("parity" or "winding": the test that
 // ran), inside_test_requested, inside_test_reason, winding_refined_elements,
 // labels (null, or [{label, name, surface_voxels, inside_voxels, volume,
-// surface_area}]), label_bytes, dense_labels_file. README.md says what
+// surface_area}]), label_bytes, dense_labels_file, transferred_arrays
+// ([{name, source ("point" or "cell"), components}]), transferred_array_bytes.
+// README.md says what
 // each means.
 void writeJson(std::ostream& out, const Report& report);
 

@@ -97,9 +97,10 @@ auto about(const std::string& subject, F&& f) -> decltype(f()) {
   }
 }
 
-TriangleMesh loadMesh(const std::string& spec, const MeshLabelSource& labels) {
+TriangleMesh loadMesh(const std::string& spec, const MeshLabelSource& labels, std::vector<MeshArray>& arrays) {
   const std::string prefix = "builtin:";
-  if (spec.rfind(prefix, 0) != 0) return readMesh(spec, labels);
+  if (spec.rfind(prefix, 0) != 0) return readMesh(spec, labels, arrays);
+  if (!arrays.empty()) throw Error(ErrorKind::InvalidArgument, "--transfer needs a PLY file");
   TriangleMesh mesh = builtinMesh(spec.substr(prefix.size()));
   if (labels.kind == MeshLabelSource::Kind::Components) labelConnectedComponents(mesh);
   else if (labels.kind != MeshLabelSource::Kind::None)
@@ -186,11 +187,13 @@ int run(int argc, const char* const* argv, const MpiSession& session) {
   // is read, so that the build is not a cold one.
   WarmUp warmUp(options);
   Clock::time_point t = Clock::now();
-  TriangleMesh mesh = about(options.mesh, [&] { return loadMesh(options.mesh, options.labels); });
+  std::vector<MeshArray> arrays;
+  for (const std::string& name : options.transfer) arrays.push_back(MeshArray{name, ArraySource::Point, 0, {}});
+  TriangleMesh mesh = about(options.mesh, [&] { return loadMesh(options.mesh, options.labels, arrays); });
   report.io.read = msSince(t);
   const PreparedMesh prepared = about(options.mesh, [&] { return prepareMesh(mesh, options.config); });
   const bool labelled = options.labels.kind != MeshLabelSource::Kind::None;
-  if (!labelled) mesh = TriangleMesh(); // the lattice copy is all the build needs; labelled builds split the mesh
+  if (!labelled && arrays.empty()) mesh = TriangleMesh(); // the lattice copy is all the build needs; labelled builds split the mesh
   report.io.prepare = msSince(t);
   warmUp.join();
 
@@ -198,12 +201,15 @@ int run(int argc, const char* const* argv, const MpiSession& session) {
   BuildOptions build = options.build;
   build.progress = [&](double fraction, const char* phase) { return progress.update(fraction, phase); };
   build.log = [&](const std::string& text) { progress.note(text); };
-  const Volume volume = about(options.mesh, [&] {
+  Volume volume = about(options.mesh, [&] {
     if (labelled) return voxelizeLabelled(mesh, options.config, build, options.overlap); // every rank builds it whole
     return session.size() > 1 ? buildAcrossRanks(session, prepared, build) : hdt::build(prepared, build);
   });
   progress.clear();
   if (session.rank() != 0) return 0; // rank 0 has the joined volume and writes
+  t = Clock::now();
+  about(options.mesh, [&] { transferArrays(mesh, arrays, volume); }); // a host pass after the build
+  report.io.transfer = msSince(t);
   report.warnings = buildWarnings(prepared, volume);
   if (!options.quiet) {
     for (const std::string& w : report.warnings)

@@ -23,6 +23,7 @@
 // growing it bit by bit: about twice as fast, and the default.
 #include "vtkHDTHyperTreeGridConversion.h"
 #include "vtkHDTLabelArrays.h"
+#include "vtkHDTVoxelArrays.h"
 
 #include "vtkHDTTreeWalk.h"
 
@@ -480,6 +481,7 @@ vtkHDTConversionInfo vtkHDTToHyperTreeGrid::Convert(
     setSingle<vtkIntArray>(output->GetFieldData(), "FullDepth", fullDepth);
   }
   vtkHDTAddLabelArrays(volume, output); // part labels, when the volume has them
+  vtkHDTAddVoxelArrays(volume, output); // transferred mesh data, when the volume has them
   info.Milliseconds = msSince(t0);
   return info;
 }

@@ -1,5 +1,7 @@
 #include "vtkHDTToImage.h"
 
+#include "vtkHDTVoxelArrays.h"
+
 #include "vtkHDTVolumeHandle.h"
 
 #include "hdt/error.hpp"
@@ -186,6 +188,8 @@ int vtkHDTToImage::RequestData(
     array->SetNumberOfValues(static_cast<vtkIdType>(states.size()));
     std::copy(states.begin(), states.end(), array->GetPointer(0));
     output->GetPointData()->SetScalars(array);
+    const long long lo[3] = { plan.Box.lo[0], plan.Box.lo[1], plan.Box.lo[2] };
+    vtkHDTAddVoxelImageArrays(*plan.Volume, lo, this->Level, output); // transferred mesh data, if any
     // The voxel box it covers, for scripts: lo and hi (exclusive) per axis.
     vtkNew<vtkIntArray> box;
     box->SetName("VoxelBox");

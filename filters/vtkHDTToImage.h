@@ -13,6 +13,9 @@
  * its voxels by the rule of the hyper tree grid's cut cells: surface if any
  * voxel is surface, else inside if more than half are inside, else outside.
  * Level 0 over the whole grid is the dense export (hdt-voxelize --dense).
+ * Arrays transferred from the mesh (hdt/transfer.hpp) come along as float32
+ * point arrays: a block's value is the NaN-aware mean of its children's, as
+ * on the hyper tree grid (vtkHDTVoxelArrays.h); NaN off the surface.
  *
  * The region is the box [RegionOrigin, RegionOrigin + RegionSize] in world
  * coordinates when UseRegion is on, else the whole grid; it is widened to

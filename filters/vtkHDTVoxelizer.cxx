@@ -3,19 +3,24 @@
 #include "vtkHDTDistributedBuild.h"
 #include "vtkHDTHyperTreeGridConversion.h"
 #include "vtkHDTLabelledMesh.h"
+#include "vtkHDTMeshArrays.h"
 #include "vtkHDTMeshConversion.h"
 #include "vtkHDTVolumeHandle.h"
 #include "vtkHDTVoxelSurface.h"
+#include "vtkHDTVoxelArrays.h"
 
 #include "hdt/builder.hpp"
 #include "hdt/config.hpp"
 #include "hdt/error.hpp"
 #include "hdt/labels.hpp"
 #include "hdt/mesh.hpp"
+#include "hdt/transfer.hpp"
 #include "hdt/volume.hpp"
 #include "hdt/winding_tree.hpp"
 
+#include "vtkCommand.h"
 #include "vtkCompositeDataIterator.h"
+#include "vtkDataArraySelection.h"
 #include "vtkCompositeDataSet.h"
 #include "vtkDataObject.h"
 #include "vtkDemandDrivenPipeline.h"
@@ -66,6 +71,30 @@ uint64_t MeshHash(const hdt::TriangleMesh& mesh)
   return h ^ mesh.triangles.size();
 }
 
+// The enabled arrays of a selection, in its order.
+std::vector<std::string> EnabledArrays(vtkDataArraySelection* selection)
+{
+  std::vector<std::string> names;
+  for (int i = 0; i < selection->GetNumberOfArrays(); ++i)
+  {
+    if (selection->GetArraySetting(i))
+    {
+      names.emplace_back(selection->GetArrayName(i));
+    }
+  }
+  return names;
+}
+
+std::string JoinNames(const std::vector<std::string>& names)
+{
+  std::string joined;
+  for (const std::string& n : names)
+  {
+    joined += n + '\n';
+  }
+  return joined;
+}
+
 using Clock = std::chrono::steady_clock;
 double msSince(Clock::time_point t0)
 {
@@ -100,6 +129,7 @@ struct BuildKey
   bool SurfaceOnly = false;
   int LabelBy = 0, OverlapPolicy = 0, InsideTest = 0;
   std::string LabelArrayName, LabelPriority;
+  std::string PointArrays, CellArrays; // Arrays To Transfer, one name a line
   // Across MPI ranks: the gathered mesh's contents instead of the input's
   // identity (ParaView re-executes pieces upstream between output ports).
   uint64_t MeshHash = 0;
@@ -109,7 +139,8 @@ struct BuildKey
       LeafGridSize == o.LeafGridSize && Backend == o.Backend && Threads == o.Threads &&
       SurfaceOnly == o.SurfaceOnly && LabelBy == o.LabelBy &&
       OverlapPolicy == o.OverlapPolicy && LabelArrayName == o.LabelArrayName &&
-      LabelPriority == o.LabelPriority && InsideTest == o.InsideTest;
+      LabelPriority == o.LabelPriority && InsideTest == o.InsideTest &&
+      PointArrays == o.PointArrays && CellArrays == o.CellArrays;
   }
   bool operator==(const BuildKey& o) const
   {
@@ -124,6 +155,12 @@ struct vtkHDTVoxelizer::Internals
   // Across MPI ranks: the split and this rank's share (Volume is its piece).
   vtkHDTDistributedPiece Piece;
   bool Distributed = false;
+  vtkNew<vtkDataArraySelection> PointArrays, CellArrays; // Arrays To Transfer
+
+  bool Transfers() const
+  {
+    return !EnabledArrays(this->PointArrays).empty() || !EnabledArrays(this->CellArrays).empty();
+  }
 
   static BuildKey MakeKey(vtkHDTVoxelizer* self, vtkDataObject* input);
   static hdt::BuildOptions MakeBuildOptions(vtkHDTVoxelizer* self);
@@ -152,6 +189,8 @@ BuildKey vtkHDTVoxelizer::Internals::MakeKey(vtkHDTVoxelizer* self, vtkDataObjec
   key.LabelArrayName = self->LabelArrayName ? self->LabelArrayName : "";
   key.LabelPriority = self->LabelPriority ? self->LabelPriority : "";
   key.InsideTest = self->InsideTest;
+  key.PointArrays = JoinNames(EnabledArrays(self->Internal->PointArrays));
+  key.CellArrays = JoinNames(EnabledArrays(self->Internal->CellArrays));
   return key;
 }
 
@@ -243,6 +282,12 @@ bool vtkHDTVoxelizer::Internals::ToMesh(vtkHDTVoxelizer* self, vtkDataObject* in
     // The same property on every rank, so every rank stops here alike.
     self->Fail(output, "Label By is not available across MPI ranks yet: set it to None, "
                        "or run the labelled build in one process");
+    return false;
+  }
+  if (ranks && self->Internal->Transfers())
+  {
+    self->Fail(output, "Arrays To Transfer is not available across MPI ranks yet: select none, "
+                       "or run the build in one process");
     return false;
   }
   if (self->LabelBy == LABEL_NONE)
@@ -347,6 +392,23 @@ vtkHDTVoxelizer::vtkHDTVoxelizer()
 {
   this->SetNumberOfInputPorts(1);
   this->SetNumberOfOutputPorts(2); // the hyper tree grid, the voxel surface
+  // A changed selection is a changed filter (as vtkPassSelectedArrays does).
+  for (vtkDataArraySelection* s : { this->Internal->PointArrays.GetPointer(), this->Internal->CellArrays.GetPointer() })
+  {
+    s->AddObserver(vtkCommand::ModifiedEvent, static_cast<vtkObject*>(this), &vtkObject::Modified);
+  }
+}
+
+//------------------------------------------------------------------------------
+vtkDataArraySelection* vtkHDTVoxelizer::GetPointDataArraySelection()
+{
+  return this->Internal->PointArrays;
+}
+
+//------------------------------------------------------------------------------
+vtkDataArraySelection* vtkHDTVoxelizer::GetCellDataArraySelection()
+{
+  return this->Internal->CellArrays;
 }
 
 //------------------------------------------------------------------------------
@@ -438,6 +500,8 @@ void vtkHDTVoxelizer::FillSurface(const hdt::Volume& volume, vtkInformationVecto
                               .Milliseconds;
     // The build statistics travel with the surface too (Information panel).
     vtkHDTCopyFieldData(vtkHyperTreeGrid::GetData(outputVector, 0), surface, this->LastSurfaceTime);
+    vtkHDTAddVoxelSurfaceArrays(volume, depth, surface, piece ? this->Internal->Piece.Cells.first : 0,
+      piece ? this->Internal->Piece.Cells.end : ~0ull);
   }
 }
 
@@ -508,7 +572,8 @@ int vtkHDTVoxelizer::RequestData(
       this->SetProgressText("preparing mesh");
       this->UpdateProgress(0.0);
       const hdt::PreparedMesh prepared = hdt::prepareMesh(mesh, config);
-      if (this->LabelBy == LABEL_NONE)
+      const bool transfers = this->Internal->Transfers();
+      if (this->LabelBy == LABEL_NONE && !transfers)
       {
         mesh = hdt::TriangleMesh(); // free the copy before the build
       }
@@ -523,9 +588,18 @@ int vtkHDTVoxelizer::RequestData(
       }
       else
       {
-        volume = std::make_shared<hdt::Volume>(this->LabelBy == LABEL_NONE
+        auto built = std::make_shared<hdt::Volume>(this->LabelBy == LABEL_NONE
             ? hdt::build(prepared, options)
             : hdt::voxelizeLabelled(mesh, config, options, Internals::MakeLabelOptions(this)));
+        if (transfers)
+        {
+          this->SetProgressText("transferring arrays");
+          hdt::transferArrays(mesh,
+            vtkHDTGatherMeshArrays(input, EnabledArrays(this->Internal->PointArrays),
+              EnabledArrays(this->Internal->CellArrays), mesh),
+            *built);
+        }
+        volume = built;
       }
       for (const std::string& warning : hdt::buildWarnings(prepared, *volume))
       {

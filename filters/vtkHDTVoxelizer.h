@@ -42,6 +42,7 @@
 #include <memory> // for std::shared_ptr
 #endif
 
+class vtkDataArraySelection;
 class vtkHyperTreeGrid;
 class vtkPolyData;
 #ifndef __VTK_WRAP__
@@ -195,6 +196,21 @@ public:
   vtkGetMacro(OverlapPolicy, int);
   vtkSetStringMacro(LabelPriority);
   vtkGetStringMacro(LabelPriority);
+  ///@}
+
+  ///@{
+  /**
+   * Arrays To Transfer (hdt/transfer.hpp): the input's point and cell arrays
+   * enabled in these selections are carried onto the surface voxels (cell
+   * data of the triangle nearest the voxel centre among those that touch it,
+   * of the voxel's label when labelled; point data interpolated at that
+   * triangle's closest point), as float32 cell arrays of the same names on
+   * the hyper tree grid and the voxel surface (vtkHDTVoxelArrays.h): NaN on
+   * inside and outside voxels, coarse cells the NaN-aware mean of their
+   * children. None by default.
+   */
+  vtkDataArraySelection* GetPointDataArraySelection();
+  vtkDataArraySelection* GetCellDataArraySelection();
   ///@}
 
   ///@{

@@ -5,6 +5,7 @@
 
 #include "vtkHDTHyperTreeGridConversion.h" // HDT::Filters
 #include "vtkHDTVolumeHandle.h"            // HDT::Filters
+#include "vtkHDTVoxelArrays.h"             // HDT::Filters
 #include "vtkHDTVoxelSurface.h"            // HDT::Filters
 
 #include "hdt/error.hpp"
@@ -280,6 +281,7 @@ int vtkHDTReader::RequestData(
       const double ms =
         vtkHDTFillVoxelSurface(volume, depth, surface, options.FirstTree, options.EndTree).Milliseconds;
       vtkHDTCopyFieldData(output, surface, ms);
+      vtkHDTAddVoxelSurfaceArrays(volume, depth, surface, options.FirstTree, options.EndTree);
     }
   }
   catch (const std::bad_alloc&)

@@ -6,6 +6,7 @@
 #include "hdt/hdt_file.hpp"
 #include "hdt/labels.hpp"
 #include "hdt/mesh.hpp"
+#include "hdt/transfer.hpp"
 #include "support/format_volumes.hpp"
 #include "support/shapes.hpp"
 
@@ -1079,6 +1080,173 @@ TEST(HdtFileLabels, UnlabelledReaderViewSkipsNothingItNeeds) {
   expectSameVolume(v, back, "states");
 }
 
+
+// ---- transferred arrays (sections 19 and 20) ------------------------------------------
+
+// Gives a volume two arrays on its surface voxels: a scalar and a 3-vector
+// with a NaN, values from the seed.
+void addArrays(Volume& v, uint32_t seed) {
+  const uint64_t surface = surfaceVoxelStart(v).back();
+  VoxelArray scalar{"pressure", ArraySource::Point, 1, {}}, vector{"velocity", ArraySource::Cell, 3, {}};
+  for (uint64_t i = 0; i < surface; ++i) scalar.values.push_back(float(seed) + 0.25f * float(i));
+  for (uint64_t i = 0; i < 3 * surface; ++i) vector.values.push_back(i == 1 ? std::nanf("") : -float(i) / 7.0f);
+  v.arrays = {scalar, vector};
+}
+
+void expectSameArrays(const Volume& a, const Volume& b, const std::string& context) {
+  ASSERT_EQ(a.arrays.size(), b.arrays.size()) << context;
+  for (size_t k = 0; k < a.arrays.size(); ++k) {
+    EXPECT_EQ(a.arrays[k].name, b.arrays[k].name) << context;
+    EXPECT_EQ(a.arrays[k].source, b.arrays[k].source) << context;
+    EXPECT_EQ(a.arrays[k].components, b.arrays[k].components) << context;
+    ASSERT_EQ(a.arrays[k].values.size(), b.arrays[k].values.size()) << context;
+    EXPECT_EQ(std::memcmp(a.arrays[k].values.data(), b.arrays[k].values.data(), a.arrays[k].values.size() * 4), 0)
+        << context;
+  }
+}
+
+Volume tinyVolumeWithArrays() {
+  Volume v = tinyVolume();
+  addArrays(v, 3);
+  return v;
+}
+
+TEST(HdtFileArrays, RoundTripBitExact) {
+  for (const HdtWriteOptions& o : {raw(), compressed()}) {
+    for (bool labelled : {false, true}) {
+      Volume v = smallVolume();
+      if (labelled) labelRandomly(v, 4);
+      addArrays(v, 2);
+      ASSERT_GT(v.arrays[0].values.size(), 0u);
+      const std::vector<uint8_t> b = bytesOf(v, o);
+      const Volume back = deserializeHdt(b.data(), b.size());
+      expectSameVolume(v, back, "arrays");
+      expectSameArrays(v, back, labelled ? "labelled" : "unlabelled");
+      EXPECT_EQ(bytesOf(back, o), b);
+    }
+  }
+}
+
+TEST(HdtFileArrays, LayoutFollowsTheSpec) {
+  const Volume v = tinyVolumeWithArrays();
+  const HdtImage im = parseHdtImage(bytesOf(v));
+  ASSERT_EQ(im.sections.size(), 8u); // 5 required, 19, 20, end
+  EXPECT_EQ(im.sections[5].id, 19u);
+  EXPECT_EQ(im.sections[6].id, 20u);
+  const std::vector<uint8_t>& dir = im.sections[5].payload;
+  EXPECT_EQ(getLe32(dir, 0), 2u);
+  EXPECT_EQ(getLe32(dir, 4), 8u);
+  EXPECT_EQ(std::string(dir.begin() + 8, dir.begin() + 16), "pressure");
+  EXPECT_EQ(getLe32(dir, 16), 0u); // point
+  EXPECT_EQ(getLe32(dir, 20), 1u); // components
+  EXPECT_EQ(getLe32(dir, 24), 8u);
+  EXPECT_EQ(std::string(dir.begin() + 28, dir.begin() + 36), "velocity");
+  EXPECT_EQ(getLe32(dir, 36), 1u); // cell
+  EXPECT_EQ(getLe32(dir, 40), 3u);
+  EXPECT_EQ(dir.size(), 44u);
+  const std::vector<uint8_t>& values = im.sections[6].payload;
+  ASSERT_EQ(values.size(), 4 * (v.arrays[0].values.size() + v.arrays[1].values.size()));
+  float second;
+  std::memcpy(&second, values.data() + 4, 4);
+  EXPECT_EQ(second, v.arrays[0].values[1]);
+  // The CRC covers the header's first 24 bytes, then the payload.
+  const std::vector<uint8_t> b = bytesOf(v);
+  const size_t at = hdtSectionBoundaries(b)[7]; // header of section 20
+  std::vector<uint8_t> covered(b.begin() + long(at), b.begin() + long(at) + 24);
+  covered.insert(covered.end(), values.begin(), values.end());
+  EXPECT_EQ(im.sections[6].crc, referenceCrc32(covered.data(), covered.size()));
+}
+
+TEST(HdtFileArrays, EveryByteFlippedAndTruncated) {
+  for (const HdtWriteOptions& o : {raw(), compressed()}) {
+    const std::vector<uint8_t> valid = bytesOf(tinyVolumeWithArrays(), o);
+    ASSERT_EQ(refusal(valid), "ACCEPTED");
+    std::vector<uint8_t> b = valid;
+    // From the header of section 19 on (the bytes before are the other tests'),
+    // every 16th byte of the float values (all alike, and many).
+    const std::vector<size_t> at = hdtSectionBoundaries(valid);
+    const size_t first = at[6], values = at[7] + 28, end = at[8];
+    auto sampled = [&](size_t i) { return i < values || i >= end || (i - values) % 16 == 0; };
+    for (size_t i = first; i < b.size(); ++i) {
+      if (!sampled(i)) continue;
+      for (uint8_t mask : {0x01, 0x80}) {
+        b[i] ^= mask;
+        const std::string m = refusal(b);
+        b[i] ^= mask;
+        ASSERT_TRUE(refusedProperly(m)) << "byte " << i << " ^ " << int(mask) << ": " << m;
+      }
+    }
+    for (size_t n = first; n < valid.size(); ++n)
+      if (sampled(n)) ASSERT_TRUE(refusedProperly(refusal(valid.data(), n))) << n;
+  }
+}
+
+TEST(HdtFileArrays, InconsistentArraysAreRefused) {
+  const Volume v = smallVolume();
+  Volume withArrays = v;
+  addArrays(withArrays, 1);
+  const std::vector<uint8_t> valid = bytesOf(withArrays);
+  auto directory = [&](const std::function<void(std::vector<uint8_t>&)>& edit) {
+    return forge(valid, [&](HdtImage& im) { edit(im.sections[5].payload); });
+  };
+  EXPECT_REFUSED(directory([](std::vector<uint8_t>& p) { putLe32(p, 0, 0); }), "0 arrays");
+  EXPECT_REFUSED(directory([](std::vector<uint8_t>& p) { putLe32(p, 0, 257); }), "257 arrays");
+  EXPECT_REFUSED(directory([](std::vector<uint8_t>& p) { putLe32(p, 0, 3); }), "ends inside an entry");
+  EXPECT_REFUSED(directory([](std::vector<uint8_t>& p) { p.push_back(0); }), "bytes after the last entry");
+  EXPECT_REFUSED(directory([](std::vector<uint8_t>& p) { putLe32(p, 4, 0); }), "a name of 0 bytes");
+  EXPECT_REFUSED(directory([](std::vector<uint8_t>& p) { putLe32(p, 16, 2); }), "unknown source 2");
+  EXPECT_REFUSED(directory([](std::vector<uint8_t>& p) { putLe32(p, 20, 0); }), "0 components");
+  EXPECT_REFUSED(directory([](std::vector<uint8_t>& p) { putLe32(p, 20, 65); }), "65 components");
+  EXPECT_REFUSED(directory([](std::vector<uint8_t>& p) { std::copy(p.begin() + 8, p.begin() + 16, p.begin() + 28); }),
+                 "appears twice");
+  // A component more than the values section holds.
+  EXPECT_REFUSED(directory([](std::vector<uint8_t>& p) { putLe32(p, 20, 2); }), "array values section");
+  EXPECT_REFUSED(forge(valid, [](HdtImage& im) { im.sections[6].payload.resize(im.sections[6].payload.size() - 4); }),
+                 "array values section");
+  EXPECT_REFUSED(forge(valid, [](HdtImage& im) { im.sections.erase(im.sections.begin() + 5); }),
+                 "without the array directory section");
+  EXPECT_REFUSED(forge(valid, [](HdtImage& im) { im.sections.erase(im.sections.begin() + 6); }),
+                 "without the array values section");
+  EXPECT_REFUSED(forge(valid, [](HdtImage& im) { im.sections[6].encoding = 1; }),
+                 "array values section: invalid encoding 1");
+  EXPECT_REFUSED(forge(valid, [](HdtImage& im) { std::swap(im.sections[5], im.sections[6]); }),
+                 "without the array directory section");
+  // The writer refuses what the reader would.
+  Volume bad = withArrays;
+  bad.arrays[1].values.pop_back();
+  EXPECT_THROW(bytesOf(bad), Error);
+  bad = withArrays;
+  bad.arrays[1].name = "pressure";
+  EXPECT_THROW(bytesOf(bad), Error);
+  bad = withArrays;
+  bad.arrays[0].components = 0;
+  EXPECT_THROW(bytesOf(bad), Error);
+}
+
+TEST(HdtFileArrays, ForgedSizesAreRefusedBeforeAllocating) {
+  Volume v = smallVolume();
+  addArrays(v, 1);
+  const std::vector<uint8_t> valid = bytesOf(v);
+  // 256 arrays of 64 components: the values section would be 16384 floats a
+  // surface voxel; the file holds far less, so nothing that large is allocated.
+  std::vector<uint8_t> forged = forge(valid, [](HdtImage& im) {
+    std::vector<uint8_t> dir(4);
+    putLe32(dir, 0, 256);
+    for (int k = 0; k < 256; ++k) {
+      const std::string name = "a" + std::to_string(k);
+      const size_t at = dir.size();
+      dir.resize(at + 4 + name.size() + 8);
+      putLe32(dir, at, uint32_t(name.size()));
+      std::memcpy(dir.data() + at + 4, name.data(), name.size());
+      putLe32(dir, at + 4 + name.size(), 0);
+      putLe32(dir, at + 8 + name.size(), 64);
+    }
+    im.sections[5].payload = dir;
+  });
+  size_t largest = 0;
+  largest = largestAllocationDuring([&] { EXPECT_REFUSED(forged, "array values section"); });
+  EXPECT_LT(largest, valid.size() + (size_t(1) << 20));
+}
 } // namespace
 } // namespace test
 } // namespace hdt

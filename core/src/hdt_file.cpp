@@ -17,6 +17,7 @@
 #include "hdt/error.hpp"
 #include "hdt/labels.hpp"
 #include "hdt/lattice.hpp"
+#include "hdt/transfer.hpp"
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -66,6 +67,7 @@ enum class Section : uint32_t {
   Grid = 1, Statistics = 2, LevelTable = 3, Elements = 4, LeafData = 5, End = 6,
   // Optional (version 2)
   LabelElements = 16, LabelVoxels = 17, LabelNames = 18,
+  ArrayDirectory = 19, ArrayValues = 20, // transferred mesh data (hdt/transfer.hpp)
 };
 constexpr size_t kMaxLabelNameLength = 255;
 enum class Encoding : uint32_t { Raw = 0, Zstd = 1 };
@@ -81,6 +83,8 @@ const char* sectionName(Section s) {
   case Section::LabelElements: return "label elements";
   case Section::LabelVoxels: return "label voxels";
   case Section::LabelNames: return "label names";
+  case Section::ArrayDirectory: return "array directory";
+  case Section::ArrayValues: return "array values";
   }
   return "?";
 }
@@ -131,6 +135,13 @@ uint32_t crc32Of(const void* data, size_t size) {
 // On little-endian hosts that is the array itself, in one call and no copy.
 inline uint32_t byteSwap(uint32_t v) { return __builtin_bswap32(v); }
 inline uint16_t byteSwap(uint16_t v) { return __builtin_bswap16(v); }
+inline float byteSwap(float v) {
+  uint32_t b;
+  std::memcpy(&b, &v, 4);
+  b = __builtin_bswap32(b);
+  std::memcpy(&v, &b, 4);
+  return v;
+}
 
 template <class T, class Fn> void forEachLittleEndianChunk(const T* words, size_t count, Fn&& fn) {
   if (count == 0) return;
@@ -498,6 +509,11 @@ void checkVolume(const Volume& v, StatisticsOf statistics = StatisticsOf::Conten
   const auto leaves = checkLeaves(v.leafWords, g.leafSize, v.surfaceOnly);
   if (statistics == StatisticsOf::Contents) checkStructure(v.stats, v, tree, leaves);
   checkLabels(v);
+  try {
+    validateVoxelArrays(v);
+  } catch (const Error& e) {
+    invalid(e.what());
+  }
 }
 
 // ---- zstd ---------------------------------------------------------------------------
@@ -641,6 +657,11 @@ struct EncodedVolume {
   uint32_t labelVoxelsCrc = 0;
   std::vector<uint8_t> labelNames; // empty: no names section
 
+  // Transferred arrays (optional sections 19-20), when the volume has them.
+  std::vector<uint8_t> arrayDirectory; // empty: no array sections
+  uint64_t arrayValueBytes = 0;
+  uint32_t arrayValuesCrc = 0;
+
   uint64_t leafStoredBytes() const {
 #if defined(HDT_HAVE_ZSTD)
     if (leafEncoding == Encoding::Zstd) return compressed.size;
@@ -698,11 +719,40 @@ void encodeLabels(const Volume& v, const HdtWriteOptions& options, EncodedVolume
   if (!f.names.empty()) e.labelNames = encodeLabelNames(f.names);
 }
 
+// Section 19: u32 count, then per array u32 name length, the name, u32
+// source (0 point, 1 cell), u32 components.
+std::vector<uint8_t> encodeArrayDirectory(const std::vector<VoxelArray>& arrays) {
+  ByteWriter w;
+  w.u32(uint32_t(arrays.size()));
+  for (const VoxelArray& a : arrays) {
+    w.u32(uint32_t(a.name.size()));
+    w.raw(a.name.data(), a.name.size());
+    w.u32(uint32_t(a.source));
+    w.u32(a.components);
+  }
+  return w.bytes();
+}
+
+// Section 20: every array's float32 values, in directory order, raw.
+void encodeArrays(const Volume& v, EncodedVolume& e) {
+  if (v.arrays.empty()) return;
+  e.arrayDirectory = encodeArrayDirectory(v.arrays);
+  uint32_t crc = 0;
+  for (const VoxelArray& a : v.arrays) {
+    const uint64_t n = a.values.size() * sizeof(float);
+    crc = static_cast<uint32_t>(crc32_combine(crc, crcOfWords(a.values), z_off_t(n)));
+    e.arrayValueBytes += n;
+  }
+  e.arrayValuesCrc =
+      optionalSectionCrc(Section::ArrayValues, Encoding::Raw, e.arrayValueBytes, e.arrayValueBytes, crc);
+}
+
 EncodedVolume encodeRequired(const Volume& v, const HdtWriteOptions& options);
 
 EncodedVolume encode(const Volume& v, const HdtWriteOptions& options) {
   EncodedVolume e = encodeRequired(v, options);
   encodeLabels(v, options, e);
+  encodeArrays(v, e);
   return e;
 }
 
@@ -785,6 +835,7 @@ uint64_t encodedSize(const EncodedVolume& e, const Volume& v) {
     size += 2 * kSectionHeaderBytes + v.labels.elementLabels.size() * sizeof(Label) + e.labelVoxelStoredBytes();
     if (!e.labelNames.empty()) size += kSectionHeaderBytes + e.labelNames.size();
   }
+  if (!e.arrayDirectory.empty()) size += 2 * kSectionHeaderBytes + e.arrayDirectory.size() + e.arrayValueBytes;
   return size;
 }
 
@@ -810,6 +861,17 @@ void emitLabels(const EncodedVolume& e, const Volume& v, Sink& out) {
                        optionalSectionCrc(Section::LabelNames, Encoding::Raw, n, n, crc32Of(e.labelNames.data(), n)));
     out.write(e.labelNames.data(), n);
   }
+}
+
+void emitArrays(const EncodedVolume& e, const Volume& v, Sink& out) {
+  if (e.arrayDirectory.empty()) return;
+  const uint64_t n = e.arrayDirectory.size();
+  writeSectionHeader(out, Section::ArrayDirectory, Encoding::Raw, n, n,
+                     optionalSectionCrc(Section::ArrayDirectory, Encoding::Raw, n, n, crc32Of(e.arrayDirectory.data(), n)));
+  out.write(e.arrayDirectory.data(), n);
+  writeSectionHeader(out, Section::ArrayValues, Encoding::Raw, e.arrayValueBytes, e.arrayValueBytes, e.arrayValuesCrc);
+  for (const VoxelArray& a : v.arrays)
+    forEachLittleEndianChunk(a.values.data(), a.values.size(), [&](const uint8_t* p, size_t k) { out.write(p, k); });
 }
 
 void emit(const EncodedVolume& e, const Volume& v, Sink& out) {
@@ -842,6 +904,7 @@ void emit(const EncodedVolume& e, const Volume& v, Sink& out) {
   }
 
   emitLabels(e, v, out);
+  emitArrays(e, v, out);
   writeSectionHeader(out, Section::End, Encoding::Raw, 0, 0, 0);
 }
 
@@ -1154,12 +1217,75 @@ void readLabelSection(Source& in, const RawSectionHeader& raw, Volume& v, std::v
   }
 }
 
+// Section 19's contents (encodeArrayDirectory): arrays with names, sources
+// and components, values still empty.
+std::vector<VoxelArray> decodeArrayDirectory(const uint8_t* bytes, size_t size) {
+  const std::string what = "array directory section: ";
+  if (size < 4) invalid(what + "shorter than its count");
+  ByteReader r(bytes, size);
+  const uint32_t count = r.u32();
+  if (count == 0 || count > kMaxVoxelArrays) invalid(what + str(count) + " arrays (1 to 256)");
+  std::vector<VoxelArray> arrays(count);
+  size_t at = 4;
+  for (VoxelArray& a : arrays) {
+    if (size - at < 4) invalid(what + "ends inside an entry");
+    const uint32_t length = r.u32();
+    at += 4;
+    if (length == 0 || length > kMaxArrayNameLength) invalid(what + "a name of " + str(length) + " bytes (1 to 255)");
+    if (size - at < size_t(length) + 8) invalid(what + "ends inside an entry");
+    a.name.assign(reinterpret_cast<const char*>(r.bytes(length)), length);
+    const uint32_t source = r.u32(), components = r.u32();
+    at += size_t(length) + 8;
+    if (source > uint32_t(ArraySource::Cell)) invalid(what + "array '" + a.name + "': unknown source " + str(source));
+    if (components < 1 || components > kMaxArrayComponents)
+      invalid(what + "array '" + a.name + "': " + str(components) + " components (1 to 64)");
+    a.source = ArraySource(source);
+    a.components = components;
+    for (const VoxelArray& b : arrays) {
+      if (&b == &a) break;
+      if (b.name == a.name) invalid(what + "array '" + a.name + "' appears twice");
+    }
+  }
+  if (at != size) invalid(what + str(size - at) + " bytes after the last entry");
+  return arrays;
+}
+
+// The transferred-array sections (19, 20). The values' size follows from
+// the directory and the surface voxels of the leaf data already read (at most
+// 64 * 256 floats per surface voxel), and raw encoding keeps it within the file.
+void readArraySection(Source& in, const RawSectionHeader& raw, Volume& v) {
+  const Section id = Section(raw.id);
+  const SectionHeader h = checkSectionHeader(raw, id, sectionName(id), false, in);
+  if (id == Section::ArrayDirectory) {
+    if (h.raw > 4 + kMaxVoxelArrays * (12 + kMaxArrayNameLength)) invalid("array directory section: too long");
+    std::vector<uint8_t> scratch;
+    const uint8_t* bytes = in.view(size_t(h.stored), scratch);
+    checkOptionalCrc(h, bytes);
+    v.arrays = decodeArrayDirectory(bytes, size_t(h.stored));
+    return;
+  }
+  if (v.arrays.empty()) invalid("array values section without the array directory section");
+  uint64_t surface = 0;
+  for (uint32_t w : v.leafWords) surface += planeCount(w, kSurfacePlane);
+  uint64_t expected = 0;
+  for (const VoxelArray& a : v.arrays) expected += surface * a.components * sizeof(float);
+  expectRawBytes(h, expected);
+  uint32_t crc = optionalSectionCrcSeed(raw.id, raw.encoding, raw.stored, raw.raw);
+  for (VoxelArray& a : v.arrays) {
+    a.values.resize(size_t(surface * a.components));
+    in.read(a.values.data(), a.values.size() * sizeof(float));
+    crc = crc32Update(crc, a.values.data(), a.values.size() * sizeof(float));
+    littleEndianToHost(a.values.data(), a.values.size());
+  }
+  checkCrc(h, crc);
+}
+
 // Version 2, after the leaf data: optional sections in increasing id order,
 // then the end section (docs/hdt-format.md, "Optional sections").
 void readOptionalSections(Source& in, Volume& v) {
   uint32_t previous = 0;
   std::vector<uint64_t> mixed;
-  bool labelVoxels = false;
+  bool labelVoxels = false, arrayValues = false;
   for (;;) {
     const RawSectionHeader raw = readRawSectionHeader(in, "next optional or the end");
     if (raw.id == uint32_t(Section::End)) {
@@ -1182,6 +1308,11 @@ void readOptionalSections(Source& in, Volume& v) {
       labelVoxels = labelVoxels || raw.id == uint32_t(Section::LabelVoxels);
       continue;
     }
+    if (raw.id == uint32_t(Section::ArrayDirectory) || raw.id == uint32_t(Section::ArrayValues)) {
+      readArraySection(in, raw, v);
+      arrayValues = arrayValues || raw.id == uint32_t(Section::ArrayValues);
+      continue;
+    }
     if (raw.id & kCriticalSectionBit) {
       invalid("optional section " + str(raw.id) + " at byte " + str(raw.at) +
               " is marked critical and this reader does not know it");
@@ -1190,6 +1321,7 @@ void readOptionalSections(Source& in, Volume& v) {
   }
   if (in.remaining() != 0) invalid(str(in.remaining()) + " bytes after the end section");
   if (!v.labels.empty() && !labelVoxels) invalid("label elements section without the label voxels section");
+  if (!v.arrays.empty() && !arrayValues) invalid("array directory section without the array values section");
   indexMixedLeaves(v);
 }
 

@@ -278,15 +278,9 @@ PreparedMesh prepareMesh(const TriangleMesh& mesh, const BuildConfig& config) {
   // Snap every point once: the lattice coordinates are the only geometry the
   // drivers see. Points lie in [s, (N - 1) s] of the grid, so below 2^24.
   const GridSpec& g = out.grid;
-  const double scale = double(kLatticePerVoxel) / g.voxelSize;
   Scratch<int32_t> snapped(mesh.points.size());
   tbb::parallel_for(size_t(0), mesh.pointCount(), [&](size_t p) {
-    for (int a = 0; a < 3; ++a) {
-      const double q = (mesh.points[3 * p + a] - g.origin[a]) * scale;
-      // Unreferenced points may be anywhere; clamp them harmlessly.
-      const double limit = double(int64_t(g.resolution) * kLatticePerVoxel);
-      snapped[3 * p + a] = int32_t(std::llround(std::min(std::max(q, 0.0), limit)));
-    }
+    for (int a = 0; a < 3; ++a) snapped[3 * p + a] = snapToLattice(mesh.points[3 * p + a], g, a);
   });
 
   out.triangles = keptTriangles(mesh, snapped);

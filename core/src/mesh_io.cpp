@@ -266,8 +266,16 @@ private:
   Format format_;
 };
 
+std::vector<MeshArray>& noArrays() {
+  static thread_local std::vector<MeshArray> none;
+  return none;
+}
+
 // labelProperty: the integer face property that labels the triangles, or "".
-TriangleMesh readPly(const std::string& path, std::FILE* f, uint64_t size, const std::string& labelProperty = "") {
+// arrays: when given, the scalar vertex or face properties named by their
+// names are read into them (MeshArray::name set, the rest filled here).
+TriangleMesh readPly(const std::string& path, std::FILE* f, uint64_t size, const std::string& labelProperty = "",
+                     std::vector<MeshArray>* arrays = nullptr) {
   std::string data(size, '\0');
   if (std::fread(&data[0], 1, size, f) != size) fail(path, "read error");
 
@@ -338,8 +346,16 @@ TriangleMesh readPly(const std::string& path, std::FILE* f, uint64_t size, const
     }
     const bool isVertex = e.name == "vertex", isFace = e.name == "face";
     int axis[3] = {-1, -1, -1}, indices = -1, labelIndex = -1;
+    std::vector<std::pair<size_t, MeshArray*>> wanted; // property index -> array it fills
     for (size_t i = 0; i < e.properties.size(); ++i) {
       const PlyProperty& p = e.properties[i];
+      for (MeshArray& a : arrays ? *arrays : noArrays()) {
+        if ((isVertex || isFace) && !p.isList && p.name == a.name && a.values.empty() && a.components == 0) {
+          a.source = isVertex ? ArraySource::Point : ArraySource::Cell;
+          a.components = 1;
+          wanted.emplace_back(i, &a);
+        }
+      }
       if (isFace && !p.isList && !labelProperty.empty() && p.name == labelProperty) {
         if (p.type == PlyType::Float32 || p.type == PlyType::Float64)
           fail(path, "PLY face property '" + labelProperty + "' is not an integer property");
@@ -360,9 +376,11 @@ TriangleMesh readPly(const std::string& path, std::FILE* f, uint64_t size, const
     haveFaces |= isFace;
 
     std::vector<double> list;
+    std::vector<double> picked(wanted.size());
     for (uint64_t n = 0; n < e.count; ++n) {
       double xyz[3] = {};
       double label = -1;
+      const size_t trianglesBefore = mesh.triangleCount();
       for (size_t i = 0; i < e.properties.size(); ++i) {
         const PlyProperty& p = e.properties[i];
         if (!p.isList) {
@@ -370,6 +388,8 @@ TriangleMesh readPly(const std::string& path, std::FILE* f, uint64_t size, const
           for (int a = 0; a < 3; ++a)
             if (axis[a] == int(i)) xyz[a] = v;
           if (int(i) == labelIndex) label = v;
+          for (size_t k = 0; k < wanted.size(); ++k)
+            if (wanted[k].first == i) picked[k] = v;
           continue;
         }
         const double count = body.read(p.countType, e.name.c_str());
@@ -391,6 +411,9 @@ TriangleMesh readPly(const std::string& path, std::FILE* f, uint64_t size, const
         }
       }
       if (isVertex) mesh.points.insert(mesh.points.end(), {xyz[0], xyz[1], xyz[2]});
+      // A vertex value once, a face value once per triangle of the face.
+      const size_t copies = isVertex ? 1 : mesh.triangleCount() - trianglesBefore;
+      for (size_t k = 0; k < wanted.size(); ++k) wanted[k].second->values.insert(wanted[k].second->values.end(), copies, picked[k]);
       if (isFace && labelIndex >= 0) {
         if (!(label >= 1 && label <= 65535)) {
           fail(path, "face " + std::to_string(n) + " has the label " + std::to_string(int64_t(label)) +
@@ -400,6 +423,8 @@ TriangleMesh readPly(const std::string& path, std::FILE* f, uint64_t size, const
       }
     }
   }
+  for (const MeshArray& a : arrays ? *arrays : noArrays())
+    if (a.components == 0) fail(path, "no scalar vertex or face property '" + a.name + "' to transfer");
   if (!haveVertices) fail(path, "PLY file has no vertex element");
   if (!haveFaces) fail(path, "PLY file has no face element");
   // Checked here, not per face: the vertex element may come after the faces.
@@ -544,6 +569,11 @@ void labelConnectedComponents(TriangleMesh& mesh) {
 }
 
 TriangleMesh readMesh(const std::string& path, const MeshLabelSource& labels) {
+  std::vector<MeshArray> none;
+  return readMesh(path, labels, none);
+}
+
+TriangleMesh readMesh(const std::string& path, const MeshLabelSource& labels, std::vector<MeshArray>& arrays) {
   using Kind = MeshLabelSource::Kind;
   uint64_t size = 0;
   File f = openRegular(path, size);
@@ -556,12 +586,18 @@ TriangleMesh readMesh(const std::string& path, const MeshLabelSource& labels) {
 
   if (labels.kind == Kind::PlyFaceProperty && ext != ".ply")
     fail(path, "labels from a PLY face property need a .ply file");
+  if (!arrays.empty() && ext != ".ply") fail(path, "arrays to transfer are read from PLY vertex and face properties only");
   if ((labels.kind == Kind::ObjGroup || labels.kind == Kind::ObjMaterial) && ext != ".obj")
     fail(path, "labels from OBJ groups or materials need an .obj file");
   TriangleMesh mesh;
   uint32_t n = 0;
   if (ext == ".ply") {
-    mesh = readPly(path, f.get(), size, labels.kind == Kind::PlyFaceProperty ? labels.property : "");
+    for (MeshArray& a : arrays) {
+      a.components = 0; // found by readPly
+      a.values.clear();
+    }
+    mesh = readPly(path, f.get(), size, labels.kind == Kind::PlyFaceProperty ? labels.property : "",
+                   arrays.empty() ? nullptr : &arrays);
   } else if (ext == ".stl" && binaryStlCount(f.get(), size, n)) {
     mesh = readBinaryStl(path, f.get(), n);
   } else {

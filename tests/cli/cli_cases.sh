@@ -252,6 +252,37 @@ EOF2
   stderr_has "no property 'nothere'"
 }
 
+case_transfer() {
+  # A box in a PLY with a vertex property (t = x) and a face property (side):
+  # --transfer carries them onto the surface voxels, the JSON names them and
+  # their bytes, the .hdt file holds them.
+  python3 - "$work/box.ply" <<'EOF2'
+import sys
+pts = [((i & 1), (i >> 1) & 1, (i >> 2) & 1) for i in range(8)]
+quads = ((0, 2, 3, 1), (4, 5, 7, 6), (0, 1, 5, 4), (2, 6, 7, 3), (0, 4, 6, 2), (1, 3, 7, 5))
+with open(sys.argv[1], "w") as f:
+    f.write("ply\nformat ascii 1.0\nelement vertex 8\nproperty float x\nproperty float y\nproperty float z\n"
+            "property float t\nelement face 6\nproperty list uchar int vertex_indices\nproperty int side\nend_header\n")
+    for p in pts: f.write("%g %g %g %g\n" % (p + (p[0],)))
+    for k, q in enumerate(quads): f.write("4 %s %d\n" % (" ".join(map(str, q)), k))
+EOF2
+  run 0 "$work/box.ply" --resolution 32 --root-grid 2 --leaf-size 8 --json --transfer t --transfer side -o "$work/box.hdt"
+  python3 - "$work/stdout" <<'EOF2' || fail "transfer JSON"
+import json, sys
+d = json.load(open(sys.argv[1]))
+assert d["transferred_arrays"] == [{"name": "t", "source": "point", "components": 1},
+                                   {"name": "side", "source": "cell", "components": 1}], d["transferred_arrays"]
+assert d["transferred_array_bytes"] == 2 * 4 * d["active_voxels"] + 5, d
+EOF2
+  run 0 "$work/box.ply" --resolution 32 --root-grid 2 --leaf-size 8 --json
+  python3 -c 'import json,sys; d=json.load(open(sys.argv[1])); assert d["transferred_arrays"] == [] and d["transferred_array_bytes"] == 0, d' \
+    "$work/stdout" || fail "arrays reported without --transfer"
+  run 3 "$work/box.ply" --resolution 32 --root-grid 2 --transfer nothere
+  stderr_has "no scalar vertex or face property 'nothere'"
+  run 2 builtin:sphere --resolution 32 --root-grid 2 --transfer t
+  stderr_has "--transfer needs a PLY file"
+}
+
 case_inside_test() {
   python3 - "$work/open.stl" <<'EOF2'
 import struct, sys

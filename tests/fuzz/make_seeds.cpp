@@ -4,6 +4,7 @@
 //   hdt_fuzz_seeds OUTDIR  ->  OUTDIR/{hdt_reader,mesh_reader,pipeline}/...
 #include "hdt/builder.hpp"
 #include "hdt/hdt_file.hpp"
+#include "hdt/transfer.hpp"
 #include "support/format_volumes.hpp"
 #include "support/shapes.hpp"
 
@@ -125,6 +126,16 @@ int main(int argc, char** argv) {
   BuildOptions o;
   o.backend = Backend::Cpu;
   put(out + "/hdt_reader/sphere32.hdt", serializeHdt(voxelize(test::icosphere(1, 1.0), c, o)));
+  {
+    // Transferred arrays: the optional array sections (19, 20) to mutate too.
+    const TriangleMesh m = test::icosphere(1, 1.0);
+    Volume v = voxelize(m, c, o);
+    MeshArray x{"x", ArraySource::Point, 1, {}}, index{"triangle", ArraySource::Cell, 1, {}};
+    for (size_t p = 0; p < m.pointCount(); ++p) x.values.push_back(m.points[3 * p]);
+    for (size_t t = 0; t < m.triangleCount(); ++t) index.values.push_back(double(t));
+    transferArrays(m, {x, index}, v);
+    put(out + "/hdt_reader/sphere32-arrays.hdt", serializeHdt(v, raw));
+  }
 
   // Meshes: every format the readers take, and the inputs.
   const TriangleMesh tetra = test::octahedron({0, 0, 0}, 1.0), sphere = test::icosphere(1, 1.0);

@@ -5,7 +5,9 @@
 #include "hdt/label_field.hpp"
 #include "hdt/lattice.hpp"
 
+#include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <map>
 #include <string>
@@ -45,6 +47,16 @@ struct PreparedMesh {
   InsideTest requestedInsideTest = InsideTest::Parity;
   InsideTest insideTest = InsideTest::Parity;
 };
+
+// Coordinate `axis` of point x snapped to the lattice of grid g: the only
+// geometry the drivers see (prepareMesh), shared with the data transfer
+// (hdt/transfer.hpp), which must test the same lattice triangles. Points
+// outside the grid (unreferenced ones) are clamped harmlessly.
+inline int32_t snapToLattice(double x, const GridSpec& g, int axis) {
+  const double q = (x - g.origin[size_t(axis)]) * (double(kLatticePerVoxel) / g.voxelSize);
+  const double limit = double(int64_t(g.resolution) * kLatticePerVoxel);
+  return int32_t(std::llround(std::min(std::max(q, 0.0), limit)));
+}
 
 // Bounds of all points referenced by triangles. Throws Error(BadInput) for an
 // empty mesh, an index out of range or a non-finite coordinate.

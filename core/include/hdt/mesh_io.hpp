@@ -2,6 +2,7 @@
 #pragma once
 
 #include "hdt/mesh.hpp"
+#include "hdt/transfer.hpp"
 
 #include <string>
 #include <vector>
@@ -38,6 +39,13 @@ struct MeshLabelSource {
 
 // readMesh, with labels from `labels` (Error(BadInput) when the file lacks them).
 TriangleMesh readMesh(const std::string& path, const MeshLabelSource& labels);
+
+// readMesh, with arrays to transfer (hdt/transfer.hpp) from a PLY file: each
+// of `arrays` names a scalar property of the vertex element (a point array)
+// or, failing that, of the face element (a cell array: each polygon's
+// triangles share its value); the rest of each MeshArray is filled here.
+// Error(BadInput) for another format or a property the file lacks.
+TriangleMesh readMesh(const std::string& path, const MeshLabelSource& labels, std::vector<MeshArray>& arrays);
 
 // Labels each triangle with its connected component (shared points: the same
 // index or exactly the same coordinates),

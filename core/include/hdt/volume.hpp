@@ -4,6 +4,7 @@
 #include "hdt/config.hpp"
 #include "hdt/label_field.hpp"
 #include "hdt/types.hpp"
+#include "hdt/voxel_arrays.hpp"
 
 #include "hdt/default_init_allocator.hpp"
 
@@ -59,6 +60,7 @@ struct Volume {
   LeafWordVector leafWords;          // leafGrids * leafWordCount(L); resize() leaves them unwritten
   Statistics stats;
   LabelField labels;                 // part labels (hdt/labels.hpp); empty when unlabelled
+  std::vector<VoxelArray> arrays;    // mesh data on surface voxels (hdt/transfer.hpp); usually none
 
   uint64_t leafCount() const { return leafWords.size() / leafWordCount(grid.leafSize); }
   const uint32_t* leaf(uint64_t i) const { return leafWords.data() + i * leafWordCount(grid.leafSize); }
