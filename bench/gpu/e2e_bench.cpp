@@ -10,7 +10,8 @@
 //   --warm-check  after the run, a second build (nothing copied back) whose
 //                 device phase time is the warm reference for the first
 //   --write-breakdown  after the run, the writer's parts: the same encoding
-//                 into memory (checks + zstd), and a file without compression
+//                 into memory (checks + zstd blocks), the same as version 2's
+//                 one zstd frame, and a file without compression
 #include "hdt/builder.hpp"
 #include "hdt/cuda_build.hpp"
 #include "hdt/hdt_file.hpp"
@@ -149,6 +150,10 @@ int main(int argc, char** argv) {
       Clock::time_point w = Clock::now();
       const size_t bytes = serializeHdt(v).size();
       j << ", \"serialize_ms\": " << num(msSince(w)) << ", \"serialize_bytes\": " << bytes;
+      HdtWriteOptions oneFrame; // version 2's one zstd frame (multi-threaded zstd), for comparison
+      oneFrame.leafBlocks = false;
+      const size_t oneFrameBytes = serializeHdt(v, oneFrame).size();
+      j << ", \"serialize_one_frame_ms\": " << num(msSince(w)) << ", \"serialize_one_frame_bytes\": " << oneFrameBytes;
       HdtWriteOptions raw;
       raw.compressLeaves = false;
       writeHdt(v, a.hdt, raw);
