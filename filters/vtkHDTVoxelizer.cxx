@@ -1,5 +1,6 @@
 #include "vtkHDTVoxelizer.h"
 
+#include "vtkHDTCudaWarmUp.h"
 #include "vtkHDTDistributedBuild.h"
 #include "vtkHDTHyperTreeGridConversion.h"
 #include "vtkHDTLabelledMesh.h"
@@ -347,6 +348,7 @@ vtkHDTVoxelizer::vtkHDTVoxelizer()
 {
   this->SetNumberOfInputPorts(1);
   this->SetNumberOfOutputPorts(2); // the hyper tree grid, the voxel surface
+  vtkHDTCudaWarmUp::Start(); // while the user sets the properties
 }
 
 //------------------------------------------------------------------------------
@@ -523,6 +525,7 @@ int vtkHDTVoxelizer::RequestData(
       }
       else
       {
+        vtkHDTCudaWarmUp::Wait();
         volume = std::make_shared<hdt::Volume>(this->LabelBy == LABEL_NONE
             ? hdt::build(prepared, options)
             : hdt::voxelizeLabelled(mesh, config, options, Internals::MakeLabelOptions(this)));
