@@ -151,7 +151,7 @@ step_cli() { # CLI_RUNS: "MESH:N[:surface] ..." hdt-voxelize MESH --resolution N
     for k in 1 2; do
       local s=$(date +%s.%N)
       "$cli" "$DEPS/meshes/$m" --resolution "$n" --backend cuda ${mode:+--surface-only} -o /tmp/cli.hdt --json \
-        > "$OUT/cli-last.json" 2>> "$OUT/cli.log" || say "cli: rc=$? for $spec"
+        > /tmp/cli-last.json 2>> /tmp/cli.log || say "cli: rc=$? for $spec"
       local e=$(date +%s.%N)
       say "cli: $m $n ${mode:-solid} wall $(python3 -c "print(round(($e - $s) * 1000))") ms, file $(stat -c %s /tmp/cli.hdt) bytes"
       rm -f /tmp/cli.hdt
