@@ -13,6 +13,7 @@
 
 #include <algorithm>
 #include <array>
+#include <chrono>
 #include <cmath>
 #include <functional>
 #include <sstream>
@@ -301,6 +302,16 @@ std::vector<std::string> buildWarnings(const PreparedMesh& mesh, const Volume& v
 }
 
 PreparedMesh prepareMesh(const TriangleMesh& mesh, const BuildConfig& config) {
+  return prepareMesh(mesh, config, nullptr);
+}
+
+PreparedMesh prepareMesh(const TriangleMesh& mesh, const BuildConfig& config, PrepareTimes* times) {
+  auto t = std::chrono::steady_clock::now();
+  auto lap = [&t, times](double PrepareTimes::*field) {
+    const auto now = std::chrono::steady_clock::now();
+    if (times) times->*field = std::chrono::duration<double, std::milli>(now - t).count();
+    t = now;
+  };
   validateConfig(config); // configuration errors first: they are the caller's
   std::array<double, 3> lo, hi;
   meshBounds(mesh, lo, hi);
@@ -319,6 +330,7 @@ PreparedMesh prepareMesh(const TriangleMesh& mesh, const BuildConfig& config) {
   out.inputTriangles = mesh.triangleCount();
   out.surfaceOnly = config.surfaceOnly;
 
+  lap(&PrepareTimes::bounds);
   // Snap every point once: the lattice coordinates are the only geometry the
   // drivers see. Points lie in [s, (N - 1) s] of the grid, so below 2^24.
   const GridSpec& g = out.grid;
@@ -333,7 +345,9 @@ PreparedMesh prepareMesh(const TriangleMesh& mesh, const BuildConfig& config) {
     }
   });
 
+  lap(&PrepareTimes::snap);
   out.triangles = keptTriangles(mesh, snapped);
+  lap(&PrepareTimes::kept);
   out.degenerateTriangles = mesh.triangleCount() - out.triangles.size();
   if (out.triangles.empty()) {
     throw Error(ErrorKind::BadInput, "all " + std::to_string(mesh.triangleCount()) +
@@ -345,6 +359,7 @@ PreparedMesh prepareMesh(const TriangleMesh& mesh, const BuildConfig& config) {
   // Two independent passes over the kept triangles, each parallel inside.
   tbb::parallel_invoke([&] { out.closed = isClosed(out.triangles); },
                        [&] { out.duplicateTriangles = countDuplicates(out.triangles); });
+  lap(&PrepareTimes::closedAndDuplicates);
   out.requestedInsideTest = config.insideTest;
   out.insideTest = resolveInsideTest(config.insideTest, out.closed);
   return out;
