@@ -12,7 +12,8 @@ namespace vtkHDTCudaWarmUp
 // Starts the set-up once a process; later calls do nothing.
 void Start();
 // Returns once the set-up (if started) is over: a build calls this before it
-// uses the device, so that the two never run at the same time.
+// uses the device, so that the two never run at the same time, and a
+// voxelizer's destructor, so that it is over before the process can end.
 void Wait();
 }
 

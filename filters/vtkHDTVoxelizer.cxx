@@ -354,6 +354,9 @@ vtkHDTVoxelizer::vtkHDTVoxelizer()
 //------------------------------------------------------------------------------
 vtkHDTVoxelizer::~vtkHDTVoxelizer()
 {
+  // A process may end right after its last filter goes: the set-up must not
+  // still be using CUDA while CUDA tears itself down at exit.
+  vtkHDTCudaWarmUp::Wait();
   this->SetLabelArrayName(nullptr);
   this->SetLabelPriority(nullptr);
   delete this->Internal;
