@@ -1,5 +1,6 @@
 #include "vtkHDTVoxelizer.h"
 
+#include "vtkHDTCudaWarmUp.h"
 #include "vtkHDTDistributedBuild.h"
 #include "vtkHDTHyperTreeGridConversion.h"
 #include "vtkHDTLabelledMesh.h"
@@ -397,6 +398,7 @@ vtkHDTVoxelizer::vtkHDTVoxelizer()
   {
     s->AddObserver(vtkCommand::ModifiedEvent, static_cast<vtkObject*>(this), &vtkObject::Modified);
   }
+  vtkHDTCudaWarmUp::Start(); // while the user sets the properties
 }
 
 //------------------------------------------------------------------------------
@@ -414,6 +416,9 @@ vtkDataArraySelection* vtkHDTVoxelizer::GetCellDataArraySelection()
 //------------------------------------------------------------------------------
 vtkHDTVoxelizer::~vtkHDTVoxelizer()
 {
+  // A process may end right after its last filter goes: the set-up must not
+  // still be using CUDA while CUDA tears itself down at exit.
+  vtkHDTCudaWarmUp::Wait();
   this->SetLabelArrayName(nullptr);
   this->SetLabelPriority(nullptr);
   delete this->Internal;
@@ -588,6 +593,7 @@ int vtkHDTVoxelizer::RequestData(
       }
       else
       {
+        vtkHDTCudaWarmUp::Wait();
         auto built = std::make_shared<hdt::Volume>(this->LabelBy == LABEL_NONE
             ? hdt::build(prepared, options)
             : hdt::voxelizeLabelled(mesh, config, options, Internals::MakeLabelOptions(this)));

@@ -11,11 +11,13 @@
 #include "support/shapes.hpp"
 
 #include <gtest/gtest.h>
+#include <tbb/global_control.h>
 
 #if defined(HDT_TEST_HAVE_ZSTD)
 #include <zstd.h>
 #endif
 
+#include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <cstdio>
@@ -70,7 +72,14 @@ HdtWriteOptions raw() {
   o.compressLeaves = false;
   return o;
 }
-HdtWriteOptions compressed() { return HdtWriteOptions{}; }
+HdtWriteOptions compressed() { return HdtWriteOptions{}; } // zstd blocks, version 3
+HdtWriteOptions oneFrame() { // one zstd frame, version 2
+  HdtWriteOptions o;
+  o.leafBlocks = false;
+  return o;
+}
+// Every way the writer can store the leaf data.
+std::vector<HdtWriteOptions> allEncodings() { return {raw(), oneFrame(), compressed()}; }
 
 std::vector<uint8_t> bytesOf(const Volume& v, const HdtWriteOptions& o = raw()) { return serializeHdt(v, o); }
 
@@ -174,9 +183,9 @@ TEST(HdtFile, RoundTripsRandomVolumesBitExact) {
   for (const Case& c : cases) {
     for (uint32_t seed = 1; seed <= 3; ++seed) {
       const Volume v = randomVolume(seed, c.spec);
-      for (const HdtWriteOptions& o : {raw(), compressed()}) {
+      for (const HdtWriteOptions& o : allEncodings()) {
         const std::string what = std::string(c.name) + " seed " + std::to_string(seed) +
-                                 (o.compressLeaves ? " compressed" : " raw");
+                                 (!o.compressLeaves ? " raw" : o.leafBlocks ? " blocks" : " one frame");
         const std::vector<uint8_t> bytes = serializeHdt(v, o);
         const Volume back = deserializeHdt(bytes.data(), bytes.size());
         expectSameVolume(v, back, what);
@@ -189,7 +198,7 @@ TEST(HdtFile, RoundTripsRandomVolumesBitExact) {
 TEST(HdtFile, RoundTripsEmptyVolumes) {
   for (int h : {0, 1, 3}) {
     const Volume v = emptyVolume(3, 16, h);
-    for (const HdtWriteOptions& o : {raw(), compressed()}) {
+    for (const HdtWriteOptions& o : allEncodings()) {
       const std::vector<uint8_t> bytes = serializeHdt(v, o);
       expectSameVolume(v, deserializeHdt(bytes.data(), bytes.size()), "empty, h = " + std::to_string(h));
     }
@@ -199,7 +208,7 @@ TEST(HdtFile, RoundTripsEmptyVolumes) {
 TEST(HdtFile, FileOnDiskEqualsSerializedBytes) {
   const Volume v = smallVolume();
   const std::string path = tempPath("format_roundtrip.hdt");
-  for (const HdtWriteOptions& o : {raw(), compressed()}) {
+  for (const HdtWriteOptions& o : allEncodings()) {
     writeHdt(v, path, o);
     std::ifstream in(path, std::ios::binary);
     const std::vector<uint8_t> file((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
@@ -248,7 +257,7 @@ TEST(HdtFile, RoundTripsRealBuilds) {
       FAIL() << c.name << ": the CPU builder failed: " << e.what();
     }
     ASSERT_GT(v.leafCount(), 0u) << c.name;
-    for (const HdtWriteOptions& o : {raw(), compressed()}) {
+    for (const HdtWriteOptions& o : allEncodings()) {
       const std::vector<uint8_t> bytes = serializeHdt(v, o);
       expectSameVolume(v, deserializeHdt(bytes.data(), bytes.size()), c.name);
     }
@@ -357,19 +366,22 @@ TEST(HdtFile, LayoutFollowsTheSpec) {
   for (size_t i = 0; i < v.leafWords.size(); ++i) ASSERT_EQ(getLe32(leaves, 4 * i), v.leafWords[i]);
 
   if (haveZstd()) {
-    const HdtImage c = parseHdtImage(bytesOf(v, compressed()));
-    ASSERT_EQ(c.sections.size(), 6u);
-    EXPECT_EQ(getLe32(c.fileHeader, 8), 1u);
-    EXPECT_EQ(c.sections[kLeaves].encoding, 1u);
-    EXPECT_EQ(c.sections[kLeaves].raw, 4 * v.leafWords.size());
-    for (size_t i = 0; i < 4; ++i) EXPECT_EQ(c.sections[i].payload, image.sections[i].payload);
+    for (const HdtWriteOptions& o : {oneFrame(), compressed()}) {
+      const HdtImage c = parseHdtImage(bytesOf(v, o));
+      ASSERT_EQ(c.sections.size(), 6u);
+      EXPECT_EQ(getLe32(c.fileHeader, 4), o.leafBlocks ? 3u : 2u);
+      EXPECT_EQ(getLe32(c.fileHeader, 8), 1u);
+      EXPECT_EQ(c.sections[kLeaves].encoding, o.leafBlocks ? 2u : 1u);
+      EXPECT_EQ(c.sections[kLeaves].raw, 4 * v.leafWords.size());
+      for (size_t i = 0; i < 4; ++i) EXPECT_EQ(c.sections[i].payload, image.sections[i].payload);
+    }
   }
 }
 
 // ---- corruption ---------------------------------------------------------------------
 
 TEST(HdtFileCorrupt, TruncatedAtEveryOffset) {
-  for (const HdtWriteOptions& o : {raw(), compressed()}) {
+  for (const HdtWriteOptions& o : allEncodings()) {
     const std::vector<uint8_t> b = bytesOf(tinyVolume(), o);
     for (size_t n = 0; n < b.size(); ++n) {
       const std::string m = refusal(b.data(), n);
@@ -380,7 +392,7 @@ TEST(HdtFileCorrupt, TruncatedAtEveryOffset) {
 }
 
 TEST(HdtFileCorrupt, EveryByteFlipped) {
-  for (const HdtWriteOptions& o : {raw(), compressed()}) {
+  for (const HdtWriteOptions& o : allEncodings()) {
     const std::vector<uint8_t> valid = bytesOf(tinyVolume(), o);
     std::vector<uint8_t> b = valid;
     for (size_t i = 0; i < b.size(); ++i) {
@@ -402,7 +414,7 @@ TEST(HdtFileCorrupt, BadMagicVersionAndFlags) {
     b[size_t(i)] ^= 0x20;
     EXPECT_REFUSED(b, "bad magic");
   }
-  for (uint32_t version : {0u, 3u, 0xFFFFFFFFu}) {
+  for (uint32_t version : {0u, 4u, 0xFFFFFFFFu}) {
     std::vector<uint8_t> b = valid;
     putLe32(b, 4, version);
     EXPECT_REFUSED(b, "unsupported .hdt format version " + std::to_string(version));
@@ -415,6 +427,19 @@ TEST(HdtFileCorrupt, BadMagicVersionAndFlags) {
   std::vector<uint8_t> b = valid;
   putLe32(b, 8, 1); // says compressed; the leaf section is raw
   EXPECT_REFUSED(b, haveZstd() ? "compression flag disagrees" : "no zstd support");
+  // Version 3 is version 2 with zstd-block leaves and nothing else: a raw or
+  // one-frame file that says 3, or a block file that says 2, is refused.
+  b = valid;
+  putLe32(b, 4, 3);
+  EXPECT_REFUSED(b, "version 3 stores the leaf data as zstd blocks");
+  if (haveZstd()) {
+    b = bytesOf(smallVolume(), oneFrame());
+    putLe32(b, 4, 3);
+    EXPECT_REFUSED(b, "encoding 1 in a version-3 file");
+    b = bytesOf(smallVolume(), compressed());
+    putLe32(b, 4, 2);
+    EXPECT_REFUSED(b, "leaf data section: invalid encoding 2");
+  }
   EXPECT_REFUSED(std::vector<uint8_t>{}, "too short");
   EXPECT_REFUSED(std::vector<uint8_t>(valid.begin(), valid.begin() + 12), "before the grid section header");
 }
@@ -675,7 +700,7 @@ TEST(HdtFileCorrupt, ContainerStructure) {
 TEST(HdtFileCorrupt, ZstdFrames) {
   if (!haveZstd()) GTEST_SKIP() << "built without zstd";
   const Volume v = smallVolume();
-  const std::vector<uint8_t> valid = bytesOf(v, compressed());
+  const std::vector<uint8_t> valid = bytesOf(v, oneFrame());
   auto leaves = [&](const std::function<void(std::vector<uint8_t>&)>& edit) {
     return forge(valid, [&](HdtImage& im) { edit(im.sections[kLeaves].payload); });
   };
@@ -689,7 +714,7 @@ TEST(HdtFileCorrupt, ZstdFrames) {
     Volume ok = v;
     std::fill(ok.leafWords.begin(), ok.leafWords.end(), 0xAAAAAAAAu);
     computeStructureStatistics(ok);
-    im.sections[kLeaves].payload = parseHdtImage(bytesOf(ok, compressed())).sections[kLeaves].payload;
+    im.sections[kLeaves].payload = parseHdtImage(bytesOf(ok, oneFrame())).sections[kLeaves].payload;
   });
   EXPECT_REFUSED(bad, "statistics: active voxels");
 }
@@ -706,7 +731,7 @@ TEST(HdtFileCorrupt, FrameWithoutContentSizeIsRefusedBeforeAllocating) {
   const Volume v = randomVolume(5, spec);
   const size_t rawBytes = v.leafWords.size() * 4;
   ASSERT_GT(rawBytes, size_t(64) << 10);
-  const std::vector<uint8_t> forged = forge(bytesOf(v, compressed()), [&](HdtImage& im) {
+  const std::vector<uint8_t> forged = forge(bytesOf(v, oneFrame()), [&](HdtImage& im) {
     std::vector<uint8_t> leBytes(rawBytes);
     for (size_t i = 0; i < v.leafWords.size(); ++i) putLe32(leBytes, 4 * i, v.leafWords[i]);
     ZSTD_CCtx* c = ZSTD_createCCtx();
@@ -726,6 +751,170 @@ TEST(HdtFileCorrupt, FrameWithoutContentSizeIsRefusedBeforeAllocating) {
   const size_t largest = largestAllocationDuring([&] { m = refusal(forged); });
   EXPECT_TRUE(refusedProperly(m) && m.find("does not state its size") != std::string::npos) << m;
   EXPECT_LT(largest, rawBytes / 2) << "allocated the decoded size before checking the frame: " << m;
+}
+
+// ---- version 3: the leaf data as zstd blocks (encoding 2) ---------------------------
+
+// The payload of a leaf data section of encoding 2, as the spec lays it out.
+struct BlockTable {
+  uint32_t blockLog = 0;
+  std::vector<std::vector<uint8_t>> frames;
+};
+
+BlockTable parseBlocks(const std::vector<uint8_t>& p) {
+  BlockTable t;
+  t.blockLog = getLe32(p, 0);
+  const uint32_t n = getLe32(p, 4);
+  size_t at = 8 + 8 * size_t(n);
+  for (uint32_t i = 0; i < n; ++i) {
+    const size_t length = size_t(getLe64(p, 8 + 8 * size_t(i)));
+    t.frames.emplace_back(p.begin() + long(at), p.begin() + long(at + length));
+    at += length;
+  }
+  EXPECT_EQ(at, p.size());
+  return t;
+}
+
+std::vector<uint8_t> assembleBlocks(const BlockTable& t) {
+  std::vector<uint8_t> p(8 + 8 * t.frames.size());
+  putLe32(p, 0, t.blockLog);
+  putLe32(p, 4, uint32_t(t.frames.size()));
+  for (size_t i = 0; i < t.frames.size(); ++i) {
+    putLe64(p, 8 + 8 * i, t.frames[i].size());
+    p.insert(p.end(), t.frames[i].begin(), t.frames[i].end());
+  }
+  return p;
+}
+
+constexpr size_t kBlockBytes = size_t(1) << 21; // the writer's block size
+
+// A volume whose leaf data spans several 2 MiB blocks, the last one partial.
+Volume multiBlockVolume() {
+  RandomVolumeSpec spec;
+  spec.rootGrid = 6;
+  spec.leafSize = 32;
+  spec.boundaryChance = 0.9;
+  Volume v = randomVolume(11, spec);
+  // Mostly Outside with runs of Surface, as real leaves are: compressible.
+  for (size_t i = 0; i < v.leafWords.size(); ++i) v.leafWords[i] = (i / 7) % 5 == 0 ? 0xAAAAAAAAu : 0u;
+  computeStructureStatistics(v);
+  return v;
+}
+
+std::vector<uint8_t> littleEndianLeaves(const Volume& v) {
+  std::vector<uint8_t> le(v.leafWords.size() * 4);
+  for (size_t i = 0; i < v.leafWords.size(); ++i) putLe32(le, 4 * i, v.leafWords[i]);
+  return le;
+}
+
+TEST(HdtFileV3, LeafBlocksFollowTheSpec) {
+  if (!haveZstd()) GTEST_SKIP() << "built without zstd";
+  const Volume v = multiBlockVolume();
+  const std::vector<uint8_t> le = littleEndianLeaves(v);
+  ASSERT_GT(le.size(), 2 * kBlockBytes);
+  ASSERT_NE(le.size() % kBlockBytes, 0u);
+  const std::vector<uint8_t> bytes = bytesOf(v, compressed());
+  EXPECT_EQ(getLe32(bytes, 4), 3u);
+  EXPECT_EQ(getLe32(bytes, 8), 1u);
+  const HdtImage image = parseHdtImage(bytes);
+  const HdtSectionImage& s = image.sections[kLeaves];
+  EXPECT_EQ(s.encoding, 2u);
+  EXPECT_EQ(s.raw, le.size());
+  EXPECT_EQ(s.crc, referenceCrc32(s.payload.data(), s.payload.size()));
+  const BlockTable t = parseBlocks(s.payload);
+  EXPECT_EQ(t.blockLog, 21u);
+  ASSERT_EQ(t.frames.size(), (le.size() + kBlockBytes - 1) / kBlockBytes);
+  for (size_t i = 0; i < t.frames.size(); ++i) {
+    const size_t first = i * kBlockBytes, bytesInBlock = std::min(kBlockBytes, le.size() - first);
+    const std::vector<uint8_t>& f = t.frames[i];
+    EXPECT_EQ(ZSTD_getFrameContentSize(f.data(), f.size()), bytesInBlock) << "block " << i;
+    EXPECT_EQ(ZSTD_findFrameCompressedSize(f.data(), f.size()), f.size()) << "block " << i;
+    std::vector<uint8_t> decoded(bytesInBlock);
+    ASSERT_EQ(ZSTD_decompress(decoded.data(), decoded.size(), f.data(), f.size()), bytesInBlock);
+    EXPECT_TRUE(std::equal(decoded.begin(), decoded.end(), le.begin() + long(first))) << "block " << i;
+  }
+  EXPECT_LT(bytes.size() * 4, le.size()); // it compresses
+  expectSameVolume(v, deserializeHdt(bytes.data(), bytes.size()), "blocks");
+}
+
+TEST(HdtFileV3, BytesDoNotDependOnTheThreadCount) {
+  if (!haveZstd()) GTEST_SKIP() << "built without zstd";
+  const Volume v = multiBlockVolume();
+  std::vector<uint8_t> single;
+  {
+    tbb::global_control c(tbb::global_control::max_allowed_parallelism, 1);
+    single = bytesOf(v, compressed());
+    expectSameVolume(v, deserializeHdt(single.data(), single.size()), "1 thread");
+  }
+  for (size_t threads : {2u, 3u, 8u}) {
+    tbb::global_control c(tbb::global_control::max_allowed_parallelism, threads);
+    EXPECT_TRUE(bytesOf(v, compressed()) == single) << threads << " threads";
+  }
+}
+
+TEST(HdtFileCorrupt, ZstdBlocks) {
+  if (!haveZstd()) GTEST_SKIP() << "built without zstd";
+  const Volume v = multiBlockVolume();
+  const std::vector<uint8_t> valid = bytesOf(v, compressed());
+  const size_t rawBytes = v.leafWords.size() * 4;
+  // Edits of the section's payload, or of its parsed blocks; CRCs recomputed.
+  auto payload = [&](const std::function<void(std::vector<uint8_t>&)>& edit) {
+    return forge(valid, [&](HdtImage& im) { edit(im.sections[kLeaves].payload); });
+  };
+  auto blocks = [&](const std::function<void(BlockTable&)>& edit) {
+    return payload([&](std::vector<uint8_t>& p) {
+      BlockTable t = parseBlocks(p);
+      edit(t);
+      p = assembleBlocks(t);
+    });
+  };
+  ASSERT_EQ(refusal(valid), "ACCEPTED");
+  EXPECT_REFUSED(payload([](std::vector<uint8_t>& p) { putLe32(p, 0, 15); }), "zstd block size 2^15 is outside");
+  EXPECT_REFUSED(payload([](std::vector<uint8_t>& p) { putLe32(p, 0, 31); }), "zstd block size 2^31 is outside");
+  EXPECT_REFUSED(payload([](std::vector<uint8_t>& p) { putLe32(p, 0, 22); }), "zstd blocks, expected");
+  EXPECT_REFUSED(payload([](std::vector<uint8_t>& p) { putLe32(p, 4, getLe32(p, 4) + 1); }), "zstd blocks, expected");
+  EXPECT_REFUSED(payload([](std::vector<uint8_t>& p) { p.resize(12); }), "does not fit");
+  EXPECT_REFUSED(payload([](std::vector<uint8_t>& p) { p.resize(4); }), "block table is cut short");
+  EXPECT_REFUSED(payload([](std::vector<uint8_t>& p) { p.push_back(0); }), "1 bytes after the last zstd block");
+  EXPECT_REFUSED(payload([](std::vector<uint8_t>& p) { putLe64(p, 8, getLe64(p, 8) + 1); }),
+                 "zstd block 0 is not exactly one zstd frame");
+  EXPECT_REFUSED(payload([](std::vector<uint8_t>& p) { putLe64(p, 8, uint64_t(1) << 40); }), "runs past the section");
+  EXPECT_REFUSED(blocks([](BlockTable& t) { std::swap(t.frames.front(), t.frames.back()); }),
+                 "zstd block 0 holds");
+  EXPECT_REFUSED(blocks([](BlockTable& t) { t.frames[1].insert(t.frames[1].end(), t.frames[1].begin(), t.frames[1].end()); }),
+                 "zstd block 1 is not exactly one zstd frame");
+  EXPECT_REFUSED(blocks([](BlockTable& t) { t.frames[1][0] ^= 1; }), "zstd block 1 is not a zstd frame");
+  // A frame body that does not decode (its header intact): named by block.
+  EXPECT_REFUSED(blocks([](BlockTable& t) {
+                   std::vector<uint8_t>& f = t.frames[2];
+                   std::fill(f.begin() + long(f.size() / 2), f.end(), uint8_t(0xFF));
+                 }),
+                 "leaf data");
+  // Well-formed blocks of other contents: caught by the checks after decoding.
+  Volume other = v;
+  std::fill(other.leafWords.begin(), other.leafWords.end(), 0xAAAAAAAAu);
+  computeStructureStatistics(other);
+  EXPECT_REFUSED(forge(valid, [&](HdtImage& im) {
+                   im.sections[kLeaves].payload = parseHdtImage(bytesOf(other, compressed())).sections[kLeaves].payload;
+                 }),
+                 "statistics: active voxels");
+
+  // A block that does not state its size is refused before the decoded size is allocated.
+  const std::vector<uint8_t> le = littleEndianLeaves(v);
+  const std::vector<uint8_t> noSize = blocks([&](BlockTable& t) {
+    ZSTD_CCtx* c = ZSTD_createCCtx();
+    ZSTD_CCtx_setParameter(c, ZSTD_c_contentSizeFlag, 0);
+    std::vector<uint8_t> frame(ZSTD_compressBound(kBlockBytes));
+    const size_t n = ZSTD_compress2(c, frame.data(), frame.size(), le.data() + kBlockBytes, kBlockBytes);
+    ZSTD_freeCCtx(c);
+    ASSERT_FALSE(ZSTD_isError(n));
+    frame.resize(n);
+    t.frames[1] = frame;
+  });
+  std::string m;
+  const size_t largest = largestAllocationDuring([&] { m = refusal(noSize); });
+  EXPECT_TRUE(refusedProperly(m) && m.find("zstd block 1: the frame does not state its size") != std::string::npos) << m;
+  EXPECT_LT(largest, rawBytes / 2) << "allocated the decoded size before checking the blocks: " << m;
 }
 #endif
 
@@ -823,7 +1012,7 @@ HdtSectionImage optionalSection(uint32_t id, std::vector<uint8_t> payload) {
 }
 
 TEST(HdtFileV2, ReadsVersionOneFilesAsParity) {
-  for (const HdtWriteOptions& o : {raw(), compressed()}) {
+  for (const HdtWriteOptions& o : {raw(), oneFrame()}) {
     Volume v = smallVolume();
     v.insideTest = InsideTest::WindingNumber;
     const Volume back = deserializeHdt(versionOneBytes(v, o).data(), versionOneBytes(v, o).size());
@@ -942,7 +1131,7 @@ Volume tinyLabelledVolume() {
 }
 
 TEST(HdtFileLabels, RoundTripBitExact) {
-  for (const HdtWriteOptions& o : {raw(), compressed()}) {
+  for (const HdtWriteOptions& o : allEncodings()) {
     for (uint32_t seed : {1u, 2u, 3u}) {
       Volume v = randomVolume(seed, RandomVolumeSpec{3, 8, 2, false, 0.5, 0.7, 0.3});
       labelRandomly(v, seed);
@@ -986,7 +1175,7 @@ TEST(HdtFileLabels, LayoutFollowsTheSpec) {
 }
 
 TEST(HdtFileLabels, EveryByteFlippedAndTruncated) {
-  for (const HdtWriteOptions& o : {raw(), compressed()}) {
+  for (const HdtWriteOptions& o : allEncodings()) {
     const Volume v = tinyLabelledVolume();
     ASSERT_FALSE(v.labels.voxelLabels.empty());
     const std::vector<uint8_t> valid = bytesOf(v, o);

@@ -18,6 +18,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -433,10 +434,23 @@ bool closedByEdgeCounts(const std::vector<LatticeTriangle>& tris) {
   return std::all_of(count.begin(), count.end(), [](const auto& e) { return e.second % 2 == 0; });
 }
 
-// prepareMesh's closedness test (hash buckets, several blocks) against the
+// Brute force: triangles whose sorted corners repeat an earlier triangle's.
+size_t duplicatesByCornerCounts(const std::vector<LatticeTriangle>& tris) {
+  std::set<std::array<std::array<int32_t, 3>, 3>> seen;
+  for (const LatticeTriangle& t : tris) {
+    std::array<std::array<int32_t, 3>, 3> c;
+    for (int j = 0; j < 3; ++j) c[size_t(j)] = {t.v[j][0], t.v[j][1], t.v[j][2]};
+    std::sort(c.begin(), c.end());
+    seen.insert(c);
+  }
+  return tris.size() - seen.size();
+}
+
+// prepareMesh's closedness test and duplicate count (hash buckets, several
+// blocks) against the
 // brute force: a closed sphere, the sphere with triangles taken away or
 // repeated, and soups on a tiny lattice where most edges are shared by many.
-TEST(PrepareMesh, ClosedAgreesWithEdgeCounts) {
+TEST(PrepareMesh, ClosedAndDuplicatesAgreeWithBruteForce) {
   BuildConfig config;
   config.resolution = 256;
   const TriangleMesh sphere = builtinMesh("sphere");
@@ -464,16 +478,19 @@ TEST(PrepareMesh, ClosedAgreesWithEdgeCounts) {
       cases.push_back(m);
     }
   }
-  int closed = 0, open = 0;
+  int closed = 0, open = 0, duplicates = 0;
   for (size_t i = 0; i < cases.size(); ++i) {
     SCOPED_TRACE("case " + std::to_string(i));
     const PreparedMesh p = prepareMesh(cases[i], config);
     const bool expected = closedByEdgeCounts(p.triangles);
     EXPECT_EQ(p.closed, expected);
+    EXPECT_EQ(p.duplicateTriangles, duplicatesByCornerCounts(p.triangles));
+    duplicates += p.duplicateTriangles > 0;
     (expected ? closed : open) += 1;
   }
   EXPECT_GE(closed, 4); // both answers are exercised
   EXPECT_GE(open, 4);
+  EXPECT_GE(duplicates, 4);
 }
 
 } // namespace

@@ -9,7 +9,7 @@
 #               .devdeps/bin holds binaries built elsewhere for this machine
 #     buildsrc  configure + build from source even then (checks the build)
 #     quick     a few GPU-vs-CPU tests
-#     tests     all CUDA tests (hdt_cuda_tests)
+#     tests     all CUDA tests (hdt_cuda_tests; TESTS_FILTER narrows them)
 #     sanitize  compute-sanitizer memcheck on every test, initcheck and synccheck on a reduced set
 #     memcheck  memcheck on a subset (MEMCHECK_FILTER, MEMCHECK_TIMEOUT)
 #     racecheck racecheck on the generated shapes, dense clusters, driver tests and meshes at 1024
@@ -18,6 +18,7 @@
 #     bench     hdt_gpu_bench over all meshes, 1K..32K, surface and solid,
 #               and the >= 1M-triangle 32768^3 run
 #     profile   ncu on one 8192^3 build (profile2: a second mesh; sass: instruction mix)
+#     cli       hdt-voxelize ... --backend cuda -o, the whole process's wall time (CLI_RUNS)
 #     e2e       mesh file to .hdt file, every step timed, one process a run
 #               (hdt_e2e_bench; E2E_MESHES, E2E_RES, E2E_MODES, E2E_TIMEOUT)
 #     winding   the winding-number inside test: CPU == CUDA tests (*CudaWinding*), then
@@ -93,8 +94,9 @@ step_minibench() { # MINIBENCH_BIN (default the bench), MINIBENCH_MESHES, MINIBE
   cat "$OUT/$tag.log" | tee -a "$SUMMARY"
 }
 
-step_e2e() { # E2E_RUNS: "MESH:SUBDIVIDE:N:MODE[:FLAG] ..." (meshes in .devdeps/meshes; FLAG: an
-  # hdt_e2e_bench option without its dashes, e.g. write-breakdown), in order until E2E_END
+step_e2e() { # E2E_RUNS: "MESH:SUBDIVIDE:N:MODE[:FLAGS] ..." (meshes in .devdeps/meshes; FLAGS:
+  # hdt_e2e_bench options without their dashes, comma-separated, a value after '=', e.g.
+  # write-breakdown,prepare-repeat=5), in order until E2E_END
   # (seconds since the script started) or E2E_TIMEOUT seconds from now
   local t0=$SECONDS out=$OUT/e2e-runs.jsonl deadline=${E2E_END:-$((SECONDS + ${E2E_TIMEOUT:-300}))}
   local runs=${E2E_RUNS:-}
@@ -107,8 +109,10 @@ step_e2e() { # E2E_RUNS: "MESH:SUBDIVIDE:N:MODE[:FLAG] ..." (meshes in .devdeps/
     IFS=: read -r m k n mode flag <<< "$spec"
     local left=$((deadline - SECONDS))
     [ $left -gt 5 ] || { say "e2e: out of time before $spec"; break; }
+    local extra=() f
+    for f in ${flag//,/ }; do extra+=("--${f%%=*}"); [[ $f == *=* ]] && extra+=("${f#*=}"); done
     timeout $left "$E2E" "$DEPS/meshes/$m" --subdivide "$k" --res "$n" --mode "$mode" --backend cuda \
-      --hdt /tmp/e2e.hdt --out "$out" ${flag:+--$flag} >> "$OUT/e2e.log" 2>&1 || say "e2e: rc=$? for $spec"
+      --hdt /tmp/e2e.hdt --out "$out" "${extra[@]}" >> "$OUT/e2e.log" 2>&1 || say "e2e: rc=$? for $spec"
     rm -f /tmp/e2e.hdt
   done
   # cold start: the first build of a process without and with hdt::prepareCuda, against a warm one
@@ -126,7 +130,7 @@ for f in sys.argv[1:]:
         print(f"{r['mesh'][:22]:22} {r['resolution']:6} {'surface' if r['surface_only'] else 'solid':7} read {r['read_ms']:8.1f} prep {r['prepare_ms']:7.1f} "
               f"wait {r['warm_up_wait_ms']:6.1f} phases {r['build_phases_ms']:7.2f} build {r['build_wall_ms']:8.1f} copy {r['copy_back_ms']:8.1f} "
               f"({r['copy_back_gb_per_s']:5.1f} GB/s) write {r['write_ms']:8.1f} wall {r['wall_ms']:8.1f} host {r['peak_host_bytes']/2**30:6.2f} GiB "
-              f"dev {r['peak_device_bytes']/2**30:6.2f} GiB chunks {r['chunks']}" + (f" serialize {r['serialize_ms']:.1f} raw {r['write_raw_ms']:.1f}" if 'serialize_ms' in r else '') + (f" warm {r['warm_build_phases_ms']:.2f} cold={r['cold']}" if 'warm_build_phases_ms' in r else ''))
+              f"dev {r['peak_device_bytes']/2**30:6.2f} GiB chunks {r['chunks']}" + (f" serialize {r['serialize_ms']:.1f} one-frame {r.get('serialize_one_frame_ms', -1):.1f} level1 {r.get('serialize_level1_ms', -1):.1f} ({r.get('serialize_level1_bytes', 0)} vs {r.get('serialize_bytes', 0)} B) raw {r['write_raw_ms']:.1f}" if 'serialize_ms' in r else '') + (f" warm {r['warm_build_phases_ms']:.2f} cold={r['cold']}" if 'warm_build_phases_ms' in r else '') + (f" prepare parts {r['prepare_parts_ms']} best of {r['prepare_repeat']} {r['prepare_best_ms']:.1f} {r['prepare_best_parts_ms']}" if 'prepare_best_ms' in r else ''))
 PY
 }
 
@@ -138,7 +142,26 @@ step_quick() {
   run_tests quick '*CudaShapes*/sphere_*:*CudaShapes*/open_hemisphere_*:*CudaShapes*/grid_aligned_box_R16*:CudaDriver.*' 300
 }
 
-step_tests() { run_tests tests '*' "${TESTS_TIMEOUT:-540}"; }
+step_tests() { run_tests tests "${TESTS_FILTER:-*}" "${TESTS_TIMEOUT:-540}"; }
+
+step_cli() { # CLI_RUNS: "MESH:N[:surface] ..." hdt-voxelize MESH --resolution N --backend cuda -o, wall
+  # time of the whole process (built from source: buildsrc first), twice each (the second finds the
+  # file cache warm)
+  local cli=$ROOT/build-device/apps/hdt-voxelize t0=$SECONDS
+  ninja -C "$ROOT/build-device" hdt-voxelize >> "$OUT/build.log" 2>&1 || { say "cli: build failed"; return; }
+  for spec in ${CLI_RUNS:-stanford-dragon-100k.ply:8192 nefertiti.ply:8192}; do
+    IFS=: read -r m n mode <<< "$spec"
+    for k in 1 2; do
+      local s=$(date +%s.%N)
+      "$cli" "$DEPS/meshes/$m" --resolution "$n" --backend cuda ${mode:+--surface-only} -o /tmp/cli.hdt --json \
+        > /tmp/cli-last.json 2>> /tmp/cli.log || say "cli: rc=$? for $spec"
+      local e=$(date +%s.%N)
+      say "cli: $m $n ${mode:-solid} wall $(python3 -c "print(round(($e - $s) * 1000))") ms, file $(stat -c %s /tmp/cli.hdt) bytes, $(python3 -c "import json; d = json.load(open('/tmp/cli-last.json')); print('io_ms', d['io_ms'], 'phases_ms', d['time_ms']['total'], 'peak_host_GiB', round(d['peak_host_bytes'] / 2**30, 2))" 2>&1)"
+      rm -f /tmp/cli.hdt
+    done
+  done
+  say "cli: done in $((SECONDS - t0)) s"
+}
 
 step_sanitize() { # memcheck on every CUDA test; initcheck and synccheck on a reduced set
   local t0=$SECONDS

@@ -13,6 +13,7 @@
 #include "hdt/hdt_file.hpp"
 
 #include "hdt/atomic_file.hpp"
+#include "zstd_blocks.hpp"
 
 #include "hdt/error.hpp"
 #include "hdt/labels.hpp"
@@ -46,8 +47,14 @@ namespace {
 // ---- the format's constants (docs/hdt-format.md) ----------------------------------
 
 constexpr uint8_t kMagic[4] = {'H', 'D', 'T', 0};
-constexpr uint32_t kVersion = 2;       // what the writer writes
+// Version 3 is version 2 with the leaf data as zstd blocks (encoding 2), and
+// only that: the writer writes 3 exactly when it writes blocks, 2 otherwise
+// (readers of version 2 read every file that needs nothing newer), and a
+// version-3 file with other leaf data is refused, so that no flip of the
+// version field between 2 and 3 goes unnoticed. The reader reads 1 to 3.
+constexpr uint32_t kVersion = 3;       // the newest
 constexpr uint32_t kOldestVersion = 1; // the oldest the reader still reads
+constexpr uint32_t kFirstBlocksVersion = 3; // leaf data encoding 2
 constexpr uint32_t kFlagLeafZstd = 1u; // flags bit 0
 constexpr size_t kFileHeaderBytes = 12;
 constexpr size_t kSectionHeaderBytes = 28;
@@ -70,7 +77,10 @@ enum class Section : uint32_t {
   ArrayDirectory = 19, ArrayValues = 20, // transferred mesh data (hdt/transfer.hpp)
 };
 constexpr size_t kMaxLabelNameLength = 255;
-enum class Encoding : uint32_t { Raw = 0, Zstd = 1 };
+// ZstdBlocks (version 3, leaf data only): a table of frame lengths, then one
+// zstd frame per block of 2^b raw bytes (zstd_blocks.hpp).
+enum class Encoding : uint32_t { Raw = 0, Zstd = 1, ZstdBlocks = 2 };
+bool isCompressed(Encoding e) { return e != Encoding::Raw; }
 
 const char* sectionName(Section s) {
   switch (s) {
@@ -597,6 +607,32 @@ void decompressLeaves(const uint8_t* src, size_t srcSize, uint8_t* dst, size_t d
   if (ZSTD_isError(n)) invalid(what + ": zstd: " + ZSTD_getErrorName(n));
   if (n != dstSize) invalid(what + ": the zstd frame decoded to " + str(n) + " bytes, expected " + str(dstSize));
 }
+
+// The leaf words as zstd blocks (encoding 2), from their little-endian bytes.
+zstd_blocks::Encoded compressLeafBlocks(const LeafWordVector& words, int level) {
+  const size_t bytes = words.size() * sizeof(words[0]);
+  if (kLittleEndianHost) return zstd_blocks::compress(reinterpret_cast<const uint8_t*>(words.data()), bytes, level);
+  std::vector<uint32_t> le(words.size());
+  for (size_t i = 0; i < words.size(); ++i) le[i] = byteSwap(words[i]);
+  return zstd_blocks::compress(reinterpret_cast<const uint8_t*>(le.data()), bytes, level);
+}
+
+// Encoding 2: the table and every frame header, checked before the decoded
+// size is allocated; then the blocks decoded into `dst`.
+zstd_blocks::Layout checkLeafBlocks(const uint8_t* stored, size_t storedBytes, uint64_t rawBytes) {
+  try {
+    return zstd_blocks::check(stored, storedBytes, rawBytes);
+  } catch (const zstd_blocks::Invalid& x) {
+    invalid(std::string("leaf data: ") + x.what());
+  }
+}
+void decompressLeafBlocks(const uint8_t* stored, const zstd_blocks::Layout& layout, uint8_t* dst, size_t rawBytes) {
+  try {
+    zstd_blocks::decompress(stored, layout, dst, rawBytes);
+  } catch (const zstd_blocks::Invalid& x) {
+    invalid(std::string("leaf data: ") + x.what());
+  }
+}
 #endif
 
 // ---- writing ------------------------------------------------------------------------
@@ -642,7 +678,8 @@ struct EncodedVolume {
   Encoding leafEncoding = Encoding::Raw;
   uint64_t leafRawBytes = 0;
 #if defined(HDT_HAVE_ZSTD)
-  Compressed compressed;
+  Compressed compressed;         // Encoding::Zstd
+  zstd_blocks::Encoded blocks;   // Encoding::ZstdBlocks
 #endif
   uint32_t leafCrc = 0;
 
@@ -665,6 +702,7 @@ struct EncodedVolume {
   uint64_t leafStoredBytes() const {
 #if defined(HDT_HAVE_ZSTD)
     if (leafEncoding == Encoding::Zstd) return compressed.size;
+    if (leafEncoding == Encoding::ZstdBlocks) return blocks.storedBytes();
 #endif
     return leafRawBytes;
   }
@@ -798,6 +836,12 @@ EncodedVolume encodeRequired(const Volume& v, const HdtWriteOptions& options) {
 
   e.leafRawBytes = uint64_t(v.leafWords.size()) * 4;
 #if defined(HDT_HAVE_ZSTD)
+  if (options.compressLeaves && !v.leafWords.empty() && options.leafBlocks) {
+    e.leafEncoding = Encoding::ZstdBlocks;
+    e.blocks = compressLeafBlocks(v.leafWords, options.zstdLevel);
+    e.leafCrc = e.blocks.crc;
+    return e;
+  }
   if (options.compressLeaves && !v.leafWords.empty()) {
     e.leafEncoding = Encoding::Zstd;
     e.compressed = compressWords(v.leafWords, options.zstdLevel);
@@ -877,8 +921,8 @@ void emitArrays(const EncodedVolume& e, const Volume& v, Sink& out) {
 void emit(const EncodedVolume& e, const Volume& v, Sink& out) {
   ByteWriter header;
   header.raw(kMagic, 4);
-  header.u32(kVersion);
-  header.u32(e.leafEncoding == Encoding::Zstd ? kFlagLeafZstd : 0u);
+  header.u32(e.leafEncoding == Encoding::ZstdBlocks ? kFirstBlocksVersion : 2u);
+  header.u32(isCompressed(e.leafEncoding) ? kFlagLeafZstd : 0u);
   out.write(header.bytes().data(), header.bytes().size());
 
   writeSmallSection(out, Section::Grid, e.grid);
@@ -895,6 +939,11 @@ void emit(const EncodedVolume& e, const Volume& v, Sink& out) {
 #if defined(HDT_HAVE_ZSTD)
   if (e.leafEncoding == Encoding::Zstd) {
     out.write(e.compressed.data.get(), e.compressed.size);
+    leavesWritten = true;
+  }
+  if (e.leafEncoding == Encoding::ZstdBlocks) {
+    out.write(e.blocks.table.data(), e.blocks.table.size());
+    for (const auto& frame : e.blocks.frames) out.write(frame.data(), frame.size());
     leavesWritten = true;
   }
 #endif
@@ -1047,11 +1096,13 @@ RawSectionHeader readRawSectionHeader(Source& in, const std::string& before) {
 
 // Rule 4 for a header whose id is known: an allowed encoding, the payload in
 // the file, raw == stored when raw.
+// `compressed`: the highest compressed encoding the section may have (Raw:
+// none; Zstd; ZstdBlocks includes Zstd).
 SectionHeader checkSectionHeader(const RawSectionHeader& raw, Section id, const std::string& name,
-                                 bool zstdAllowed, const Source& in) {
+                                 Encoding compressed, const Source& in) {
   SectionHeader h{id, Encoding::Raw, raw.stored, raw.raw, raw.crc};
-  if (raw.encoding == uint32_t(Encoding::Zstd) && zstdAllowed) {
-    h.encoding = Encoding::Zstd;
+  if (raw.encoding != uint32_t(Encoding::Raw) && raw.encoding <= uint32_t(compressed)) {
+    h.encoding = Encoding(raw.encoding);
   } else if (raw.encoding != uint32_t(Encoding::Raw)) {
     invalid(name + " section: invalid encoding " + str(raw.encoding));
   }
@@ -1067,14 +1118,14 @@ SectionHeader checkSectionHeader(const RawSectionHeader& raw, Section id, const 
 }
 
 // Rule 4: the header is complete, expected, and its payload is in the file.
-SectionHeader readSectionHeader(Source& in, Section expected) {
+SectionHeader readSectionHeader(Source& in, Section expected, Encoding compressed = Encoding::Raw) {
   const std::string name = sectionName(expected);
   const RawSectionHeader raw = readRawSectionHeader(in, name);
   if (raw.id != uint32_t(expected)) {
     invalid("expected the " + name + " section (id " + str(uint32_t(expected)) + ") at byte " + str(raw.at) +
             ", found id " + str(raw.id));
   }
-  return checkSectionHeader(raw, expected, name, expected == Section::LeafData, in);
+  return checkSectionHeader(raw, expected, name, compressed, in);
 }
 
 // Rule 5: checked before the payload is read.
@@ -1188,7 +1239,8 @@ std::map<Label, std::string> decodeLabelNames(const uint8_t* bytes, size_t size)
 // The part-label sections (16, 17, 18); `mixed` receives the mixed leaves.
 void readLabelSection(Source& in, const RawSectionHeader& raw, Volume& v, std::vector<uint64_t>& mixed) {
   const Section id = Section(raw.id);
-  const SectionHeader h = checkSectionHeader(raw, id, sectionName(id), id == Section::LabelVoxels, in);
+  const SectionHeader h = checkSectionHeader(raw, id, sectionName(id),
+                                             id == Section::LabelVoxels ? Encoding::Zstd : Encoding::Raw, in);
   LabelField& f = v.labels;
   if (id != Section::LabelElements && f.empty())
     invalid(std::string(sectionName(id)) + " section without the label elements section");
@@ -1435,8 +1487,13 @@ Volume readVolume(Source& in) {
   // Leaf data (rules 18-19). Its size follows from the Boundary elements just
   // counted, at most 8 KiB for each 4-byte element read.
   {
-    const SectionHeader h = readSectionHeader(in, Section::LeafData);
-    if (((flags & kFlagLeafZstd) != 0) != (h.encoding == Encoding::Zstd)) {
+    const SectionHeader h = readSectionHeader(
+        in, Section::LeafData, version >= kFirstBlocksVersion ? Encoding::ZstdBlocks : Encoding::Zstd);
+    if (version >= kFirstBlocksVersion && h.encoding != Encoding::ZstdBlocks) {
+      invalid("leaf data section: encoding " + str(uint32_t(h.encoding)) + " in a version-" + str(version) +
+              " file (version 3 stores the leaf data as zstd blocks, encoding 2)");
+    }
+    if (((flags & kFlagLeafZstd) != 0) != isCompressed(h.encoding)) {
       invalid("the file header's compression flag disagrees with the leaf data section");
     }
     const uint64_t words = tree.leaves * leafWordCount(g.leafSize);
@@ -1451,10 +1508,18 @@ Volume readVolume(Source& in) {
       std::vector<uint8_t> scratch;
       const uint8_t* stored = in.view(size_t(h.stored), scratch);
       checkCrc(h, crc32Of(stored, size_t(h.stored)));
-      checkLeafFrame(stored, size_t(h.stored), size_t(h.raw));
-      v.leafWords.resize(toSize(words));
-      decompressLeaves(stored, size_t(h.stored), reinterpret_cast<uint8_t*>(v.leafWords.data()),
-                       size_t(h.raw));
+      uint8_t* leafBytes = nullptr;
+      if (h.encoding == Encoding::ZstdBlocks) {
+        const zstd_blocks::Layout layout = checkLeafBlocks(stored, size_t(h.stored), h.raw);
+        v.leafWords.resize(toSize(words));
+        leafBytes = reinterpret_cast<uint8_t*>(v.leafWords.data());
+        decompressLeafBlocks(stored, layout, leafBytes, size_t(h.raw));
+      } else {
+        checkLeafFrame(stored, size_t(h.stored), size_t(h.raw));
+        v.leafWords.resize(toSize(words));
+        leafBytes = reinterpret_cast<uint8_t*>(v.leafWords.data());
+        decompressLeaves(stored, size_t(h.stored), leafBytes, size_t(h.raw));
+      }
       littleEndianToHost(v.leafWords.data(), v.leafWords.size());
 #endif
     }

@@ -189,9 +189,10 @@ HostMemoryEstimate estimateHostMemory(const PreparedMesh& mesh) {
   e.leaves = uint64_t(leaves * (leafStates + 16 + axes * (3 * rowBytes + 16)));
   e.pairs = uint64_t(pairs * (3 * 8 + 4));
   e.triangles = uint64_t(triangles * (36 + 3 * 24));
-  // zstd's output buffer is ZSTD_compressBound(raw) but only the pages it
-  // writes become resident: the compressed size, a quarter of the raw leaf
-  // bytes at most on the meshes of bench/results/memory-estimate.md.
+  // The writer holds the compressed blocks at their exact size (and version
+  // 2's one-frame buffer of ZSTD_compressBound(raw) becomes resident only
+  // where written): a quarter of the raw leaf bytes at most on the meshes of
+  // bench/results/memory-estimate.md.
   e.compression = uint64_t(0.25 * leaves * leafStates);
   const double build = double(e.rootGrid + e.tree + e.leaves + e.pairs + e.triangles);
   // Memory freed by one phase mostly stays resident (allocator arenas of the

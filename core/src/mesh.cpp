@@ -2,20 +2,23 @@
 
 #include "hdt/error.hpp"
 #include "hdt/geometry.hpp"
-#include "hdt/default_init_allocator.hpp"
-#include "hdt/huge_pages.hpp" // prefaultParallel
+#include "hdt/huge_pages.hpp" // HugePageAllocator, prefaultParallel
 #include "hdt/volume.hpp"
 #include "hdt/winding_tree.hpp"
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
-#include <tbb/parallel_sort.h>
+#include <tbb/parallel_invoke.h>
 
 #include <algorithm>
 #include <array>
+#include <chrono>
 #include <cmath>
+#include <functional>
 #include <sstream>
+#include <type_traits>
+#include <utility>
 
 namespace hdt {
 
@@ -91,8 +94,23 @@ namespace {
 
 // Fresh memory's pages are faulted in by several threads (one thread's page
 // faults were most of prepareMesh's time); vectors that are written in
-// parallel loops are not zeroed first (DefaultInitAllocator).
-template <class T> using Scratch = std::vector<T, DefaultInitAllocator<T>>;
+// parallel loops are not zeroed first, and large ones get 2 MiB pages (the
+// edge keys are scattered over tens of MB: with 4 KiB pages, a TLB miss and
+// often a page fault a write).
+template <class T> struct ScratchAllocator : HugePageAllocator<T> {
+  template <class U> struct rebind {
+    using other = ScratchAllocator<U>;
+  };
+  ScratchAllocator() noexcept = default;
+  template <class U> ScratchAllocator(const ScratchAllocator<U>&) noexcept {}
+  template <class U> void construct(U* p) noexcept(std::is_nothrow_default_constructible<U>::value) {
+    ::new (static_cast<void*>(p)) U;
+  }
+  template <class U, class... A> void construct(U* p, A&&... a) {
+    ::new (static_cast<void*>(p)) U(std::forward<A>(a)...);
+  }
+};
+template <class T> using Scratch = std::vector<T, ScratchAllocator<T>>;
 
 // An undirected edge: its two lattice points as 96-bit keys, a < b.
 struct Edge {
@@ -110,72 +128,117 @@ Edge edgeOf(const LatticeTriangle& t, int j) {
   return p < q ? Edge{p, q} : Edge{q, p};
 }
 
-// Equal edges land in the same bucket: a hash of the coordinates.
-uint32_t bucketOf(const Edge& e, int bits) { // bits in [1, 12]
+// A triangle's corners in increasing order (any order, any orientation).
+struct Corners {
+  unsigned __int128 p[3];
+  bool operator<(const Corners& o) const {
+    return p[0] < o.p[0] || (p[0] == o.p[0] && (p[1] < o.p[1] || (p[1] == o.p[1] && p[2] < o.p[2])));
+  }
+  bool operator==(const Corners& o) const { return p[0] == o.p[0] && p[1] == o.p[1] && p[2] == o.p[2]; }
+};
+
+Corners cornersOf(const LatticeTriangle& t, int) {
+  Corners c{{pointKey(t.v[0]), pointKey(t.v[1]), pointKey(t.v[2])}};
+  if (c.p[1] < c.p[0]) std::swap(c.p[0], c.p[1]);
+  if (c.p[2] < c.p[1]) std::swap(c.p[1], c.p[2]);
+  if (c.p[1] < c.p[0]) std::swap(c.p[0], c.p[1]);
+  return c;
+}
+
+// Equal keys land in the same bucket: a hash of their 128-bit parts.
+template <size_t K> uint32_t bucketOf(const unsigned __int128 (&parts)[K], int bits) { // bits in [1, 12]
   uint64_t h = 0x9E3779B97F4A7C15ull;
-  for (unsigned __int128 k : {e.a, e.b}) {
+  for (unsigned __int128 k : parts) {
     h = (h ^ uint64_t(k)) * 0xFF51AFD7ED558CCDull;
     h = (h ^ uint64_t(k >> 64)) * 0xC4CEB9FE1A85EC53ull;
   }
   return uint32_t((h ^ (h >> 29)) >> (64 - bits));
 }
+uint32_t bucketOf(const Edge& e, int bits) {
+  const unsigned __int128 parts[2] = {e.a, e.b};
+  return bucketOf(parts, bits);
+}
+uint32_t bucketOf(const Corners& c, int bits) { return bucketOf(c.p, bits); }
 
-// Every undirected edge, as a pair of lattice points, used an even number of
-// times: the surface is a mod-2 cycle, so ray parity is the same along any
-// direction and one ray axis is enough. Linear and parallel: the edges are
-// scattered into hash buckets (counted per fixed block of triangles, so the
-// layout does not depend on the thread count), then each small bucket is
-// sorted and its runs counted on its own.
-bool isClosed(const std::vector<LatticeTriangle>& tris) {
-  const size_t n = tris.size();
-  // About 256 edges a bucket (at most 4096 buckets) and at most 64 blocks:
+// The K keys of every triangle (keyOf(triangle, j), j < K) scattered into
+// hash buckets, so that equal keys share a bucket: counted per fixed block
+// of triangles (the layout does not depend on the thread count), then each
+// block writes its own slots. Linear and parallel; each bucket can then be
+// sorted and its runs examined on its own (forEachRun).
+template <class Key> struct Buckets {
+  Scratch<Key> keys;
+  std::vector<size_t> start; // bucket b: keys[start[b], start[b + 1])
+};
+
+template <int K, class Key, class KeyOf> Buckets<Key> bucketKeys(const std::vector<LatticeTriangle>& tris, KeyOf keyOf) {
+  const size_t n = tris.size(), keys = K * n;
+  // About 256 keys a bucket (at most 4096 buckets) and at most 64 blocks:
   // the count table stays small (2 MiB) for any mesh.
-  const int bits = std::clamp(int(std::log2(double(3 * n) / 256.0 + 1.0)), 1, 12);
+  const int bits = std::clamp(int(std::log2(double(keys) / 256.0 + 1.0)), 1, 12);
   const size_t buckets = size_t(1) << bits;
   const size_t blocks = std::clamp<size_t>((n + (1 << 14) - 1) >> 14, 1, 64), block = (n + blocks - 1) / blocks;
-  Scratch<uint16_t> bucket(3 * n);
+  Scratch<uint16_t> bucket(keys);
   std::vector<size_t> offset(blocks * buckets, 0); // per block and bucket: count, then first slot
   tbb::parallel_for(size_t(0), blocks, [&](size_t k) {
     size_t* count = offset.data() + k * buckets;
     for (size_t t = k * block; t < std::min(n, (k + 1) * block); ++t)
-      for (int j = 0; j < 3; ++j) ++count[bucket[3 * t + j] = uint16_t(bucketOf(edgeOf(tris[t], j), bits))];
+      for (int j = 0; j < K; ++j) ++count[bucket[K * t + j] = uint16_t(bucketOf(keyOf(tris[t], j), bits))];
   });
-  std::vector<size_t> bucketStart(buckets + 1, 0);
-  {
-    size_t slot = 0;
-    for (size_t b = 0; b < buckets; ++b) {
-      bucketStart[b] = slot;
-      for (size_t k = 0; k < blocks; ++k) {
-        const size_t c = offset[k * buckets + b];
-        offset[k * buckets + b] = slot;
-        slot += c;
-      }
+  Buckets<Key> out;
+  out.start.assign(buckets + 1, 0);
+  size_t slot = 0;
+  for (size_t b = 0; b < buckets; ++b) {
+    out.start[b] = slot;
+    for (size_t k = 0; k < blocks; ++k) {
+      const size_t c = offset[k * buckets + b];
+      offset[k * buckets + b] = slot;
+      slot += c;
     }
-    bucketStart[buckets] = slot;
   }
-  Scratch<Edge> edges(3 * n);
+  out.start[buckets] = slot;
+  out.keys = Scratch<Key>(keys);
   tbb::parallel_for(size_t(0), blocks, [&](size_t k) {
     size_t* next = offset.data() + k * buckets;
     for (size_t t = k * block; t < std::min(n, (k + 1) * block); ++t)
-      for (int j = 0; j < 3; ++j) edges[next[bucket[3 * t + j]]++] = edgeOf(tris[t], j);
+      for (int j = 0; j < K; ++j) out.keys[next[bucket[K * t + j]]++] = keyOf(tris[t], j);
   });
+  return out;
+}
+
+// Sums runLength -> value over the runs of equal keys, each bucket sorted in
+// parallel (the sum does not depend on the order of the buckets).
+template <class Key, class Value> size_t sumOverRuns(Buckets<Key>& b, Value value) {
   return tbb::parallel_reduce(
-      tbb::blocked_range<size_t>(0, buckets), true,
-      [&](const tbb::blocked_range<size_t>& r, bool closed) {
-        for (size_t b = r.begin(); closed && b != r.end(); ++b) {
-          Edge* first = edges.data() + bucketStart[b];
-          Edge* last = edges.data() + bucketStart[b + 1];
+      tbb::blocked_range<size_t>(0, b.start.size() - 1), size_t(0),
+      [&](const tbb::blocked_range<size_t>& r, size_t sum) {
+        for (size_t k = r.begin(); k != r.end(); ++k) {
+          Key* first = b.keys.data() + b.start[k];
+          Key* last = b.keys.data() + b.start[k + 1];
           std::sort(first, last);
-          for (Edge* i = first; closed && i != last;) {
-            Edge* j = i + 1;
+          for (Key* i = first; i != last;) {
+            Key* j = i + 1;
             while (j != last && *j == *i) ++j;
-            closed = (j - i) % 2 == 0;
+            sum += value(size_t(j - i));
             i = j;
           }
         }
-        return closed;
+        return sum;
       },
-      [](bool x, bool y) { return x && y; });
+      std::plus<size_t>());
+}
+
+// Every undirected edge, as a pair of lattice points, used an even number of
+// times: the surface is a mod-2 cycle, so ray parity is the same along any
+// direction and one ray axis is enough.
+bool isClosed(const std::vector<LatticeTriangle>& tris) {
+  Buckets<Edge> edges = bucketKeys<3, Edge>(tris, edgeOf);
+  return sumOverRuns(edges, [](size_t run) { return run % 2; }) == 0;
+}
+
+// Triangles that repeat another one's corners (any order, any orientation).
+size_t countDuplicates(const std::vector<LatticeTriangle>& tris) {
+  Buckets<Corners> corners = bucketKeys<1, Corners>(tris, cornersOf);
+  return sumOverRuns(corners, [](size_t run) { return run - 1; });
 }
 
 // `count` value-initialised elements; the pages are faulted in in parallel
@@ -217,24 +280,6 @@ std::vector<LatticeTriangle> keptTriangles(const TriangleMesh& mesh, const Scrat
   return out;
 }
 
-// Triangles that repeat another one's corners (any order, any orientation).
-size_t countDuplicates(const std::vector<LatticeTriangle>& tris) {
-  struct Corners {
-    std::array<std::array<int32_t, 3>, 3> p;
-    bool operator<(const Corners& o) const { return p < o.p; }
-    bool operator==(const Corners& o) const { return p == o.p; }
-  };
-  std::vector<Corners> sorted(tris.size());
-  tbb::parallel_for(size_t(0), tris.size(), [&](size_t t) {
-    for (int j = 0; j < 3; ++j)
-      for (int a = 0; a < 3; ++a) sorted[t].p[size_t(j)][size_t(a)] = tris[t].v[j][a];
-    std::sort(sorted[t].p.begin(), sorted[t].p.end());
-  });
-  tbb::parallel_sort(sorted.begin(), sorted.end());
-  const size_t distinct = size_t(std::unique(sorted.begin(), sorted.end()) - sorted.begin());
-  return tris.size() - distinct;
-}
-
 } // namespace
 
 std::vector<std::string> buildWarnings(const PreparedMesh& mesh, const Volume& volume) {
@@ -257,6 +302,16 @@ std::vector<std::string> buildWarnings(const PreparedMesh& mesh, const Volume& v
 }
 
 PreparedMesh prepareMesh(const TriangleMesh& mesh, const BuildConfig& config) {
+  return prepareMesh(mesh, config, nullptr);
+}
+
+PreparedMesh prepareMesh(const TriangleMesh& mesh, const BuildConfig& config, PrepareTimes* times) {
+  auto t = std::chrono::steady_clock::now();
+  auto lap = [&t, times](double PrepareTimes::*field) {
+    const auto now = std::chrono::steady_clock::now();
+    if (times) times->*field = std::chrono::duration<double, std::milli>(now - t).count();
+    t = now;
+  };
   validateConfig(config); // configuration errors first: they are the caller's
   std::array<double, 3> lo, hi;
   meshBounds(mesh, lo, hi);
@@ -275,6 +330,7 @@ PreparedMesh prepareMesh(const TriangleMesh& mesh, const BuildConfig& config) {
   out.inputTriangles = mesh.triangleCount();
   out.surfaceOnly = config.surfaceOnly;
 
+  lap(&PrepareTimes::bounds);
   // Snap every point once: the lattice coordinates are the only geometry the
   // drivers see. Points lie in [s, (N - 1) s] of the grid, so below 2^24.
   const GridSpec& g = out.grid;
@@ -283,7 +339,9 @@ PreparedMesh prepareMesh(const TriangleMesh& mesh, const BuildConfig& config) {
     for (int a = 0; a < 3; ++a) snapped[3 * p + a] = snapToLattice(mesh.points[3 * p + a], g, a);
   });
 
+  lap(&PrepareTimes::snap);
   out.triangles = keptTriangles(mesh, snapped);
+  lap(&PrepareTimes::kept);
   out.degenerateTriangles = mesh.triangleCount() - out.triangles.size();
   if (out.triangles.empty()) {
     throw Error(ErrorKind::BadInput, "all " + std::to_string(mesh.triangleCount()) +
@@ -292,10 +350,12 @@ PreparedMesh prepareMesh(const TriangleMesh& mesh, const BuildConfig& config) {
   if (out.triangles.size() > (size_t(1) << 32) - 1) {
     throw Error(ErrorKind::OutOfResources, "more than 2^32 - 1 triangles are not supported");
   }
-  out.closed = isClosed(out.triangles);
+  // Two independent passes over the kept triangles, each parallel inside.
+  tbb::parallel_invoke([&] { out.closed = isClosed(out.triangles); },
+                       [&] { out.duplicateTriangles = countDuplicates(out.triangles); });
+  lap(&PrepareTimes::closedAndDuplicates);
   out.requestedInsideTest = config.insideTest;
   out.insideTest = resolveInsideTest(config.insideTest, out.closed);
-  out.duplicateTriangles = countDuplicates(out.triangles);
   return out;
 }
 

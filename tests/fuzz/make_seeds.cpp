@@ -102,6 +102,8 @@ int main(int argc, char** argv) {
   using namespace hdt;
   HdtWriteOptions raw;
   raw.compressLeaves = false;
+  HdtWriteOptions oneFrame; // version 2's one zstd frame (the default: version 3's blocks)
+  oneFrame.leafBlocks = false;
   for (uint32_t seed = 1; seed <= 4; ++seed) {
     test::RandomVolumeSpec spec;
     spec.height = int(seed % 3);
@@ -109,6 +111,7 @@ int main(int argc, char** argv) {
     const Volume v = test::randomVolume(seed, spec);
     put(out + "/hdt_reader/random" + std::to_string(seed) + ".hdt", serializeHdt(v, raw));
     put(out + "/hdt_reader/random" + std::to_string(seed) + "-zstd.hdt", serializeHdt(v));
+    put(out + "/hdt_reader/random" + std::to_string(seed) + "-zstd-frame.hdt", serializeHdt(v, oneFrame));
   }
   // Labelled volumes: the optional label sections (16, 17, 18) to mutate too.
   for (uint32_t seed = 5; seed <= 6; ++seed) {

@@ -73,10 +73,10 @@ cases = [
     ("empty.hdt", b"", "too short"),
     ("short.hdt", data[:10], "too short"),
     ("magic.hdt", b"PK\x03\x04" + data[4:], "magic"),
-    ("version.hdt", flip(4, 1), "version"),
+    ("version.hdt", flip(4, 3), "version"),  # 2 or 3 -> 10 or 11
     ("trailing.hdt", data + b"\0", "after the end"),
     ("stats-bit.hdt", flip(stats_offset, 3), "CRC-32"),
-    # The file ends with the leaf data, then the 28-byte end section (format version 2).
+    # The file ends with the leaf data, then the 28-byte end section (format versions 2 and 3).
     ("leaf-bit.hdt", flip(len(data) - 28 - 17, 5), "CRC-32"),
 ]
 

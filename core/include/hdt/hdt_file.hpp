@@ -14,6 +14,11 @@ class AtomicFile;
 struct HdtWriteOptions {
   bool compressLeaves = true; // zstd, when the build has it
   int zstdLevel = 3;
+  // Compressed leaves as independent zstd blocks, compressed (and read) in
+  // parallel: format version 3. false: one zstd frame, format version 2, for
+  // readers that predate version 3. Either way the bytes do not depend on the
+  // thread count. (Raw leaves are written as version 2.)
+  bool leafBlocks = true;
 };
 
 // Serialises to bytes / a file.

@@ -66,6 +66,15 @@ void meshBounds(const TriangleMesh& mesh, std::array<double, 3>& lo, std::array<
 // Throws Error with a message that says what is wrong.
 PreparedMesh prepareMesh(const TriangleMesh& mesh, const BuildConfig& config);
 
+// Wall time of prepareMesh's steps in ms, for benchmarks (bench/gpu/e2e_bench.cpp).
+struct PrepareTimes {
+  double bounds = 0;              // configuration and mesh checks, bounds, grid placement
+  double snap = 0;                // points to the lattice
+  double kept = 0;                // the non-degenerate triangles, in order
+  double closedAndDuplicates = 0; // edge and corner buckets
+};
+PreparedMesh prepareMesh(const TriangleMesh& mesh, const BuildConfig& config, PrepareTimes* times);
+
 struct Volume;
 
 // Things about a finished build its user should hear about although nothing
