@@ -1307,7 +1307,7 @@ std::vector<VoxelArray> decodeArrayDirectory(const uint8_t* bytes, size_t size) 
 // 64 * 256 floats per surface voxel), and raw encoding keeps it within the file.
 void readArraySection(Source& in, const RawSectionHeader& raw, Volume& v) {
   const Section id = Section(raw.id);
-  const SectionHeader h = checkSectionHeader(raw, id, sectionName(id), false, in);
+  const SectionHeader h = checkSectionHeader(raw, id, sectionName(id), Encoding::Raw, in);
   if (id == Section::ArrayDirectory) {
     if (h.raw > 4 + kMaxVoxelArrays * (12 + kMaxArrayNameLength)) invalid("array directory section: too long");
     std::vector<uint8_t> scratch;
