@@ -129,6 +129,32 @@ struct WindingSum {
 
 constexpr int kWindingOpen = 1024;
 
+// A second bound on |exact(p) - estimate(c)| for every p of the box, one
+// that keeps the cancellation of the node's normals (a closed cluster's
+// dipole is small): exact(p) = T(p) + E(p), T the expansion, |E(p)| <=
+// 3 A r^2 / (dm - r)^4 (dm: the node's centre to the box), and
+// |T(p) - T(c)| <= rho max |grad T|, where grad of the dipole term is at most
+// 2 |D| / dm^3 (the Hessian of 1 / r) and that of the quadrupole term
+// -Q : Hess(1 / r) at most |Q|_F 6 sqrt(3) / dm^4 (third derivatives of 1 / r
+// are at most 3! / r^4 in any directions, Frobenius <= sqrt(3) spectral;
+// 11 > 6 sqrt 3). Infinite when the node's sphere reaches the box.
+HDT_HD double windingBoxExpansionError(const WindingNode& n, const double* lo, const double* hi, double rho) {
+  double s = 0;
+  for (int a = 0; a < 3; ++a) {
+    const double g = n.centre[a] < lo[a] ? lo[a] - n.centre[a] : (n.centre[a] > hi[a] ? n.centre[a] - hi[a] : 0.0);
+    s = s + g * g;
+  }
+  const double dm = sqrt(s);
+  if (!(dm > n.radius)) return INFINITY;
+  const double gap = dm - n.radius;
+  const double dipole = sqrt(n.dipole[0] * n.dipole[0] + n.dipole[1] * n.dipole[1] + n.dipole[2] * n.dipole[2]);
+  double q2 = 0;
+  for (int k = 0; k < 9; ++k) q2 = q2 + n.quad[k] * n.quad[k];
+  const double dm3 = dm * dm * dm;
+  return 2.0 * dipole * rho / dm3 + 11.0 * sqrt(q2) * rho / (dm3 * dm) +
+         3.0 * n.area * n.radius * n.radius / ((gap * gap) * (gap * gap));
+}
+
 // Distance-dependent dipole estimate and error of node n; false when the
 // node meets the box (it must be opened).
 HDT_HD bool windingNodeFarField(const WindingNode& n, const double* lo, const double* hi, const double* c, double rho,
@@ -145,7 +171,11 @@ HDT_HD bool windingNodeFarField(const WindingNode& n, const double* lo, const do
   estimate = (n.dipole[0] * dx + n.dipole[1] * dy + n.dipole[2] * dz) / d3 + ((q[0] + q[4] + q[8]) - 3.0 * uqu) / d3;
   const double gap = d - n.radius > dist ? d - n.radius : dist;
   error = 3.0 * n.area * n.radius * n.radius / ((gap * gap) * (gap * gap));
-  if (rho > 0) error = error + 2.0 * n.area * rho / (dist * dist * dist);
+  if (rho > 0) {
+    error = error + 2.0 * n.area * rho / (dist * dist * dist);
+    const double cancelling = windingBoxExpansionError(n, lo, hi, rho);
+    if (cancelling < error) error = cancelling;
+  }
   return true;
 }
 
@@ -261,7 +291,10 @@ HDT_HD WindingSum windingSumOverBox(const WindingTreeView& t, const double* lo, 
     // the margin, and the same operations in the same order on both drivers.
     const WindingSum s{exact + heap.sumTotal, exactError + (heap.errorTotal > 0 ? heap.errorTotal : 0.0), true};
     if (windingVerdict(s, t.triangleCount) != kWindingUnsure || heap.count == 0) return s;
-    if (opened++ >= maxOpen) return WindingSum{s.sum, s.error, false};
+    // Over a box, the variation of the triangles summed exactly only grows as
+    // nodes are opened: once it alone reaches 1/2, give up (split the box).
+    const bool hopeless = rho > 0 && exactError >= fabs(s.sum - 2.0 * kWindingPi);
+    if (hopeless || opened++ >= maxOpen) return WindingSum{s.sum, s.error, false};
     if (!takeApart(t.nodes[heap.pop()])) return WindingSum{exact, 0.0, false}; // the worst approximation
   }
 }
@@ -284,7 +317,7 @@ HDT_HD bool windingInsideAt(const WindingTreeView& t, double px, double py, doub
 }
 
 // A box query that needs more openings than this is split instead.
-constexpr int kWindingBoxOpenings = 8;
+constexpr int kWindingBoxOpenings = 512;
 
 // A box of voxels [lo, hi) (integer voxel coordinates).
 struct VoxelBox {
