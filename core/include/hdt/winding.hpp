@@ -240,7 +240,23 @@ struct WindingOpenHeap {
       swap(i, m);
       i = m;
     }
+    // A node barely clear of the box has a huge error (and may have a huge
+    // estimate); once it is gone the running totals have lost the small
+    // terms, so they are summed afresh.
+    if (count > 0 && fabs(error[0]) > 1024.0 * errorTotal) resum();
     return node;
+  }
+  // The totals summed afresh in array order. The running totals only screen:
+  // every returned sum and error comes from here (they drift by far more than
+  // the margin when huge terms come and go).
+  HDT_HD void resum() {
+    double s = 0, e = 0;
+    for (int i = 0; i < count; ++i) {
+      s = s + sum[i];
+      e = e + error[i];
+    }
+    sumTotal = s;
+    errorTotal = e;
   }
 };
 
@@ -287,14 +303,25 @@ HDT_HD WindingSum windingSumOverBox(const WindingTreeView& t, const double* lo, 
         return WindingSum{exact, 0.0, false};
       }
     }
-    // The running totals drift by a few ulps as nodes come and go: far below
-    // the margin, and the same operations in the same order on both drivers.
-    const WindingSum s{exact + heap.sumTotal, exactError + (heap.errorTotal > 0 ? heap.errorTotal : 0.0), true};
-    if (windingVerdict(s, t.triangleCount) != kWindingUnsure || heap.count == 0) return s;
+    // The running totals screen (the same operations in the same order on
+    // both drivers); a verdict or a give-up is taken from fresh totals.
+    auto totals = [&] {
+      return WindingSum{exact + heap.sumTotal, exactError + (heap.errorTotal > 0 ? heap.errorTotal : 0.0), true};
+    };
+    WindingSum s = totals();
+    if (windingVerdict(s, t.triangleCount) != kWindingUnsure || heap.count == 0) {
+      heap.resum();
+      s = totals();
+      if (windingVerdict(s, t.triangleCount) != kWindingUnsure || heap.count == 0) return s;
+    }
     // Over a box, the variation of the triangles summed exactly only grows as
     // nodes are opened: once it alone reaches 1/2, give up (split the box).
     const bool hopeless = rho > 0 && exactError >= fabs(s.sum - 2.0 * kWindingPi);
-    if (hopeless || opened++ >= maxOpen) return WindingSum{s.sum, s.error, false};
+    if (hopeless || opened++ >= maxOpen) {
+      heap.resum();
+      s = totals();
+      return WindingSum{s.sum, s.error, false};
+    }
     if (!takeApart(t.nodes[heap.pop()])) return WindingSum{exact, 0.0, false}; // the worst approximation
   }
 }
