@@ -185,6 +185,47 @@ TEST(WindingBounds, ExactTriangleVariationOverABoxIsSoundAndNearlyReached) {
   EXPECT_GT(c.worstRatio, 0.6) << "the boxes no longer come near the bound: the test lost its teeth";
 }
 
+// The small-box lists (windingBoxLists): every voxel centre of a 4^3 box
+// summed from them holds the exact sum; far nodes' remainders come near
+// their bound on the facing pair (the dipole triangles' bound is looser: a
+// triangle's true remainder is at most half of it).
+TEST(WindingBounds, SmallBoxListsAreSound) {
+  static WindingBoxLists lists; // large: off the stack
+  auto checkLists = [&](const Tris& tris, const double* lo, double& worst, int& far, int& dip) {
+    const WindingTree tree = buildWindingTree(tris);
+    const WindingTreeView t = tree.view();
+    const double hi[3] = {lo[0] + 3, lo[1] + 3, lo[2] + 3};
+    if (!windingBoxLists(t, lo, hi, lists)) return false;
+    far += lists.farCount;
+    dip += lists.dipCount;
+    for (int k = 0; k < 64; ++k) {
+      const double p[3] = {lo[0] + k % 4, lo[1] + (k / 4) % 4, lo[2] + k / 16};
+      const WindingSum s = windingSumFromLists(t, lists, p);
+      const long double diff = fabsl(sumL(tris, p) - (long double)s.sum);
+      if (s.error > 0) worst = std::max(worst, double(diff / s.error));
+      if (diff > (long double)(s.error * 1.001 + windingMargin(t.triangleCount))) return false;
+    }
+    return true;
+  };
+  double worstFar = 0, worstDip = 0;
+  int far = 0, dip = 0, unused = 0;
+  const Tris pair = {facing(0, {-512, 0, 0}, 256), facing(0, {512, 0, 0}, 256)};
+  for (double d = 12; d <= 40; d *= 1.1) {
+    const double lo[3] = {-d - 3, -1.5, -1.5};
+    EXPECT_TRUE(checkLists(pair, lo, worstFar, far, unused)) << d;
+  }
+  // A unit triangle in a leaf with a far one: the leaf is near, the triangle dipole.
+  const Tris spread = {facing(0, {0, 0, 0}, 256), facing(0, {-50 * 256, 20 * 256, 20 * 256}, 64)};
+  for (double d = 8; d <= 30; d *= 1.1) {
+    const double lo[3] = {-d - 3, -1.5, -1.5};
+    EXPECT_TRUE(checkLists(spread, lo, worstDip, unused, dip)) << d;
+  }
+  EXPECT_GT(far, 0);
+  EXPECT_GT(dip, 0);
+  EXPECT_GT(worstFar, 0.6) << "the pair no longer comes near the bound: the test lost its teeth";
+  RecordProperty("worst_dipole_ratio", std::to_string(worstDip));
+}
+
 // Random clusters of up to 24 small triangles (several nodes), random boxes
 // and points around them, every opening budget: the bound always holds.
 TEST(WindingBounds, RandomClustersHoldTheExactSum) {
