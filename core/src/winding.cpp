@@ -43,6 +43,10 @@ WindingTriangle windingTriangle(const LatticeTriangle& t) {
     r2 = std::max(r2, d2);
   }
   w.radius = std::sqrt(r2) * (1 + 1e-12); // covers the rounding of the centroid and the root
+  double spread = 0;
+  for (int j = 0; j < 3; ++j)
+    for (int a = 0; a < 3; ++a) spread += (w.v[3 * j + a] - w.centroid[a]) * (w.v[3 * j + a] - w.centroid[a]);
+  w.secondMoment = w.area * spread / 12.0 * (1 + 1e-12);
   return w;
 }
 

@@ -85,6 +85,7 @@ struct WindingTriangle {
   double centroid[3];
   double halfCross[3]; // area * unit normal
   double radius;       // every point of the triangle is this close to the centroid
+  double secondMoment; // integral of |x - centroid|^2 over the triangle: area * sum |v - centroid|^2 / 12
 };
 
 struct WindingTreeView {
@@ -354,18 +355,19 @@ constexpr int kWindingBoxOpenings = 512;
 //
 // A box of at most kWindingListBox^3 voxels is not split further: one walk of
 // the tree lists the nodes far from every point of the box (centre more than
-// 4 radii away), and the triangles of the leaves that are not: those more
-// than 8 of their own radii away (about their centroid) by their dipole,
-// the others exactly. Each voxel centre p is then summed from the lists with
-// every expansion evaluated at p itself, so there is no variation term: the
-// error is the remainders 3 A r^2 / (|p - centre| - r)^4 alone (below
-// 0.04 A / r^2 for a far node, 0.0013 A / r^2 for a dipole triangle; a
-// triangle's quadrupole about its centroid vanishes). A centre the lists
-// leave unsure takes the adaptive point query (windingInsideAt). Cheaper
-// than an adaptive walk per voxel, and as exact: every verdict is certified.
+// 4 radii away), and the triangles of the leaves that are not: those whose
+// centroid is more than 2 of their own radii away by their dipole, the others
+// exactly. Each voxel centre p is then summed from the lists with every
+// expansion evaluated at p itself, so there is no variation term: the error
+// is the remainders alone, 3 A r^2 / (|p - centre| - r)^4 for a node (below
+// 0.04 A / r^2), 3 M / (|p - centroid| - r)^4 for a dipole triangle (M: its
+// second moment; its quadrupole about the centroid vanishes). A centre the
+// lists leave unsure takes the adaptive point query (windingInsideAt).
+// Cheaper than an adaptive walk per voxel, and as exact: every verdict is
+// certified.
 constexpr int kWindingListBox = 4;
-constexpr double kWindingFarRatio2 = 16.0;
-constexpr double kWindingDipoleRatio2 = 64.0;
+constexpr double kWindingFarRatio2 = 16.0;   // far node: centre more than 4 radii from the box
+constexpr double kWindingDipoleRatio2 = 4.0; // dipole triangle: centroid more than 2 radii from the box
 constexpr int kWindingListMax = 2048; // far nodes, and near triangles, per box
 constexpr int kWindingSmallBoxOpenings = 32; // a small box's own try before its lists
 
@@ -442,7 +444,9 @@ HDT_HD WindingSum windingSumFromLists(const WindingTreeView& t, const WindingBox
     magnitude = magnitude + fabs(term);
   }
   // A triangle about its centroid has no quadrupole (its first moment
-  // vanishes): the dipole alone, off by at most 3 A r^2 / (d - r)^4.
+  // vanishes): the dipole alone, off by at most 3 M / (d - r)^4 (M: its
+  // second moment about the centroid; the second derivatives of the kernel
+  // are at most 6 / dist^4 and dist >= d - r along the way).
   for (int i = 0; i < l.dipCount; ++i) {
     const WindingTriangle& tri = t.triangles[l.dip[i]];
     const double dx = tri.centroid[0] - p[0], dy = tri.centroid[1] - p[1], dz = tri.centroid[2] - p[2];
@@ -451,7 +455,7 @@ HDT_HD WindingSum windingSumFromLists(const WindingTreeView& t, const WindingBox
     sum = sum + term;
     magnitude = magnitude + fabs(term);
     const double gap = d - tri.radius;
-    error = error + 3.0 * tri.area * tri.radius * tri.radius / ((gap * gap) * (gap * gap));
+    error = error + 3.0 * tri.secondMoment / ((gap * gap) * (gap * gap));
   }
   error = error + double(l.farCount + l.nearCount + l.dipCount + 16) * 2.3e-16 * magnitude;
   return WindingSum{sum, error, true};
