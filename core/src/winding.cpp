@@ -18,7 +18,7 @@
 namespace hdt {
 namespace {
 
-constexpr uint32_t kLeafTriangles = 8;
+constexpr uint32_t kLeafTriangles = 4;
 
 WindingTriangle windingTriangle(const LatticeTriangle& t) {
   WindingTriangle w;
@@ -32,6 +32,21 @@ WindingTriangle windingTriangle(const LatticeTriangle& t) {
   const double fx = w.v[6] - w.v[0], fy = w.v[7] - w.v[1], fz = w.v[8] - w.v[2];
   const double cx = ey * fz - ez * fy, cy = ez * fx - ex * fz, cz = ex * fy - ey * fx;
   w.area = 0.5 * std::sqrt(cx * cx + cy * cy + cz * cz);
+  double r2 = 0;
+  for (int a = 0; a < 3; ++a) {
+    w.centroid[a] = (w.v[a] + w.v[3 + a] + w.v[6 + a]) / 3.0;
+    w.halfCross[a] = 0.5 * (a == 0 ? cx : a == 1 ? cy : cz);
+  }
+  for (int j = 0; j < 3; ++j) {
+    double d2 = 0;
+    for (int a = 0; a < 3; ++a) d2 += (w.v[3 * j + a] - w.centroid[a]) * (w.v[3 * j + a] - w.centroid[a]);
+    r2 = std::max(r2, d2);
+  }
+  w.radius = std::sqrt(r2) * (1 + 1e-12); // covers the rounding of the centroid and the root
+  double spread = 0;
+  for (int j = 0; j < 3; ++j)
+    for (int a = 0; a < 3; ++a) spread += (w.v[3 * j + a] - w.centroid[a]) * (w.v[3 * j + a] - w.centroid[a]);
+  w.secondMoment = w.area * spread / 12.0 * (1 + 1e-12);
   return w;
 }
 

@@ -82,6 +82,10 @@ struct WindingTriangle {
   double v[9];
   double area;
   double lo[3], hi[3];
+  double centroid[3];
+  double halfCross[3]; // area * unit normal
+  double radius;       // every point of the triangle is this close to the centroid
+  double secondMoment; // integral of |x - centroid|^2 over the triangle: area * sum |v - centroid|^2 / 12
 };
 
 struct WindingTreeView {
@@ -129,6 +133,32 @@ struct WindingSum {
 
 constexpr int kWindingOpen = 1024;
 
+// A second bound on |exact(p) - estimate(c)| for every p of the box, one
+// that keeps the cancellation of the node's normals (a closed cluster's
+// dipole is small): exact(p) = T(p) + E(p), T the expansion, |E(p)| <=
+// 3 A r^2 / (dm - r)^4 (dm: the node's centre to the box), and
+// |T(p) - T(c)| <= rho max |grad T|, where grad of the dipole term is at most
+// 2 |D| / dm^3 (the Hessian of 1 / r) and that of the quadrupole term
+// -Q : Hess(1 / r) at most |Q|_F 6 sqrt(3) / dm^4 (third derivatives of 1 / r
+// are at most 3! / r^4 in any directions, Frobenius <= sqrt(3) spectral;
+// 11 > 6 sqrt 3). Infinite when the node's sphere reaches the box.
+HDT_HD double windingBoxExpansionError(const WindingNode& n, const double* lo, const double* hi, double rho) {
+  double s = 0;
+  for (int a = 0; a < 3; ++a) {
+    const double g = n.centre[a] < lo[a] ? lo[a] - n.centre[a] : (n.centre[a] > hi[a] ? n.centre[a] - hi[a] : 0.0);
+    s = s + g * g;
+  }
+  const double dm = sqrt(s);
+  if (!(dm > n.radius)) return INFINITY;
+  const double gap = dm - n.radius;
+  const double dipole = sqrt(n.dipole[0] * n.dipole[0] + n.dipole[1] * n.dipole[1] + n.dipole[2] * n.dipole[2]);
+  double q2 = 0;
+  for (int k = 0; k < 9; ++k) q2 = q2 + n.quad[k] * n.quad[k];
+  const double dm3 = dm * dm * dm;
+  return 2.0 * dipole * rho / dm3 + 11.0 * sqrt(q2) * rho / (dm3 * dm) +
+         3.0 * n.area * n.radius * n.radius / ((gap * gap) * (gap * gap));
+}
+
 // Distance-dependent dipole estimate and error of node n; false when the
 // node meets the box (it must be opened).
 HDT_HD bool windingNodeFarField(const WindingNode& n, const double* lo, const double* hi, const double* c, double rho,
@@ -145,7 +175,11 @@ HDT_HD bool windingNodeFarField(const WindingNode& n, const double* lo, const do
   estimate = (n.dipole[0] * dx + n.dipole[1] * dy + n.dipole[2] * dz) / d3 + ((q[0] + q[4] + q[8]) - 3.0 * uqu) / d3;
   const double gap = d - n.radius > dist ? d - n.radius : dist;
   error = 3.0 * n.area * n.radius * n.radius / ((gap * gap) * (gap * gap));
-  if (rho > 0) error = error + 2.0 * n.area * rho / (dist * dist * dist);
+  if (rho > 0) {
+    error = error + 2.0 * n.area * rho / (dist * dist * dist);
+    const double cancelling = windingBoxExpansionError(n, lo, hi, rho);
+    if (cancelling < error) error = cancelling;
+  }
   return true;
 }
 
@@ -197,6 +231,7 @@ struct WindingOpenHeap {
   }
   HDT_HD uint32_t pop() {
     const uint32_t node = id[0];
+    const double popped = error[0];
     sumTotal = sumTotal - sum[0];
     errorTotal = errorTotal - error[0];
     swap(0, --count);
@@ -210,7 +245,23 @@ struct WindingOpenHeap {
       swap(i, m);
       i = m;
     }
+    // A node barely clear of the box has a huge error (and may have a huge
+    // estimate); once it is gone the running totals have lost the small
+    // terms, so they are summed afresh.
+    if (count > 0 && popped > 1024.0 * errorTotal) resum();
     return node;
+  }
+  // The totals summed afresh in array order. The running totals only screen:
+  // every returned sum and error comes from here (they drift by far more than
+  // the margin when huge terms come and go).
+  HDT_HD void resum() {
+    double s = 0, e = 0;
+    for (int i = 0; i < count; ++i) {
+      s = s + sum[i];
+      e = e + error[i];
+    }
+    sumTotal = s;
+    errorTotal = e;
   }
 };
 
@@ -257,11 +308,25 @@ HDT_HD WindingSum windingSumOverBox(const WindingTreeView& t, const double* lo, 
         return WindingSum{exact, 0.0, false};
       }
     }
-    // The running totals drift by a few ulps as nodes come and go: far below
-    // the margin, and the same operations in the same order on both drivers.
-    const WindingSum s{exact + heap.sumTotal, exactError + (heap.errorTotal > 0 ? heap.errorTotal : 0.0), true};
-    if (windingVerdict(s, t.triangleCount) != kWindingUnsure || heap.count == 0) return s;
-    if (opened++ >= maxOpen) return WindingSum{s.sum, s.error, false};
+    // The running totals screen (the same operations in the same order on
+    // both drivers); a verdict or a give-up is taken from fresh totals.
+    auto totals = [&] {
+      return WindingSum{exact + heap.sumTotal, exactError + (heap.errorTotal > 0 ? heap.errorTotal : 0.0), true};
+    };
+    WindingSum s = totals();
+    if (windingVerdict(s, t.triangleCount) != kWindingUnsure || heap.count == 0) {
+      heap.resum();
+      s = totals();
+      if (windingVerdict(s, t.triangleCount) != kWindingUnsure || heap.count == 0) return s;
+    }
+    // Over a box, the variation of the triangles summed exactly only grows as
+    // nodes are opened: once it alone reaches 1/2, give up (split the box).
+    const bool hopeless = rho > 0 && exactError >= fabs(s.sum - 2.0 * kWindingPi);
+    if (hopeless || opened++ >= maxOpen) {
+      heap.resum();
+      s = totals();
+      return WindingSum{s.sum, s.error, false};
+    }
     if (!takeApart(t.nodes[heap.pop()])) return WindingSum{exact, 0.0, false}; // the worst approximation
   }
 }
@@ -284,7 +349,117 @@ HDT_HD bool windingInsideAt(const WindingTreeView& t, double px, double py, doub
 }
 
 // A box query that needs more openings than this is split instead.
-constexpr int kWindingBoxOpenings = 8;
+constexpr int kWindingBoxOpenings = 512;
+
+// ---- small boxes: one traversal, then every voxel centre on its own --------
+//
+// A box of at most kWindingListBox^3 voxels is not split further: one walk of
+// the tree lists the nodes far from every point of the box (centre more than
+// 4 radii away), and the triangles of the leaves that are not: those whose
+// centroid is more than 2 of their own radii away by their dipole, the others
+// exactly. Each voxel centre p is then summed from the lists with every
+// expansion evaluated at p itself, so there is no variation term: the error
+// is the remainders alone, 3 A r^2 / (|p - centre| - r)^4 for a node (below
+// 0.04 A / r^2), 3 M / (|p - centroid| - r)^4 for a dipole triangle (M: its
+// second moment; its quadrupole about the centroid vanishes). A centre the
+// lists leave unsure takes the adaptive point query (windingInsideAt).
+// Cheaper than an adaptive walk per voxel, and as exact: every verdict is
+// certified.
+constexpr int kWindingListBox = 4;
+constexpr double kWindingFarRatio2 = 16.0;   // far node: centre more than 4 radii from the box
+constexpr double kWindingDipoleRatio2 = 4.0; // dipole triangle: centroid more than 2 radii from the box
+constexpr int kWindingListMax = 2048; // far nodes, and near triangles, per box
+constexpr int kWindingSmallBoxOpenings = 32; // a small box's own try before its lists
+
+struct WindingBoxLists {
+  uint32_t far[kWindingListMax];  // nodes: dipole + quadrupole
+  uint32_t near[kWindingListMax]; // triangles: exact solid angle
+  uint32_t dip[kWindingListMax];  // triangles: dipole about the centroid
+  int farCount = 0, nearCount = 0, dipCount = 0;
+};
+
+// Squared distance from point c to the box [lo, hi].
+HDT_HD double windingPointBoxDistance2(const double* c, const double* lo, const double* hi) {
+  double s = 0;
+  for (int a = 0; a < 3; ++a) {
+    const double g = c[a] < lo[a] ? lo[a] - c[a] : (c[a] > hi[a] ? c[a] - hi[a] : 0.0);
+    s = s + g * g;
+  }
+  return s;
+}
+
+// Fills the lists for the box of points [lo, hi]; false when one overflows.
+HDT_HD bool windingBoxLists(const WindingTreeView& t, const double* lo, const double* hi, WindingBoxLists& l) {
+  uint32_t stack[kWindingStack];
+  int top = 0;
+  stack[top++] = 0;
+  l.farCount = l.nearCount = l.dipCount = 0;
+  while (top > 0) {
+    const WindingNode& n = t.nodes[stack[--top]];
+    if (windingPointBoxDistance2(n.centre, lo, hi) > kWindingFarRatio2 * n.radius * n.radius) {
+      if (l.farCount == kWindingListMax) return false;
+      l.far[l.farCount++] = uint32_t(&n - t.nodes);
+    } else if (n.count == 0) {
+      stack[top++] = n.first + 1;
+      stack[top++] = n.first;
+    } else {
+      if (l.nearCount + int(n.count) > kWindingListMax || l.dipCount + int(n.count) > kWindingListMax) return false;
+      for (uint32_t i = n.first; i < n.first + n.count; ++i) {
+        const WindingTriangle& tri = t.triangles[i];
+        if (windingPointBoxDistance2(tri.centroid, lo, hi) > kWindingDipoleRatio2 * tri.radius * tri.radius) {
+          l.dip[l.dipCount++] = i;
+        } else {
+          l.near[l.nearCount++] = i;
+        }
+      }
+    }
+  }
+  return true;
+}
+
+// The sum at point p from the lists, with its error. Besides the remainders, the error
+// holds the rounding of the sum itself: (terms + 16) ulps of the sum of the
+// terms' magnitudes (windingMargin covers a few ulps of 2 pi per term only).
+HDT_HD WindingSum windingSumFromLists(const WindingTreeView& t, const WindingBoxLists& l, const double* p) {
+  double sum = 0, magnitude = 0, error = 0;
+  for (int i = 0; i < l.farCount; ++i) {
+    const WindingNode& n = t.nodes[l.far[i]];
+    const double dx = n.centre[0] - p[0], dy = n.centre[1] - p[1], dz = n.centre[2] - p[2];
+    const double d = sqrt(dx * dx + dy * dy + dz * dz);
+    const double d3 = d * d * d;
+    const double ux = dx / d, uy = dy / d, uz = dz / d;
+    const double* q = n.quad;
+    const double uqu = ux * (q[0] * ux + q[1] * uy + q[2] * uz) + uy * (q[3] * ux + q[4] * uy + q[5] * uz) +
+                       uz * (q[6] * ux + q[7] * uy + q[8] * uz);
+    const double term =
+        (n.dipole[0] * dx + n.dipole[1] * dy + n.dipole[2] * dz) / d3 + ((q[0] + q[4] + q[8]) - 3.0 * uqu) / d3;
+    sum = sum + term;
+    magnitude = magnitude + fabs(term);
+    const double gap = d - n.radius;
+    error = error + 3.0 * n.area * n.radius * n.radius / ((gap * gap) * (gap * gap));
+  }
+  for (int i = 0; i < l.nearCount; ++i) {
+    const double term = triangleSolidAngle(t.triangles[l.near[i]].v, p[0], p[1], p[2]);
+    sum = sum + term;
+    magnitude = magnitude + fabs(term);
+  }
+  // A triangle about its centroid has no quadrupole (its first moment
+  // vanishes): the dipole alone, off by at most 3 M / (d - r)^4 (M: its
+  // second moment about the centroid; the second derivatives of the kernel
+  // are at most 6 / dist^4 and dist >= d - r along the way).
+  for (int i = 0; i < l.dipCount; ++i) {
+    const WindingTriangle& tri = t.triangles[l.dip[i]];
+    const double dx = tri.centroid[0] - p[0], dy = tri.centroid[1] - p[1], dz = tri.centroid[2] - p[2];
+    const double d = sqrt(dx * dx + dy * dy + dz * dz);
+    const double term = (tri.halfCross[0] * dx + tri.halfCross[1] * dy + tri.halfCross[2] * dz) / (d * d * d);
+    sum = sum + term;
+    magnitude = magnitude + fabs(term);
+    const double gap = d - tri.radius;
+    error = error + 3.0 * tri.secondMoment / ((gap * gap) * (gap * gap));
+  }
+  error = error + double(l.farCount + l.nearCount + l.dipCount + 16) * 2.3e-16 * magnitude;
+  return WindingSum{sum, error, true};
+}
 
 // A box of voxels [lo, hi) (integer voxel coordinates).
 struct VoxelBox {
@@ -303,6 +478,7 @@ template <class Skip, class Split, class Settle, class Done>
 HDT_HD void windingDecideBox(const WindingTreeView& t, const VoxelBox& box, Skip&& skip, Split&& direct, Settle&& settle,
                              Done&& done) {
   VoxelBox stack[8 * 20];
+  WindingBoxLists lists;
   int top = 0;
   stack[top++] = box;
   while (top > 0 && !done()) {
@@ -314,10 +490,24 @@ HDT_HD void windingDecideBox(const WindingTreeView& t, const VoxelBox& box, Skip
       settle(b, windingInsideAt(t, lo[0], lo[1], lo[2]));
       continue;
     }
+    const bool small = b.size(0) <= kWindingListBox && b.size(1) <= kWindingListBox && b.size(2) <= kWindingListBox;
     const int v = direct(b) ? int(kWindingUnsure)
-                            : windingVerdict(windingSumOverBox(t, lo, hi, kWindingBoxOpenings), t.triangleCount);
+                            : windingVerdict(windingSumOverBox(t, lo, hi, small ? kWindingSmallBoxOpenings : kWindingBoxOpenings),
+                                             t.triangleCount);
     if (v != kWindingUnsure) {
       settle(b, v == kWindingInside);
+      continue;
+    }
+    if (small && windingBoxLists(t, lo, hi, lists)) {
+      for (int z = b.lo[2]; z < b.hi[2] && !done(); ++z)
+        for (int y = b.lo[1]; y < b.hi[1]; ++y)
+          for (int x = b.lo[0]; x < b.hi[0]; ++x) {
+            const VoxelBox one{{x, y, z}, {x + 1, y + 1, z + 1}};
+            if (skip(one)) continue;
+            const double p[3] = {x + 0.5, y + 0.5, z + 0.5};
+            const int pv = windingVerdict(windingSumFromLists(t, lists, p), t.triangleCount);
+            settle(one, pv == kWindingUnsure ? windingInsideAt(t, p[0], p[1], p[2]) : pv == kWindingInside);
+          }
       continue;
     }
     for (int k = 7; k >= 0; --k) { // child 0 (low x, y, z) is taken first
