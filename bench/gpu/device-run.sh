@@ -21,6 +21,7 @@
 #     cli       hdt-voxelize ... --backend cuda -o, the whole process's wall time (CLI_RUNS)
 #     e2e       mesh file to .hdt file, every step timed, one process a run
 #               (hdt_e2e_bench; E2E_MESHES, E2E_RES, E2E_MODES, E2E_TIMEOUT)
+#     multigpu  hdt-voxelize-mpi, one rank per GPU, K = 1..8, files compared (MULTIGPU_*)
 #     winding   the winding-number inside test: CPU == CUDA tests (*CudaWinding*), then
 #               hdt_gpu_bench solid (parity) vs winding on the open meshes at 128 and 256
 #               (WINDING_MESHES, WINDING_RES, WINDING_TIMEOUT)
@@ -309,6 +310,16 @@ step_mpigpu() { # hdt-voxelize-mpi, 1-4 ranks sharing the GPU (issue 14): bench/
   say "mpigpu: rc=$? in $((SECONDS - t0)) s"
   tail -14 "$OUT/mpigpu.log" | tee -a "$SUMMARY"
   cp "$ROOT/bench/results/mpi-gpu-runs.jsonl" "$OUT/" 2>/dev/null || true
+}
+
+step_multigpu() { # one rank per GPU, K = 1, 2, 4, 8 (issue 15): bench/gpu/multi_gpu_bench.sh
+  local t0=$SECONDS
+  unpack_cli_bundle || return 0
+  ( export OPAL_PREFIX=$CLI_DIR/ompi PATH=$CLI_DIR/ompi/bin:$PATH \
+      LD_LIBRARY_PATH=$CLI_DIR/ompi/lib/x86_64-linux-gnu:$LD_LIBRARY_PATH OMPI_MCA_btl=self,vader TMPDIR=/tmp
+    bash "$ROOT/bench/gpu/multi_gpu_bench.sh" "$CLI_DIR/ompi/bin" "$DEPS/meshes" ) > "$OUT/multigpu.log" 2>&1
+  say "multigpu: rc=$? in $((SECONDS - t0)) s"
+  grep -E "K=|skipped|FAILED" "$OUT/multigpu.log" | tee -a "$SUMMARY"
 }
 
 step_labels() { # CUDA == CPU labelled builds, and labelled vs plain CUDA builds (issue 17): bench/run_label_bench.py
