@@ -159,20 +159,27 @@ HDT_HD double windingBoxExpansionError(const WindingNode& n, const double* lo, c
          3.0 * n.area * n.radius * n.radius / ((gap * gap) * (gap * gap));
 }
 
+// The dipole and quadrupole terms of node n's expansion at point p; d is set to
+// the distance from p to the node's centre (its error bounds need it).
+HDT_HD double windingNodeExpansion(const WindingNode& n, const double* p, double& d) {
+  const double dx = n.centre[0] - p[0], dy = n.centre[1] - p[1], dz = n.centre[2] - p[2];
+  d = sqrt(dx * dx + dy * dy + dz * dz);
+  const double d3 = d * d * d;
+  const double ux = dx / d, uy = dy / d, uz = dz / d;
+  const double* q = n.quad;
+  const double uqu = ux * (q[0] * ux + q[1] * uy + q[2] * uz) + uy * (q[3] * ux + q[4] * uy + q[5] * uz) +
+                     uz * (q[6] * ux + q[7] * uy + q[8] * uz);
+  return (n.dipole[0] * dx + n.dipole[1] * dy + n.dipole[2] * dz) / d3 + ((q[0] + q[4] + q[8]) - 3.0 * uqu) / d3;
+}
+
 // Distance-dependent dipole estimate and error of node n; false when the
 // node meets the box (it must be opened).
 HDT_HD bool windingNodeFarField(const WindingNode& n, const double* lo, const double* hi, const double* c, double rho,
                                 double& estimate, double& error) {
   const double dist = windingBoxDistance(n.lo, n.hi, lo, hi);
   if (!(dist > 0)) return false;
-  const double dx = n.centre[0] - c[0], dy = n.centre[1] - c[1], dz = n.centre[2] - c[2];
-  const double d = sqrt(dx * dx + dy * dy + dz * dz);
-  const double d3 = d * d * d;
-  const double ux = dx / d, uy = dy / d, uz = dz / d;
-  const double* q = n.quad;
-  const double uqu = ux * (q[0] * ux + q[1] * uy + q[2] * uz) + uy * (q[3] * ux + q[4] * uy + q[5] * uz) +
-                     uz * (q[6] * ux + q[7] * uy + q[8] * uz);
-  estimate = (n.dipole[0] * dx + n.dipole[1] * dy + n.dipole[2] * dz) / d3 + ((q[0] + q[4] + q[8]) - 3.0 * uqu) / d3;
+  double d = 0;
+  estimate = windingNodeExpansion(n, c, d);
   const double gap = d - n.radius > dist ? d - n.radius : dist;
   error = 3.0 * n.area * n.radius * n.radius / ((gap * gap) * (gap * gap));
   if (rho > 0) {
@@ -424,15 +431,8 @@ HDT_HD WindingSum windingSumFromLists(const WindingTreeView& t, const WindingBox
   double sum = 0, magnitude = 0, error = 0;
   for (int i = 0; i < l.farCount; ++i) {
     const WindingNode& n = t.nodes[l.far[i]];
-    const double dx = n.centre[0] - p[0], dy = n.centre[1] - p[1], dz = n.centre[2] - p[2];
-    const double d = sqrt(dx * dx + dy * dy + dz * dz);
-    const double d3 = d * d * d;
-    const double ux = dx / d, uy = dy / d, uz = dz / d;
-    const double* q = n.quad;
-    const double uqu = ux * (q[0] * ux + q[1] * uy + q[2] * uz) + uy * (q[3] * ux + q[4] * uy + q[5] * uz) +
-                       uz * (q[6] * ux + q[7] * uy + q[8] * uz);
-    const double term =
-        (n.dipole[0] * dx + n.dipole[1] * dy + n.dipole[2] * dz) / d3 + ((q[0] + q[4] + q[8]) - 3.0 * uqu) / d3;
+    double d = 0;
+    const double term = windingNodeExpansion(n, p, d);
     sum = sum + term;
     magnitude = magnitude + fabs(term);
     const double gap = d - n.radius;
