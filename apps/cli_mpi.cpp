@@ -25,7 +25,8 @@ namespace hdt::cli {
 MpiSession::MpiSession(int&, char**&) {}
 MpiSession::~MpiSession() = default;
 void MpiSession::abort(int code) const { std::exit(code); }
-Volume buildAcrossRanks(const MpiSession&, const PreparedMesh& mesh, const BuildOptions& options) {
+Volume buildAcrossRanks(const MpiSession&, const PreparedMesh& mesh, const BuildOptions& options,
+                        std::vector<RankReport>*) {
   return build(mesh, options);
 }
 
@@ -56,21 +57,94 @@ std::vector<std::vector<uint8_t>> allGather(const std::vector<uint8_t>& mine, in
   return out;
 }
 
-void sendBytes(const std::vector<uint8_t>& bytes, int to) {
-  unsigned long long n = bytes.size();
-  MPI_Send(&n, 1, MPI_UNSIGNED_LONG_LONG, to, kGatherTag, MPI_COMM_WORLD);
-  for (size_t at = 0; at < n; at += kPiece)
-    MPI_Send(bytes.data() + at, int(std::min(kPiece, size_t(n) - at)), MPI_BYTE, to, kGatherTag, MPI_COMM_WORLD);
+// Arrays of the gather, sent as they lie (no packing): the length, then
+// pieces of at most kPiece bytes (MPI counts are int).
+template <class T>
+void sendArray(const T* data, uint64_t count, int to) {
+  MPI_Send(&count, 1, MPI_UINT64_T, to, kGatherTag, MPI_COMM_WORLD);
+  const auto* bytes = reinterpret_cast<const uint8_t*>(data);
+  const uint64_t n = count * sizeof(T);
+  for (uint64_t at = 0; at < n; at += kPiece)
+    MPI_Send(bytes + at, int(std::min<uint64_t>(kPiece, n - at)), MPI_BYTE, to, kGatherTag, MPI_COMM_WORLD);
 }
 
-std::vector<uint8_t> receiveBytes(int from) {
-  unsigned long long n = 0;
-  MPI_Recv(&n, 1, MPI_UNSIGNED_LONG_LONG, from, kGatherTag, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
-  std::vector<uint8_t> bytes(n);
-  for (size_t at = 0; at < n; at += kPiece)
-    MPI_Recv(bytes.data() + at, int(std::min(kPiece, size_t(n) - at)), MPI_BYTE, from, kGatherTag, MPI_COMM_WORLD,
+// The length sendArray sent first; refused past `limit` (a mismatched peer).
+uint64_t receiveLength(uint64_t limit, int from) {
+  uint64_t count = 0;
+  MPI_Recv(&count, 1, MPI_UINT64_T, from, kGatherTag, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+  if (count > limit) throw Error(ErrorKind::BadInput, "rank " + std::to_string(from) + " sent more than its share");
+  return count;
+}
+
+// The pieces of an array whose length was received.
+template <class T>
+void receiveInto(T* out, uint64_t count, int from) {
+  auto* bytes = reinterpret_cast<uint8_t*>(out);
+  const uint64_t n = count * sizeof(T);
+  for (uint64_t at = 0; at < n; at += kPiece)
+    MPI_Recv(bytes + at, int(std::min<uint64_t>(kPiece, n - at)), MPI_BYTE, from, kGatherTag, MPI_COMM_WORLD,
              MPI_STATUS_IGNORE);
-  return bytes;
+}
+
+// A rank's piece to rank 0: its tree's levels, then its leaf words.
+void sendPiece(const RangeTree& piece) {
+  for (const std::vector<ElementWord>& level : piece.levels) sendArray(level.data(), level.size(), 0);
+  sendArray(piece.leafWords.data(), piece.leafWords.size(), 0);
+}
+
+// Rank 0 receives a piece: the levels into the tree, the leaf words straight
+// into their place in the joined volume's leaves (no copy after the receive).
+RangeTree receivePiece(RootRange cells, int levels, uint32_t* leafWords, uint64_t wordCount, int from) {
+  RangeTree piece;
+  piece.cells = cells;
+  piece.levels.resize(size_t(levels));
+  for (std::vector<ElementWord>& level : piece.levels) {
+    level.resize(receiveLength(uint64_t(1) << 30, from)); // the tree's element limit
+    receiveInto(level.data(), level.size(), from);
+  }
+  if (receiveLength(wordCount, from) != wordCount)
+    throw Error(ErrorKind::BadInput, "rank " + std::to_string(from) + " sent fewer leaf words than it announced");
+  receiveInto(leafWords, wordCount, from);
+  return piece;
+}
+
+// What a rank measured of its own part, gathered to rank 0 for the report.
+struct RankFigures {
+  PhaseTimes phases;
+  double exchangeMs = 0, copyBackMs = 0, sendMs = 0;
+  int device = -1;
+  uint64_t leafGrids = 0, peakHostBytes = 0, peakDeviceBytes = 0;
+};
+
+// Collective: every rank's figures on rank 0 (in rank order), nothing elsewhere.
+std::vector<RankReport> gatherFigures(const RankFigures& f, const std::vector<RootRange>* ranges, int size) {
+  constexpr int kDoubles = 8, kWords = 4;
+  const double d[kDoubles] = {f.phases.mapping, f.phases.branching, f.phases.leaf, f.phases.classify,
+                              f.phases.total,   f.exchangeMs,       f.copyBackMs,  f.sendMs};
+  const uint64_t w[kWords] = {uint64_t(int64_t(f.device)), f.leafGrids, f.peakHostBytes, f.peakDeviceBytes};
+  std::vector<double> allD(ranges ? size_t(size) * kDoubles : 0);
+  std::vector<uint64_t> allW(ranges ? size_t(size) * kWords : 0);
+  MPI_Gather(d, kDoubles, MPI_DOUBLE, allD.data(), kDoubles, MPI_DOUBLE, 0, MPI_COMM_WORLD);
+  MPI_Gather(w, kWords, MPI_UINT64_T, allW.data(), kWords, MPI_UINT64_T, 0, MPI_COMM_WORLD);
+  std::vector<RankReport> out;
+  if (!ranges) return out;
+  for (int r = 0; r < size; ++r) {
+    const double* x = allD.data() + size_t(r) * kDoubles;
+    const uint64_t* y = allW.data() + size_t(r) * kWords;
+    RankReport k;
+    k.device = int(int64_t(y[0]));
+    k.backend = k.device >= 0 ? "cuda" : "cpu";
+    k.rootCells = (*ranges)[size_t(r)].end - (*ranges)[size_t(r)].first;
+    k.leafGrids = y[1];
+    k.phases = PhaseTimes{x[0], x[1], x[2], x[3], x[4]};
+    k.exchangeMs = x[5];
+    k.copyBackMs = x[6];
+    k.sendMs = x[7];
+    k.peakHostBytes = y[2];
+    k.peakDeviceBytes = y[3];
+    out.push_back(std::move(k));
+  }
+  return out;
 }
 
 int localRank() {
@@ -103,7 +177,8 @@ void MpiSession::abort(int code) const {
   std::exit(code);
 }
 
-Volume buildAcrossRanks(const MpiSession& session, const PreparedMesh& mesh, const BuildOptions& options) {
+Volume buildAcrossRanks(const MpiSession& session, const PreparedMesh& mesh, const BuildOptions& options,
+                        std::vector<RankReport>* ranksOut) {
   requireDistributable(mesh);
   // One rank: nothing to exchange, and the CUDA driver's one-piece path
   // (classification on the device) beats its range build.
@@ -126,49 +201,82 @@ Volume buildAcrossRanks(const MpiSession& session, const PreparedMesh& mesh, con
     build = makeRangeBuild(mesh, rankOptions, ranges[size_t(me)]);
     boundary = build->buildTree();
   });
+  const auto e0 = Clock::now();
   std::vector<RangeBoundary> boundaries;
   for (const std::vector<uint8_t>& b : allGather(packBoundary(boundary, rw), K))
     boundaries.push_back(unpackBoundary(b.data(), b.size(), rw));
   const std::vector<RangeBoundary> beyond = parityBeyondRanges(boundaries, classifiedAxes(mesh.closed), rw);
+  const double exchangeMs = msSince(e0);
   RangeTree own;
   arena.execute([&] { own = build->finish(&beyond[size_t(me)]); });
   const PhaseTimes times = build->times();
   const int device = build->device();
-  build.reset(); // the device's memory goes back now
   // What ran on each rank: "cpu", "cuda" or both.
   int gpuRanks = 0;
   const int onGpu = device >= 0 ? 1 : 0;
   MPI_Allreduce(&onGpu, &gpuRanks, 1, MPI_INT, MPI_SUM, MPI_COMM_WORLD);
   const std::string backend = gpuRanks == 0 ? "cpu" : gpuRanks == K ? "cuda" : "cuda+cpu";
-  // The slowest rank's phases.
-  const double mine[4] = {times.mapping, times.branching, times.leaf, times.classify};
-  double slowest[4] = {0, 0, 0, 0};
-  MPI_Reduce(mine, slowest, 4, MPI_DOUBLE, MPI_MAX, 0, MPI_COMM_WORLD);
-  const unsigned long long peak = peakResidentBytes();
-  unsigned long long largestPeak = 0; // the largest rank's, before rank 0 joins
-  MPI_Reduce(&peak, &largestPeak, 1, MPI_UNSIGNED_LONG_LONG, MPI_MAX, 0, MPI_COMM_WORLD);
+  // Every rank's leaf words, so rank 0 can place each piece as it arrives.
+  const uint64_t myWords = own.leafWords.size();
+  std::vector<uint64_t> words(static_cast<size_t>(K));
+  MPI_Gather(&myWords, 1, MPI_UINT64_T, words.data(), 1, MPI_UINT64_T, 0, MPI_COMM_WORLD);
+  const int levels = g.height + 1;
+  RankFigures figures;
+  figures.phases = times;
+  figures.exchangeMs = exchangeMs;
+  figures.copyBackMs = build->copyBackMs();
+  figures.device = device;
+  figures.leafGrids = own.leafWords.size() / leafWordCount(g.leafSize);
+  figures.peakHostBytes = peakResidentBytes();
+  figures.peakDeviceBytes = build->peakDeviceBytes();
+  build.reset(); // the device's memory goes back now
   if (me != 0) {
-    sendBytes(packRangeTree(own), 0);
+    const auto s0 = Clock::now();
+    sendPiece(own);
+    figures.sendMs = msSince(s0);
+    gatherFigures(figures, nullptr, K);
     Volume grid;
     grid.grid = g;
     return grid;
   }
-  std::vector<RangeTree> trees(static_cast<size_t>(K));
-  trees[0] = std::move(own);
+  const auto s0 = Clock::now();
+  uint64_t total = 0;
+  for (uint64_t w : words) total += w;
+  LeafWordVector leafWords(total); // not zeroed: every word is received or copied
+  std::copy(own.leafWords.begin(), own.leafWords.end(), leafWords.begin());
+  own.leafWords = LeafWordVector();
+  std::vector<RangeTree> pieces(static_cast<size_t>(K));
+  pieces[0] = std::move(own);
+  uint64_t at = words[0];
   for (int r = 1; r < K; ++r) {
-    const std::vector<uint8_t> bytes = receiveBytes(r);
-    trees[size_t(r)] = unpackRangeTree(bytes.data(), bytes.size(), g);
+    pieces[size_t(r)] = receivePiece(ranges[size_t(r)], levels, leafWords.data() + at, words[size_t(r)], r);
+    at += words[size_t(r)];
   }
-  Volume v = joinRanges(g, std::move(trees));
+  Volume v = joinRanges(g, std::move(pieces), std::move(leafWords));
+  figures.sendMs = msSince(s0);
+  std::vector<RankReport> all = gatherFigures(figures, &ranges, K);
   v.surfaceOnly = mesh.surfaceOnly;
   v.closedMesh = mesh.closed;
   computeStructureStatistics(v);
   v.stats.triangles = mesh.triangles.size();
   v.stats.degenerateTriangles = mesh.degenerateTriangles;
-  v.stats.time = PhaseTimes{slowest[0], slowest[1], slowest[2], slowest[3], msSince(t0)};
+  PhaseTimes slowest; // each phase's slowest rank
+  uint64_t largestPeak = 0, largestDevice = 0;
+  for (const RankReport& k : all) {
+    slowest.mapping = std::max(slowest.mapping, k.phases.mapping);
+    slowest.branching = std::max(slowest.branching, k.phases.branching);
+    slowest.leaf = std::max(slowest.leaf, k.phases.leaf);
+    slowest.classify = std::max(slowest.classify, k.phases.classify);
+    largestPeak = std::max(largestPeak, k.peakHostBytes);
+    largestDevice = std::max(largestDevice, k.peakDeviceBytes);
+  }
+  slowest.total = msSince(t0);
+  v.stats.time = slowest;
   v.stats.backend = backend;
   v.stats.peakHostBytes = std::max<uint64_t>(largestPeak, peakResidentBytes());
+  v.stats.peakDeviceBytes = largestDevice;
   v.stats.threads = options.threads > 0 ? options.threads : tbb::this_task_arena::max_concurrency();
+  if (ranksOut) *ranksOut = std::move(all);
   return v;
 }
 

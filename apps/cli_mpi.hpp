@@ -7,12 +7,15 @@
 // (MPI_Allgatherv), and rank 0 gathers the ranges' trees, joins them and
 // writes the outputs: the same bytes as a serial run. With a GPU on every
 // rank (backend cuda, or auto), each rank builds on device (local rank mod
-// device count, MPI_Comm_split_type shared): the CUDA driver has no range
-// build yet, so such a rank builds the whole volume and sends its range.
+// device count, MPI_Comm_split_type shared) with the CUDA driver's range
+// build; Auto falls back to the CPU per rank.
 // An error on any rank aborts the job (MPI_Abort) with that rank's message.
 #pragma once
 
+#include "cli_report.hpp"
 #include "hdt/builder.hpp"
+
+#include <vector>
 
 namespace hdt::cli {
 
@@ -34,7 +37,10 @@ private:
 };
 
 // The volume built across the session's ranks: whole on rank 0 (statistics:
-// the slowest rank's phase times), only the grid on the others.
-Volume buildAcrossRanks(const MpiSession& session, const PreparedMesh& mesh, const BuildOptions& options);
+// each phase's slowest rank, the largest peaks), only the grid on the others.
+// Rank 0 receives each rank's leaf words straight into the joined volume.
+// `ranks` (rank 0, when given): what each rank did and measured.
+Volume buildAcrossRanks(const MpiSession& session, const PreparedMesh& mesh, const BuildOptions& options,
+                        std::vector<RankReport>* ranks = nullptr);
 
 } // namespace hdt::cli

@@ -87,6 +87,45 @@ struct Row {
   bool aligned = true; // numbers line up on the right; names and paths do not
 };
 
+std::string phasesJson(const PhaseTimes& t) {
+  JsonObject time;
+  time.add("mapping", number(t.mapping, "%.3f"))
+      .add("branching", number(t.branching, "%.3f"))
+      .add("leaf", number(t.leaf, "%.3f"))
+      .add("classify", number(t.classify, "%.3f"))
+      .add("total", number(t.total, "%.3f"));
+  return time.str();
+}
+
+size_t slowestRank(const std::vector<RankReport>& ranks) {
+  size_t slowest = 0;
+  for (size_t i = 1; i < ranks.size(); ++i)
+    if (ranks[i].phases.total > ranks[slowest].phases.total) slowest = i;
+  return slowest;
+}
+
+std::string ranksJson(const std::vector<RankReport>& ranks) {
+  if (ranks.empty()) return "null";
+  std::string out = "[";
+  for (size_t i = 0; i < ranks.size(); ++i) {
+    const RankReport& k = ranks[i];
+    JsonObject row;
+    row.add("rank", number(uint64_t(i)))
+        .add("backend", quoted(k.backend))
+        .add("device", std::to_string(k.device))
+        .add("root_cells", number(k.rootCells))
+        .add("leaf_grids", number(k.leafGrids))
+        .add("time_ms", phasesJson(k.phases))
+        .add("exchange_ms", number(k.exchangeMs, "%.3f"))
+        .add("copy_back_ms", number(k.copyBackMs, "%.3f"))
+        .add("send_ms", number(k.sendMs, "%.3f"))
+        .add("peak_host_bytes", number(k.peakHostBytes))
+        .add("peak_device_bytes", number(k.peakDeviceBytes));
+    out += (i ? "," : "") + row.str();
+  }
+  return out + "]";
+}
+
 } // namespace
 
 void writeJson(std::ostream& out, const Report& r) {
@@ -98,12 +137,6 @@ void writeJson(std::ostream& out, const Report& r) {
   const GridSpec& g = v.grid;
   const std::string origin =
       "[" + number(g.origin[0]) + "," + number(g.origin[1]) + "," + number(g.origin[2]) + "]";
-  JsonObject time;
-  time.add("mapping", number(s.time.mapping, "%.3f"))
-      .add("branching", number(s.time.branching, "%.3f"))
-      .add("leaf", number(s.time.leaf, "%.3f"))
-      .add("classify", number(s.time.classify, "%.3f"))
-      .add("total", number(s.time.total, "%.3f"));
   JsonObject io;
   io.add("read", number(r.io.read, "%.3f"))
       .add("prepare", number(r.io.prepare, "%.3f"))
@@ -129,7 +162,7 @@ void writeJson(std::ostream& out, const Report& r) {
       .add("leaf_bytes", number(s.leafBytes))
       .add("backend", quoted(s.backend))
       .add("threads", std::to_string(s.threads))
-      .add("time_ms", time.str())
+      .add("time_ms", phasesJson(s.time))
       .add("peak_host_bytes", number(s.peakHostBytes))
       .add("degenerate_triangles", number(s.degenerateTriangles))
       .add("closed_mesh", v.closedMesh ? "true" : "false")
@@ -170,6 +203,7 @@ void writeJson(std::ostream& out, const Report& r) {
     arrays += (arrays.size() > 1 ? "," : "") + row.str();
   }
   o.add("transferred_arrays", arrays + "]").add("transferred_array_bytes", number(voxelArrayBytes(v)));
+  o.add("ranks", ranksJson(r.ranks)).add("slowest_rank", r.ranks.empty() ? "null" : number(uint64_t(slowestRank(r.ranks))));
   out << o.str() << '\n';
 }
 
@@ -215,6 +249,14 @@ void writeTable(std::ostream& out, const Report& r) {
       {"peak host memory", bytes(s.peakHostBytes), "resident set"},
   };
   if (s.backend == "cuda") rows.push_back({"peak device memory", bytes(s.peakDeviceBytes), ""});
+  for (size_t i = 0; i < r.ranks.size(); ++i) {
+    const RankReport& k = r.ranks[i];
+    rows.push_back({"  rank " + std::to_string(i), ms(k.phases.total),
+                    k.backend + (k.device >= 0 ? " " + std::to_string(k.device) : "") + ", " +
+                        withCommas(k.leafGrids) + " leaf grids, exchange " + ms(k.exchangeMs) + ", copy back " +
+                        ms(k.copyBackMs) + ", send " + ms(k.sendMs) + ", peak host " + bytes(k.peakHostBytes) +
+                        (k.device >= 0 ? ", peak device " + bytes(k.peakDeviceBytes) : "")});
+  }
   if (!r.hdtPath.empty()) rows.push_back({"wrote", r.hdtPath, "", false});
   if (!r.densePath.empty()) rows.push_back({"wrote", r.densePath, "dense uint8 NRRD", false});
   if (r.labelled) rows.push_back({"labels", bytes(r.labelBytes), std::to_string(r.labels.size()) + " labels"});

@@ -18,6 +18,20 @@ struct IoTimes {
   double transfer = 0; // --transfer: hdt::transferArrays
 };
 
+// One rank of a distributed build (hdt-voxelize-mpi), as rank 0 gathers it.
+struct RankReport {
+  std::string backend;        // "cpu" or "cuda"
+  int device = -1;            // the CUDA device, -1 for the CPU
+  uint64_t rootCells = 0;     // the root cells of its range
+  uint64_t leafGrids = 0;     // the leaf grids it built
+  PhaseTimes phases;          // its own T1..classification (total: their sum)
+  double exchangeMs = 0;      // waiting for and merging the boundary parities
+  double copyBackMs = 0;      // the copies from its device to its host
+  double sendMs = 0;          // its piece to rank 0 (rank 0: receiving and joining every piece)
+  uint64_t peakHostBytes = 0; // its resident set's high-water mark
+  uint64_t peakDeviceBytes = 0;
+};
+
 struct Report {
   std::string mesh;      // as given on the command line
   const Volume* volume = nullptr;
@@ -32,6 +46,7 @@ struct Report {
   std::vector<LabelStatistics> labels; // hdt::labelStatistics
   uint64_t labelBytes = 0;           // hdt::labelFieldBytes
   std::string denseLabelsPath;       // empty when not written
+  std::vector<RankReport> ranks;     // distributed builds: one a rank, in rank order
 };
 
 // Keys, in this order: mesh, triangles, resolution, root_grid, leaf_size,
@@ -45,7 +60,11 @@ struct Report {
 // ran), inside_test_requested, inside_test_reason, winding_refined_elements,
 // labels (null, or [{label, name, surface_voxels, inside_voxels, volume,
 // surface_area}]), label_bytes, dense_labels_file, transferred_arrays
-// ([{name, source ("point" or "cell"), components}]), transferred_array_bytes.
+// ([{name, source ("point" or "cell"), components}]), transferred_array_bytes,
+// ranks (null, or [{rank, backend, device, root_cells, leaf_grids, time_ms
+// {mapping, branching, leaf, classify, total}, exchange_ms, copy_back_ms,
+// send_ms, peak_host_bytes, peak_device_bytes}]), slowest_rank (null or the
+// rank whose phases took longest).
 // README.md says what
 // each means.
 void writeJson(std::ostream& out, const Report& report);

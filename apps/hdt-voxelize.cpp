@@ -209,7 +209,7 @@ int run(int argc, const char* const* argv, const MpiSession& session) {
   build.log = [&](const std::string& text) { progress.note(text); };
   Volume volume = about(options.mesh, [&] {
     if (labelled) return voxelizeLabelled(mesh, options.config, build, options.overlap); // every rank builds it whole
-    return session.size() > 1 ? buildAcrossRanks(session, prepared, build) : hdt::build(prepared, build);
+    return session.size() > 1 ? buildAcrossRanks(session, prepared, build, &report.ranks) : hdt::build(prepared, build);
   });
   progress.clear();
   if (session.rank() != 0) return 0; // rank 0 has the joined volume and writes

@@ -104,8 +104,16 @@ void checkElementLimit(uint64_t levelEnd, uint64_t touched, int level) {
 
 namespace {
 
+// A range carries its leaf coordinates, its leaf words, or neither (its
+// leaves were placed elsewhere, as a distributed join receives them): then
+// its leaves are its Boundary elements, one each.
 uint64_t leavesOf(const RangeTree& t, uint32_t wordsPerLeaf) {
-  return t.leafCoord.empty() ? t.leafWords.size() / wordsPerLeaf : t.leafCoord.size();
+  if (!t.leafCoord.empty()) return t.leafCoord.size();
+  if (!t.leafWords.empty()) return t.leafWords.size() / wordsPerLeaf;
+  uint64_t leaves = 0;
+  for (const std::vector<ElementWord>& level : t.levels)
+    for (const ElementWord w : level) leaves += elementState(w) == ElementState::Boundary ? 1 : 0;
+  return leaves;
 }
 
 // Elements of each level over all ranges.

@@ -57,6 +57,8 @@ public:
   }
   const char* backend() const override { return "cuda"; }
   int device() const override { return session_.device; }
+  uint64_t peakDeviceBytes() const override { return session_.memory.peak(); }
+  double copyBackMs() const override { return session_.copyBackMs; }
 
 private:
   // Device memory running out outside a chunk (the triangles, T1 of the

@@ -46,6 +46,24 @@ run_case knot builtin:knot --resolution 128 --root-grid 8 --leaf-size 8
 run_case cap cap.obj --resolution 128 --root-grid 4 --leaf-size 8
 run_case surface builtin:torus --resolution 128 --root-grid 4 --leaf-size 8 --surface-only
 run_case onerow builtin:sphere --resolution 64 --root-grid 1 --leaf-size 16
+# The per-rank report: one row a rank, whose ranges cover the root grid and
+# whose leaf grids add up to the volume's.
+mpiexec --oversubscribe -n 3 "$mpi" builtin:knot --resolution 128 --root-grid 8 --leaf-size 8 --backend cpu \
+  --quiet --json > ranks.json
+python3 - ranks.json <<'PY'
+import json, sys
+r = json.load(open(sys.argv[1]))
+ranks = r["ranks"]
+assert len(ranks) == 3, ranks
+assert [k["rank"] for k in ranks] == [0, 1, 2]
+assert sum(k["root_cells"] for k in ranks) == r["root_grid"] ** 3, ranks
+assert sum(k["leaf_grids"] for k in ranks) == r["leaf_grids"], (ranks, r["leaf_grids"])
+assert all(k["backend"] == "cpu" and k["device"] == -1 and k["peak_host_bytes"] > 0 for k in ranks)
+assert r["slowest_rank"] == max(range(3), key=lambda i: ranks[i]["time_ms"]["total"])
+for phase in ("mapping", "branching", "leaf", "classify"):
+    assert r["time_ms"][phase] == max(k["time_ms"][phase] for k in ranks), phase
+PY
+echo "mpi_cases: per-rank report"
 # compare_hdt.py itself must see a difference.
 if python3 "$here/compare_hdt.py" sphere-serial.hdt knot-serial.hdt > /dev/null 2>&1; then
   echo "mpi_cases: compare_hdt.py missed a difference"; exit 1

@@ -100,7 +100,9 @@ void checkJoinedElementLimit(const GridSpec& grid, const std::vector<RangeTree>&
 // the volume's tree and leaves: renumbered payloads, concatenated leaves.
 // Checks the element limit. Sets grid, elements, levelStart, leafWords.
 // `leafWords`, when given, are all the leaves already in join order (a
-// driver that wrote each range's leaves in place); the ranges carry none.
+// driver that wrote each range's leaves in place); the ranges carry none,
+// and a range's leaves are counted from its leaf coordinates when it has
+// them, else from its Boundary elements.
 Volume joinRanges(const GridSpec& grid, std::vector<RangeTree>&& ranges, LeafWordVector&& leafWords = {});
 
 // Contiguous ranges' pieces (in root-cell order, at least one, with their
@@ -163,6 +165,10 @@ public:
   // What built it: "cpu" or "cuda", and the CUDA device (-1 for the CPU).
   virtual const char* backend() const = 0;
   virtual int device() const = 0;
+  // The device memory's high-water mark and the host wall time of the copies
+  // back to the host, for the per-rank report (0 where nothing ran on a device).
+  virtual uint64_t peakDeviceBytes() const { return 0; }
+  virtual double copyBackMs() const { return 0; }
 };
 
 class CpuRangeBuild final : public RootRangeBuild {
