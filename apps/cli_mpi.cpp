@@ -254,6 +254,7 @@ Volume buildAcrossRanks(const MpiSession& session, const PreparedMesh& mesh, con
   }
   Volume v = joinRanges(g, std::move(pieces), std::move(leafWords));
   figures.sendMs = msSince(s0);
+  figures.peakHostBytes = peakResidentBytes(); // rank 0 holds the joined volume now
   std::vector<RankReport> all = gatherFigures(figures, &ranges, K);
   v.surfaceOnly = mesh.surfaceOnly;
   v.closedMesh = mesh.closed;

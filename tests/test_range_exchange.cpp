@@ -104,11 +104,23 @@ TEST_P(RangeExchange, ProcessesGiveTheSerialVolume) {
     EXPECT_DOUBLE_EQ(sum.paperBitsPerActiveVoxel, whole.stats.paperBitsPerActiveVoxel);
     EXPECT_EQ(quadKeys(pieceQuads), quadKeys(extractSurfaceQuads(whole)));
 
+    // As a distributed join receives them: the leaves already in place, the
+    // ranges with neither leaf words nor coordinates (counted from the tree).
+    std::vector<RangeTree> bare = trees;
+    LeafWordVector placed;
+    for (RangeTree& t : bare) {
+      placed.insert(placed.end(), t.leafWords.begin(), t.leafWords.end());
+      t.leafWords = LeafWordVector();
+      t.leafCoord.clear();
+    }
     Volume joined = joinRanges(mesh.grid, std::move(trees));
-    joined.surfaceOnly = whole.surfaceOnly;
-    joined.closedMesh = whole.closedMesh;
-    computeStructureStatistics(joined);
-    EXPECT_EQ(firstDifference(whole, joined), "");
+    Volume joinedPlaced = joinRanges(mesh.grid, std::move(bare), std::move(placed));
+    for (Volume* v : {&joined, &joinedPlaced}) {
+      v->surfaceOnly = whole.surfaceOnly;
+      v->closedMesh = whole.closedMesh;
+      computeStructureStatistics(*v);
+      EXPECT_EQ(firstDifference(whole, *v), "");
+    }
   }
 }
 
