@@ -70,7 +70,7 @@ def main():
                         if name != "serial":
                             subprocess.run([sys.executable, os.path.join(ROOT, "tests", "cli", "compare_hdt.py"),
                                             ref, out], check=True, capture_output=True)
-                        res.update(config=name, ranks=ranks, threads_per_rank=threads, rep=rep, wall_s=wall,
+                        res.update(config=name, rank_count=ranks, threads_per_rank=threads, rep=rep, wall_s=wall,
                                    machine=machine, date=date, loadavg_1m=os.getloadavg()[0])
                         log.write(json.dumps(res) + "\n")
                         log.flush()

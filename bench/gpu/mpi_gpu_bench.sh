@@ -33,7 +33,7 @@ for n in $resolutions; do
 import json, sys
 path, k, rep, wall, gpu, date, out = sys.argv[1:]
 r = json.load(open(path))
-r.update(ranks=int(k), rep=int(rep), wall_s=float(wall), gpu=gpu, date=date, bench="mpi_gpu_bench.sh")
+r.update(rank_count=int(k), rep=int(rep), wall_s=float(wall), gpu=gpu, date=date, bench="mpi_gpu_bench.sh")
 open(out, "a").write(json.dumps(r) + "\n")
 print("N=%s ranks=%s rep=%s build %.0f ms wall %.2f s" % (r["resolution"], k, rep, r["time_ms"]["total"], float(wall)))
 PY

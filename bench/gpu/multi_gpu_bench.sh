@@ -45,7 +45,7 @@ one() { # mesh n mode: every K, compared with K = 1
 import json, sys
 path, k, wall, same, gpu, date, out, size, mode = sys.argv[1:]
 r = json.load(open(path))
-r.update(ranks=int(k), wall_s=float(wall), same_as_k1=json.loads(same), gpu=gpu, date=date,
+r.update(rank_count=int(k), wall_s=float(wall), same_as_k1=json.loads(same), gpu=gpu, date=date,
          file_bytes=int(size), mode=mode, bench="multi_gpu_bench.sh")
 open(out, "a").write(json.dumps(r) + "\n")
 t = r["time_ms"]
