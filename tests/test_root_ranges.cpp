@@ -8,6 +8,7 @@
 #include "hdt/mesh.hpp"
 #include "hdt/root_ranges.hpp"
 #include "hdt/volume.hpp"
+#include "support/range_splits.hpp"
 #include "support/shapes.hpp"
 
 #include <gtest/gtest.h>
@@ -18,24 +19,6 @@
 namespace hdt {
 namespace test {
 namespace {
-
-std::string describe(const std::vector<RootRange>& ranges) {
-  std::string s;
-  for (const RootRange& r : ranges) s += "[" + std::to_string(r.first) + "," + std::to_string(r.end) + ")";
-  return s;
-}
-
-// Splits [0, cells) at the given cuts.
-std::vector<RootRange> cutAt(std::vector<uint64_t> cuts, uint64_t cells) {
-  std::vector<RootRange> out;
-  uint64_t start = 0;
-  for (uint64_t c : cuts) {
-    out.push_back(RootRange{start, c});
-    start = c;
-  }
-  out.push_back(RootRange{start, cells});
-  return out;
-}
 
 class RangeBuild : public ::testing::TestWithParam<ShapeCase> {};
 
@@ -51,23 +34,12 @@ TEST_P(RangeBuild, JoinedRangesEqualTheOnePieceBuild) {
   }
 
   const uint64_t R = uint64_t(c.r), cells = R * R * R;
-  const std::vector<CellLoad> loads = cellLoads(mesh);
-  std::vector<std::vector<RootRange>> splits;
-  for (int k = 1; k <= 5; ++k) {
-    splits.push_back(planRootRanges(loads, cells, k));    // balanced, any cell
-    splits.push_back(planRootRanges(loads, cells, k, R)); // whole rows along x
-  }
-  splits.push_back(planRootRanges(loads, cells, int(R * R) + 3, R)); // more ranges than rows: some empty
-  splits.push_back(cutAt({1, 2, cells - 1}, cells));                 // uneven, edge ranges without triangles
-  splits.push_back(cutAt({0, cells / 3, cells / 3, cells}, cells));  // empty ranges at both ends and inside
-  splits.push_back(cutAt({cells / 2 + 1}, cells));                   // a cut inside a row of cells
-
-  for (const std::vector<RootRange>& ranges : splits) {
+  for (const std::vector<RootRange>& ranges : rangeSplitsOf(mesh)) {
     ASSERT_EQ(ranges.front().first, 0u);
     ASSERT_EQ(ranges.back().end, cells);
     for (size_t i = 1; i < ranges.size(); ++i) ASSERT_EQ(ranges[i].first, ranges[i - 1].end);
     const Volume joined = buildCpuRanges(mesh, options, ranges);
-    EXPECT_EQ(firstDifference(whole, joined), "") << c.shape << " as " << describe(ranges);
+    EXPECT_EQ(firstDifference(whole, joined), "") << c.shape << " as " << describeRanges(ranges);
   }
 }
 

@@ -12,6 +12,7 @@
 #include "hdt/error.hpp"
 #include "hdt/mesh.hpp"
 #include "hdt/root_ranges.hpp"
+#include "support/range_splits.hpp"
 #include "support/shapes.hpp"
 
 #include <gtest/gtest.h>
@@ -23,39 +24,6 @@
 namespace hdt {
 namespace test {
 namespace {
-
-std::string describe(const std::vector<RootRange>& ranges) {
-  std::string s;
-  for (const RootRange& r : ranges) s += "[" + std::to_string(r.first) + "," + std::to_string(r.end) + ")";
-  return s;
-}
-
-std::vector<RootRange> cutAt(std::vector<uint64_t> cuts, uint64_t cells) {
-  std::vector<RootRange> out;
-  uint64_t start = 0;
-  for (uint64_t c : cuts) {
-    out.push_back(RootRange{start, c});
-    start = c;
-  }
-  out.push_back(RootRange{start, cells});
-  return out;
-}
-
-// The splits of the CPU driver's RootRanges tests.
-std::vector<std::vector<RootRange>> splitsOf(const PreparedMesh& mesh) {
-  const uint64_t R = uint64_t(mesh.grid.rootGrid), cells = R * R * R;
-  const std::vector<CellLoad> loads = cellLoads(mesh);
-  std::vector<std::vector<RootRange>> splits;
-  for (int k = 1; k <= 5; ++k) {
-    splits.push_back(planRootRanges(loads, cells, k));
-    splits.push_back(planRootRanges(loads, cells, k, R));
-  }
-  splits.push_back(planRootRanges(loads, cells, int(R * R) + 3, R));
-  splits.push_back(cutAt({1, 2, cells - 1}, cells));
-  splits.push_back(cutAt({0, cells / 3, cells / 3, cells}, cells));
-  splits.push_back(cutAt({cells / 2 + 1}, cells));
-  return splits;
-}
 
 bool sameLines(const LineParities& a, const LineParities& b) { return a.line == b.line && a.words == b.words; }
 
@@ -101,17 +69,17 @@ TEST_P(CudaRangeBuildTest, JoinedRangesEqualTheOnePieceBuildAndEachRangeTheCpus)
   const PreparedMesh mesh = prepareShapeCase(GetParam());
   const Volume whole = build(mesh, cudaOptions());
   ASSERT_TRUE(sameVolume(whole, build(mesh, cpuOptions())));
-  for (const std::vector<RootRange>& ranges : splitsOf(mesh)) {
+  for (const std::vector<RootRange>& ranges : rangeSplitsOf(mesh)) {
     const RangesRun gpu = runRanges(mesh, {cudaOptions()}, ranges);
     const RangesRun cpu = runRanges(mesh, {cpuOptions()}, ranges);
     for (size_t r = 0; r < ranges.size(); ++r) {
       EXPECT_EQ(gpu.backends[r], "cuda");
       for (int a = 0; a < 3; ++a)
         EXPECT_TRUE(sameLines(gpu.boundaries[r].axis[a], cpu.boundaries[r].axis[a]))
-            << "boundary parities of range " << r << " axis " << a << " of " << describe(ranges);
-      EXPECT_TRUE(samePiece(gpu.pieces[r], cpu.pieces[r])) << "range " << r << " of " << describe(ranges);
+            << "boundary parities of range " << r << " axis " << a << " of " << describeRanges(ranges);
+      EXPECT_TRUE(samePiece(gpu.pieces[r], cpu.pieces[r])) << "range " << r << " of " << describeRanges(ranges);
     }
-    EXPECT_EQ(firstDifference(whole, joined(mesh, gpu.pieces)), "") << describe(ranges);
+    EXPECT_EQ(firstDifference(whole, joined(mesh, gpu.pieces)), "") << describeRanges(ranges);
   }
 }
 
@@ -127,7 +95,7 @@ TEST_P(CudaRangeBuildTest, RangesOnBothDriversGiveTheSameBytes) {
     const RangesRun run = runRanges(mesh, {cudaOptions(), cpuOptions()}, ranges);
     EXPECT_EQ(run.backends[0], "cuda");
     EXPECT_EQ(run.backends[1], "cpu");
-    EXPECT_EQ(firstDifference(whole, joined(mesh, run.pieces)), "") << describe(ranges);
+    EXPECT_EQ(firstDifference(whole, joined(mesh, run.pieces)), "") << describeRanges(ranges);
   }
 }
 
@@ -153,7 +121,7 @@ TEST(CudaRangeBuild, RangesChunkedByTheBudgetGiveTheSameBytes) {
     for (int k : {1, 2, 3}) {
       const std::vector<RootRange> ranges = planRootRanges(cellLoads(mesh), R * R * R, k, R);
       const RangesRun run = runRanges(mesh, {small}, ranges);
-      EXPECT_EQ(firstDifference(whole, joined(mesh, run.pieces)), "") << shape << " as " << describe(ranges);
+      EXPECT_EQ(firstDifference(whole, joined(mesh, run.pieces)), "") << shape << " as " << describeRanges(ranges);
     }
   }
 }
