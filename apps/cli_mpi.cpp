@@ -7,9 +7,12 @@
 
 #if defined(HDT_WITH_MPI)
 #include "hdt/host_memory.hpp"
+#include "hdt/huge_pages.hpp"
 #include "hdt/range_exchange.hpp"
 
 #include <mpi.h>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
 #include <algorithm>
@@ -243,7 +246,16 @@ Volume buildAcrossRanks(const MpiSession& session, const PreparedMesh& mesh, con
   uint64_t total = 0;
   for (uint64_t w : words) total += w;
   LeafWordVector leafWords(total); // not zeroed: every word is received or copied
-  std::copy(own.leafWords.begin(), own.leafWords.end(), leafWords.begin());
+  // Faulted in by all cores first: the receives then run at memory speed.
+  adviseHugePages(leafWords.data(), total * sizeof(uint32_t));
+  arena.execute([&] { prefaultParallel(leafWords.data(), total * sizeof(uint32_t)); });
+  arena.execute([&] {
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, own.leafWords.size(), size_t(1) << 22),
+                      [&](const tbb::blocked_range<size_t>& r) {
+                        std::copy(own.leafWords.begin() + r.begin(), own.leafWords.begin() + r.end(),
+                                  leafWords.begin() + r.begin());
+                      });
+  });
   own.leafWords = LeafWordVector();
   std::vector<RangeTree> pieces(static_cast<size_t>(K));
   pieces[0] = std::move(own);
