@@ -3,6 +3,7 @@
 #include "vtkBitArray.h"
 #include "vtkCellData.h"
 #include "vtkHyperTreeGrid.h"
+#include "vtkHyperTreeGridNonOrientedCursor.h"
 #include "vtkHyperTreeGridNonOrientedGeometryCursor.h"
 #include "vtkNew.h"
 #include "vtkParametricFunctionSource.h"
@@ -273,6 +274,44 @@ WalkResult WalkAndCheck(vtkHyperTreeGrid* htg, const hdt::Volume& volume,
       std::to_string(uint64_t(n) * n * n));
   }
   return r;
+}
+
+namespace
+{
+
+vtkIdType VisitCellBoxes(vtkHyperTreeGridNonOrientedCursor* cursor, int x, int y, int z, int edge,
+  const CellBoxVisitor& visit)
+{
+  const bool leaf = cursor->IsLeaf();
+  visit(cursor->GetGlobalNodeIndex(), leaf, x, y, z, edge);
+  if (leaf)
+  {
+    return 1;
+  }
+  vtkIdType cells = 1;
+  const int half = edge / 2;
+  for (int c = 0; c < 8; ++c)
+  {
+    cursor->ToChild(c);
+    cells += VisitCellBoxes(cursor, x + (c & 1) * half, y + ((c >> 1) & 1) * half, z + (c >> 2) * half, half, visit);
+    cursor->ToParent();
+  }
+  return cells;
+}
+
+} // namespace
+
+vtkIdType ForEachCellBox(vtkHyperTreeGrid* htg, const hdt::GridSpec& grid, const CellBoxVisitor& visit)
+{
+  const int R = grid.rootGrid, edge = grid.rootCellVoxels();
+  vtkIdType cells = 0;
+  vtkNew<vtkHyperTreeGridNonOrientedCursor> cursor;
+  for (int t = 0; t < R * R * R; ++t)
+  {
+    htg->InitializeNonOrientedCursor(cursor, t);
+    cells += VisitCellBoxes(cursor, (t % R) * edge, ((t / R) % R) * edge, (t / (R * R)) * edge, edge, visit);
+  }
+  return cells;
 }
 
 } // namespace hdtvtk

@@ -7,8 +7,10 @@
 
 #include "vtkCommand.h"
 #include "vtkSmartPointer.h"
+#include "vtkType.h"
 
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -56,6 +58,14 @@ struct WalkResult
 };
 WalkResult WalkAndCheck(vtkHyperTreeGrid* htg, const hdt::Volume& volume,
   const std::vector<uint8_t>& dense, int depthCut, bool expectMask);
+
+// Calls visit(cell, leaf, x, y, z, edge) for every cell of `htg` that the
+// converter made from a volume with `grid`: its global index, whether it is a
+// leaf, and the lattice box of voxels it covers (low corner, edge in voxels).
+// Depth first by child index, independent of the converter's breadth-first walk.
+// Returns the cells visited (a caller checks it against GetNumberOfCells()).
+using CellBoxVisitor = std::function<void(vtkIdType cell, bool leaf, int x, int y, int z, int edge)>;
+vtkIdType ForEachCellBox(vtkHyperTreeGrid* htg, const hdt::GridSpec& grid, const CellBoxVisitor& visit);
 
 // Records ErrorEvent and WarningEvent messages of an object.
 class MessageLog : public vtkCommand

@@ -7,10 +7,11 @@
 #include "hdt/labels.hpp"
 #include "support/shapes.hpp"
 
+#include "hdt_vtk_test_util.h"
+
 #include "vtkCellData.h"
 #include "vtkFieldData.h"
 #include "vtkHyperTreeGrid.h"
-#include "vtkHyperTreeGridNonOrientedCursor.h"
 #include "vtkNew.h"
 #include "vtkStringArray.h"
 #include "vtkUnsignedShortArray.h"
@@ -66,24 +67,6 @@ hdt::Label bruteMajority(const hdt::Volume& v, int x0, int y0, int z0, int edge)
   return best;
 }
 
-int checkCells(vtkHyperTreeGridNonOrientedCursor* cursor, const hdt::Volume& v,
-  vtkUnsignedShortArray* labels, int x, int y, int z, int edge)
-{
-  int wrong = labels->GetValue(cursor->GetGlobalNodeIndex()) != bruteMajority(v, x, y, z, edge);
-  if (!cursor->IsLeaf())
-  {
-    const int half = edge / 2;
-    for (int c = 0; c < 8; ++c)
-    {
-      cursor->ToChild(c);
-      wrong += checkCells(cursor, v, labels, x + (c & 1) * half, y + ((c >> 1) & 1) * half,
-        z + (c >> 2) * half, half);
-      cursor->ToParent();
-    }
-  }
-  return wrong;
-}
-
 TEST(LabelArrays, EveryCellHasTheMajorityLabel)
 {
   const hdt::Volume v = twoSpheres();
@@ -97,14 +80,11 @@ TEST(LabelArrays, EveryCellHasTheMajorityLabel)
     auto* labels = vtkUnsignedShortArray::SafeDownCast(htg->GetCellData()->GetArray("Label"));
     ASSERT_NE(labels, nullptr);
     ASSERT_EQ(labels->GetNumberOfTuples(), htg->GetNumberOfCells());
-    const int R = v.grid.rootGrid, edge = v.grid.rootCellVoxels();
     int wrong = 0;
-    vtkNew<vtkHyperTreeGridNonOrientedCursor> cursor;
-    for (int t = 0; t < R * R * R; ++t)
-    {
-      htg->InitializeNonOrientedCursor(cursor, t);
-      wrong += checkCells(cursor, v, labels, (t % R) * edge, ((t / R) % R) * edge, (t / (R * R)) * edge, edge);
-    }
+    const vtkIdType visited = hdtvtk::ForEachCellBox(htg, v.grid, [&](vtkIdType cell, bool, int x, int y, int z, int edge) {
+      wrong += labels->GetValue(cell) != bruteMajority(v, x, y, z, edge);
+    });
+    ASSERT_EQ(visited, htg->GetNumberOfCells());
     EXPECT_EQ(wrong, 0) << "MaxDepth " << maxDepth;
   }
 }

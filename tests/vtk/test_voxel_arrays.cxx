@@ -12,6 +12,7 @@
 #include "hdt/builder.hpp"
 #include "hdt/transfer.hpp"
 #include "hdt/voxel_surface.hpp"
+#include "hdt_vtk_test_util.h"
 #include "support/shapes.hpp"
 
 #include "vtkCellData.h"
@@ -85,30 +86,6 @@ bool same(float a, double b)
   return (std::isnan(a) && std::isnan(b)) || a == float(b);
 }
 
-int checkCells(vtkHyperTreeGridNonOrientedCursor* cursor, const hdt::Volume& v, vtkFloatArray* a, size_t array,
-  int x, int y, int z, int edge, int& valid)
-{
-  int wrong = 0;
-  for (uint32_t j = 0; j < uint32_t(a->GetNumberOfComponents()); ++j)
-  {
-    const float got = a->GetTypedComponent(cursor->GetGlobalNodeIndex(), int(j));
-    wrong += !same(got, bruteMean(v, array, j, x, y, z, edge));
-    valid += edge == 1 && !std::isnan(got);
-  }
-  if (!cursor->IsLeaf())
-  {
-    const int half = edge / 2;
-    for (int c = 0; c < 8; ++c)
-    {
-      cursor->ToChild(c);
-      wrong += checkCells(cursor, v, a, array, x + (c & 1) * half, y + ((c >> 1) & 1) * half,
-        z + (c >> 2) * half, half, valid);
-      cursor->ToParent();
-    }
-  }
-  return wrong;
-}
-
 TEST(VoxelArrays, HyperTreeGridCellsAreNaNAwareMeansOfChildren)
 {
   hdt::TriangleMesh mesh;
@@ -125,14 +102,16 @@ TEST(VoxelArrays, HyperTreeGridCellsAreNaNAwareMeansOfChildren)
       ASSERT_TRUE(a) << v.arrays[k].name;
       ASSERT_EQ(a->GetNumberOfComponents(), int(v.arrays[k].components));
       ASSERT_EQ(a->GetNumberOfTuples(), htg->GetNumberOfCells());
-      const int R = v.grid.rootGrid, edge = v.grid.rootCellVoxels();
       int wrong = 0, valid = 0;
-      vtkNew<vtkHyperTreeGridNonOrientedCursor> cursor;
-      for (int t = 0; t < R * R * R; ++t)
-      {
-        htg->InitializeNonOrientedCursor(cursor, t);
-        wrong += checkCells(cursor, v, a, k, (t % R) * edge, ((t / R) % R) * edge, (t / (R * R)) * edge, edge, valid);
-      }
+      const vtkIdType visited = hdtvtk::ForEachCellBox(htg, v.grid, [&](vtkIdType cell, bool, int x, int y, int z, int edge) {
+        for (uint32_t j = 0; j < uint32_t(a->GetNumberOfComponents()); ++j)
+        {
+          const float got = a->GetTypedComponent(cell, int(j));
+          wrong += !same(got, bruteMean(v, k, j, x, y, z, edge));
+          valid += edge == 1 && !std::isnan(got);
+        }
+      });
+      ASSERT_EQ(visited, htg->GetNumberOfCells());
       EXPECT_EQ(wrong, 0) << "depth " << depth << " array " << k;
       if (depth == -1)
       {
