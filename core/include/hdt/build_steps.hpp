@@ -420,22 +420,30 @@ HDT_HD void columnSpan(const RowClipper& c, const int64_t (&first)[3], const int
 // Mask of the L voxels of a leaf row (L <= 32): bits 0 .. L - 1.
 HDT_HD constexpr uint32_t fullRowMask(int L) { return L == 32 ? 0xFFFFFFFFu : ((1u << L) - 1u); }
 
-// Where a permuted row's voxels land in the leaf's x rows (one L-bit mask
-// per row y + L z): calls set(rowIndex, mask) once per x row touched. The
-// row is at (h, s) = (row height, slice), leaf-relative, and its voxels are
-// the run [first, last] along `axis` (leaf-relative; none when first > last).
-// A run along y or z sets one bit in each of consecutive x rows, so it is
+// Where a permuted row's voxels land in the leaf's x rows, as runs: calls
+// set(rowIndex, lo, hi) once per x row touched (index y + L z), with the
+// voxels [lo, hi] of that x row (lo == hi but for axis 0). The row is at
+// (h, s) = (row height, slice), leaf-relative, and its voxels are the run
+// [first, last] along `axis` (leaf-relative; none when first > last). A run
+// along y or z sets one voxel in each of consecutive x rows, so it is
 // walked as a run, not bit by bit.
 template <class Set>
-HDT_HD void forEachXRowOf(int axis, int L, int h, int s, int first, int last, Set&& set) {
+HDT_HD void forEachXRowRunOf(int axis, int L, int h, int s, int first, int last, Set&& set) {
   if (first > last) return;
   if (axis == 0) { // (x, y, z) = (i, h, s)
-    set(h + L * s, fullRowMask(last + 1) & ~fullRowMask(first));
-  } else if (axis == 1) { // (x, y, z) = (s, i, h): x rows i + L h, bit s
-    for (int i = first; i <= last; ++i) set(i + L * h, 1u << s);
-  } else { // axis 2: (x, y, z) = (h, s, i): x rows s + L i, bit h
-    for (int i = first; i <= last; ++i) set(s + L * i, 1u << h);
+    set(h + L * s, first, last);
+  } else if (axis == 1) { // (x, y, z) = (s, i, h): x rows i + L h, voxel s
+    for (int i = first; i <= last; ++i) set(i + L * h, s, s);
+  } else { // axis 2: (x, y, z) = (h, s, i): x rows s + L i, voxel h
+    for (int i = first; i <= last; ++i) set(s + L * i, h, h);
   }
+}
+
+// The same with each x row's voxels as one L-bit mask: set(rowIndex, mask).
+template <class Set>
+HDT_HD void forEachXRowOf(int axis, int L, int h, int s, int first, int last, Set&& set) {
+  forEachXRowRunOf(axis, L, h, s, first, last,
+                   [&](int row, int lo, int hi) { set(row, fullRowMask(hi + 1) & ~fullRowMask(lo)); });
 }
 
 // Classification: the rays along `axis` through the voxel centres of the
@@ -742,6 +750,13 @@ HDT_HD void orRowIntoLeaf(uint32_t* words, int L, int row, uint32_t mask, LeafPl
     const uint32_t voxel = v + uint32_t(k);
     words[voxel >> 4] |= (spreadBits16(bits) << plane) << (2 * (voxel & 15u));
   }
+}
+
+// Plane 0 of the 2-bit fields [lo, hi] of one leaf word (0 <= lo <= hi <=
+// 15); shifted left by one, plane 1. A run of voxels written straight into
+// leaf words, without spreading a row mask.
+HDT_HD constexpr uint32_t fieldRangeBits(int lo, int hi) {
+  return kInsidePlaneBits & fullRowMask(2 * hi + 2) & ~fullRowMask(2 * lo);
 }
 
 // In-place transpose of an L x L bit matrix (L = 8, 16 or 32): afterwards
