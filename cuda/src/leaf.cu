@@ -42,7 +42,7 @@ namespace {
 // Tasks (leaves) a warp takes at once. Most leaves have one or two pairs:
 // a warp with one leaf ran its per-pair steps with a lane or two busy and
 // ended every item loop with a part-filled round. With four leaves the
-// pairs of all four share the steps (1 for L = 32, whose bit arrays are 8x
+// pairs of all four share the steps (1 for L = 32, whose words are 8x
 // larger). The sizes below were chosen by measurement:
 // bench/results/gpu-notes.md ("T3 kernel shape").
 template <int L>
