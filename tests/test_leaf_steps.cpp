@@ -40,17 +40,34 @@ TEST(LeafSteps, CeilAndFloorDivisionMatchIntegerDivision) {
   }
 }
 
-// The leaf kernels write words with interleavePlanes; the reference is the
-// two spreads. Every 16-bit plane 0 against varied plane 1, both halves.
-TEST(LeafSteps, InterleavePlanesEqualsTwoSpreads) {
-  std::mt19937_64 rng(11);
-  for (uint32_t a = 0; a < 0x10000u; ++a) {
-    const uint32_t b = uint32_t(rng());
-    for (bool hi : {false, true}) {
-      const uint32_t p0 = hi ? (a << 16) | uint32_t(rng() & 0xFFFFu) : a | uint32_t(rng() << 16);
-      const uint32_t want = spreadBits16(hi ? p0 >> 16 : p0) | (spreadBits16(hi ? b >> 16 : b) << 1);
-      ASSERT_EQ(want, interleavePlanes(p0, b, hi)) << std::hex << p0 << " " << b << " hi " << hi;
+// The leaf kernels write runs of voxels straight into leaf words: the
+// fields [lo, hi] of a word must be the spread row mask of those voxels.
+TEST(LeafSteps, FieldRangeBitsEqualSpreadRowMasks) {
+  for (int lo = 0; lo < 16; ++lo)
+    for (int hi = lo; hi < 16; ++hi)
+      ASSERT_EQ(spreadBits16(fullRowMask(hi + 1) & ~fullRowMask(lo)), fieldRangeBits(lo, hi)) << lo << " " << hi;
+}
+
+// A run along any axis lands on its own voxels as x-row runs: every voxel
+// of the permuted run once, nothing else.
+TEST(LeafSteps, RunsAlongEveryAxisBecomeXRowRuns) {
+  constexpr int L = 16;
+  std::mt19937_64 rng(5);
+  for (int rep = 0; rep < 2000; ++rep) {
+    const int axis = int(rng() % 3), h = int(rng() % L), s = int(rng() % L);
+    const int first = int(rng() % L), last = int(rng() % L) - (rep % 7 == 0 ? L : 0); // some empty
+    int want[L * L * L] = {}, got[L * L * L] = {};
+    for (int i = first; i <= last; ++i) {
+      const int p[3] = {i, h, s}; // (along, height, slice) in the row-axis frame: coordinate (axis + k) % 3 is p[k]
+      int v[3];
+      for (int k = 0; k < 3; ++k) v[(axis + k) % 3] = p[k];
+      ++want[v[0] + L * (v[1] + L * v[2])];
     }
+    forEachXRowRunOf(axis, L, h, s, first, last, [&](int row, int lo, int hi) {
+      ASSERT_TRUE(0 <= lo && lo <= hi && hi < L && row >= 0 && row < L * L);
+      for (int x = lo; x <= hi; ++x) ++got[x + L * row];
+    });
+    for (int v = 0; v < L * L * L; ++v) ASSERT_EQ(want[v], got[v]) << "axis " << axis << " voxel " << v;
   }
 }
 
@@ -150,6 +167,40 @@ int32_t coord(std::mt19937_64& rng, int64_t centre, int64_t spread, int snapBits
   int64_t v = std::clamp<int64_t>(centre + off, 0, kMaxLattice);
   if (snapBits > 0) v &= ~((int64_t(1) << snapBits) - 1); // on voxel planes (8) or half-voxels (7)
   return int32_t(v);
+}
+
+// T2 tests the eight children of an element at once: each bit must be the
+// per-child overlap test, for triangles from a fraction of a child to many
+// elements, with vertices on the children's planes and centres (ties).
+TEST(LeafSteps, ChildrenOverlapEqualsPerChildTest) {
+  std::mt19937_64 rng(13);
+  int hits = 0, partial = 0;
+  for (const int64_t childVoxels : {int64_t(1), int64_t(2), int64_t(64), int64_t(4096)}) {
+    const int64_t childSize = childVoxels * kLatticePerVoxel, cells = kMaxResolution / (2 * childVoxels);
+    for (int i = 0; i < 4000; ++i) {
+      const uint32_t c[3] = {uint32_t(rng() % uint64_t(cells)), uint32_t(rng() % uint64_t(cells)),
+                             uint32_t(rng() % uint64_t(cells))};
+      const uint64_t cell = packCoord(c[0], c[1], c[2]);
+      const int64_t spread = childSize >> (i % 4); // a child, half, a quarter, an eighth
+      const int snap = i % 3 == 0 ? 8 : (i % 3 == 1 ? 7 : 0);
+      LatticeTriangle t; // around the parent's centre
+      for (int v = 0; v < 3; ++v)
+        for (int k = 0; k < 3; ++k) t.v[v][k] = coord(rng, int64_t(c[k]) * 2 * childSize + childSize, 2 * spread, snap);
+      if (i % 5 == 2) t.v[1][i % 3] = t.v[2][i % 3] = t.v[0][i % 3]; // axis-aligned plane
+      if (i % 13 == 6) t.v[0][i % 3] = int32_t(int64_t(c[i % 3]) * 2 * childSize + childSize); // on a split plane
+      uint32_t want = 0;
+      for (int k = 0; k < 8; ++k)
+        if (triangleOverlapsElement(t, childCoord(cell, k), childSize)) want |= 1u << k;
+      ASSERT_EQ(want, triangleOverlapsChildren(t, cell, childSize))
+          << "child size " << childSize << " triangle (" << t.v[0][0] << "," << t.v[0][1] << "," << t.v[0][2]
+          << ") (" << t.v[1][0] << "," << t.v[1][1] << "," << t.v[1][2] << ") (" << t.v[2][0] << "," << t.v[2][1]
+          << "," << t.v[2][2] << ")";
+      hits += want != 0;
+      partial += want != 0 && want != 0xFFu;
+    }
+  }
+  EXPECT_GT(hits, 8000);    // most triangles meet their parent
+  EXPECT_GT(partial, 4000); // and many meet only some children
 }
 
 class RowClippingScale : public ::testing::TestWithParam<int64_t> {};

@@ -6,8 +6,9 @@
 //   mark      the first pair of each element writes the element word
 //             (Branch -> 8 contiguous children in rank order, or Boundary ->
 //             leaf rank at the last level) and the children's coordinates;
-//   test      one thread per (pair, child): the exact overlap test, 8 results
-//             gathered into a byte with one warp ballot;
+//   test      one thread per pair: the exact overlap test of its eight
+//             children at once (triangleOverlapsChildren: each separating
+//             axis projects the triangle once), a byte;
 //   compact   exclusive scan of the bytes' popcounts, then each pair writes
 //             its (child, triangle) hits in (pair, child) order;
 //   sort      stable radix sort on the child index bits only. Inside one
@@ -72,16 +73,12 @@ __global__ void markLevelKernel(uint32_t n, const uint32_t* element, const uint3
   }
 }
 
-// One thread per (pair, child); 8 consecutive lanes share a pair.
+// One thread per pair: the byte of its children that the triangle meets.
 __global__ void childTestKernel(uint32_t n, const uint32_t* element, const uint32_t* tri, const uint64_t* coords,
                                 const LatticeTriangle* tris, int64_t childSize, uint8_t* masks) {
-  const uint64_t g = uint64_t(blockIdx.x) * blockDim.x + threadIdx.x;
-  const uint64_t i = g >> 3;
-  const int c = int(g & 7);
-  bool hit = false;
-  if (i < n) hit = triangleOverlapsElement(tris[tri[i]], childCoord(coords[element[i]], c), childSize);
-  const unsigned ballot = __ballot_sync(kFullMask, hit);
-  if (i < n && c == 0) masks[i] = uint8_t(ballot >> (threadIdx.x & 24));
+  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= n) return;
+  masks[i] = uint8_t(triangleOverlapsChildren(tris[tri[i]], coords[element[i]], childSize));
 }
 
 __global__ void childWriteKernel(uint32_t n, const uint32_t* rank, const uint32_t* tri, const uint8_t* masks,
@@ -214,7 +211,7 @@ Tree buildTree(DeviceMemory& mem, HostScalars& scalars, const DeviceMesh& mesh, 
     uint64_t hits = 0;
     const int64_t childSize = int64_t(grid.elementVoxels(level + 1)) * kLatticePerVoxel;
     if (n > 0) {
-      childTestKernel<<<blocksFor(8 * uint64_t(n), kBlock), kBlock, 0, s>>>(
+      childTestKernel<<<blocksFor(n, kBlock), kBlock, 0, s>>>(
           n, pairs.element.data(), pairs.triangle.data(), lv.coords.data(), mesh.triangles, childSize, masks.data());
       HDT_CUDA_CHECK_LAUNCH("childTestKernel");
       auto counts = thrust::make_transform_iterator(masks.data(), MaskCount{});

@@ -2,8 +2,8 @@
 // classification pass 1 along x in the same kernel.
 //
 // One warp per group of consecutive leaf tasks (a task is a leaf, or a part
-// of a leaf with very many pairs: LeafTask); each leaf's voxels live in the
-// warp's slice of shared memory as one bit each. What depends on a triangle
+// of a leaf with very many pairs: LeafTask); each leaf's words are built in
+// the warp's slice of shared memory. What depends on a triangle
 // and a slice but not on the leaf was evaluated once per triangle
 // (TriangleTables); the warp clamps table entries to each pair's leaf and
 // does the per-row work, in warp-wide steps over the pairs of all its leaves
@@ -14,7 +14,7 @@
 //   2. one lane per (pair, k): slice z = k's rows and x span, and row height
 //      y = k's x span, from the tables (sliceSpans, columnSpan);
 //   3. one lane per (pair, row): the two spans intersected, clipRowByPlane,
-//      the run ORed into the leaf's x rows (forEachXRowOf) with
+//      the run ORed into plane 1 of the leaf's words (forEachXRowRunOf) with
 //      shared-memory atomics (OR commutes: scheduling cannot show).
 // Flattening to rows keeps all 32 lanes busy however unevenly the triangles
 // cover the leaves, and a row costs only its plane step.
@@ -23,12 +23,13 @@
 // pairs (docs/design.md, "Classification"; the steps of build_steps.hpp):
 // one lane per pair for its LeafCrossings, one lane per (pair, ray line) for
 // the hit rays from the line table (raySpanAtW's results), one lane per hit
-// ray for the crossing; the row parities and "voxels before" masks are XORed in shared
-// memory. Finally the warp writes every word of its leaves exactly once,
-// coalesced, with the surface in plane 1 and the masks in plane 0: no global
-// atomics, no read-modify-write, no zero fill beforehand (the parts of a
-// split leaf merge into zeroed words instead: OR for the surface, XOR for
-// the masks, each on its own plane).
+// ray for the crossing; the row parities and the "voxels before" runs are
+// XORed in shared memory, the runs into plane 0 of the same leaf words.
+// Finally the warp writes every word of its leaves exactly once, coalesced,
+// as it stands (plane 0 cleared under the surface): no global atomics, no
+// read-modify-write, no zero fill beforehand (the parts of a split leaf
+// merge into zeroed words instead: OR for the surface, XOR for the masks,
+// each on its own plane).
 #include "device_common.cuh"
 #include "phases.hpp"
 
@@ -41,7 +42,7 @@ namespace {
 // Tasks (leaves) a warp takes at once. Most leaves have one or two pairs:
 // a warp with one leaf ran its per-pair steps with a lane or two busy and
 // ended every item loop with a part-filled round. With four leaves the
-// pairs of all four share the steps (1 for L = 32, whose bit arrays are 8x
+// pairs of all four share the steps (1 for L = 32, whose words are 8x
 // larger). The sizes below were chosen by measurement:
 // bench/results/gpu-notes.md ("T3 kernel shape").
 template <int L>
@@ -68,23 +69,26 @@ constexpr int batchPairs() {
   return L == 32 ? 8 : HDT_CUDA_T3_BATCH;
 }
 
-// A leaf's voxels as one bit each, in leaf-word order: bit x of x row r is
-// bit r L + x (a leaf word w holds the bits 16 w .. 16 w + 15).
-template <int L>
-constexpr int voxelWords() {
-  return L * L * L / 32;
-}
-template <int L>
-__device__ __forceinline__ void orRow(uint32_t* bits, int row, uint32_t mask) {
-  atomicOr(&bits[(row * L) >> 5], mask << ((row * L) & 31));
-}
-template <int L>
-__device__ __forceinline__ void xorRow(uint32_t* bits, int row, uint32_t mask) {
-  atomicXor(&bits[(row * L) >> 5], mask << ((row * L) & 31));
-}
-// The 16 voxel bits of leaf word w.
-__device__ __forceinline__ uint32_t wordBits(const uint32_t* bits, int w) {
-  return (bits[w >> 1] >> ((w & 1) * 16)) & 0xFFFFu;
+// A leaf's words are built in shared memory as they will be stored: the
+// voxels [lo, hi] of x row `row` (a row is half a word, one word or two) get
+// plane `PLANE` set by OR (the surface, plane 1) or flipped by XOR (the
+// before-masks, plane 0), one shared atomic a word: no row mask to spread,
+// and the words go out as they are (writeLeaf).
+template <int L, int PLANE>
+__device__ __forceinline__ void runIntoWords(uint32_t* words, int row, int lo, int hi) {
+  auto apply = [&](int w, uint32_t bits) {
+    if (PLANE == kInsidePlane) atomicXor(&words[w], bits);
+    else atomicOr(&words[w], bits << 1);
+  };
+  if (L == 16) {
+    apply(row, fieldRangeBits(lo, hi));
+  } else if (L == 8) {
+    const int o = (row & 1) * 8;
+    apply(row >> 1, fieldRangeBits(lo + o, hi + o));
+  } else { // L == 32: words 2 row (x < 16) and 2 row + 1
+    if (lo < 16) apply(2 * row, fieldRangeBits(lo, min(hi, 15)));
+    if (hi >= 16) apply(2 * row + 1, fieldRangeBits(max(lo, 16) - 16, hi - 16));
+  }
 }
 
 template <int L>
@@ -119,9 +123,10 @@ struct LeafWarp {
     SurfacePairs<L> s;
     CrossPairs<L> c;
   } p;
-  alignas(16) uint32_t surface[G][voxelWords<L>()];
-  alignas(16) uint32_t masks[CROSS ? G : 1][CROSS ? voxelWords<L>() : 4]; // XOR of before-masks
-  uint32_t parity[CROSS ? G : 1][rowWordsFor(L)];                        // one bit per x row
+  // Each leaf's words: the surface in plane 1 and, with CROSS, the XOR of
+  // the before-masks in plane 0.
+  alignas(16) uint32_t words[G][leafWordCount(L)];
+  uint32_t parity[CROSS ? G : 1][rowWordsFor(L)]; // one bit per x row
   int64_t origin[G][3]; // first voxel of each leaf
   uint32_t end[G];      // end of each leaf's pairs (the leaves' pairs are consecutive)
   WarpSlots slots;
@@ -225,9 +230,10 @@ __device__ __forceinline__ void surfaceSteps(const LeafKernelArgs& k, uint32_t f
           int64_t f = o[0] + max(sh.sliceX0[j][s], sh.columnX0[j][dy]);
           int64_t l = o[0] + min(sh.sliceX1[j][s], sh.columnX1[j][dy]);
           clipRowByPlane(k.setup[sh.setup[j]].plane, o[1] + dy, o[2] + dz, f, l);
-          uint32_t* bits = w.surface[leaf];
-          forEachXRowOf(axis, L, dy, dz, int(f - o[0]), int(l - o[0]),
-                        [&](int row, uint32_t m) { orRow<L>(bits, row, m); });
+          uint32_t* words = w.words[leaf];
+          forEachXRowRunOf(axis, L, dy, dz, int(f - o[0]), int(l - o[0]), [&](int row, int lo, int hi) {
+            runIntoWords<L, kSurfacePlane>(words, row, lo, hi);
+          });
         });
   });
 }
@@ -290,7 +296,8 @@ __device__ __forceinline__ void crossingSteps(const LeafKernelArgs& k, uint32_t 
             if (u < u0 + nu && crossingInLeaf(sh.crossings[j], u, wl, L, before)) {
               const int row = u + L * wl;
               atomicXor(&w.parity[leaf][row >> 5], 1u << (row & 31));
-              xorRow<L>(w.masks[leaf], row, maskBeforeCrossing(before));
+              if (before > 0) // the voxels before the crossing
+                runIntoWords<L, kInsidePlane>(w.words[leaf], row, 0, before - 1);
             }
           }
         });
@@ -303,30 +310,27 @@ __device__ __forceinline__ void crossingSteps(const LeafKernelArgs& k, uint32_t 
 // of a split leaf merge into zeroed words instead (OR on plane 1, XOR of
 // whole masks on plane 0; clearMasksUnderSurface finishes those).
 template <int L, bool CROSS>
-__device__ __forceinline__ void writeLeaf(const LeafKernelArgs& k, uint32_t leaf, bool split, const uint32_t* surface,
-                                          const uint32_t* masks, const uint32_t* parity) {
+__device__ __forceinline__ void writeLeaf(const LeafKernelArgs& k, uint32_t leaf, bool split, const uint32_t* words,
+                                          const uint32_t* parity) {
   const int lane = threadIdx.x & 31;
   uint32_t* out = k.words + leafWordOffset(leaf, L); // not leafWordsAt: see types.hpp
-  if (!split) { // warp-uniform; 16-byte stores (a leaf is 128, 1024 or 8192 bytes)
-    // Four leaf words from two words of each bit array (8-byte loads).
-    const uint2* s2 = reinterpret_cast<const uint2*>(surface);
-    const uint2* m2 = reinterpret_cast<const uint2*>(masks);
+  if (!split) { // warp-uniform; 16-byte loads and stores (a leaf is 128, 1024 or 8192 bytes)
+    const uint4* in4 = reinterpret_cast<const uint4*>(words);
     uint4* out4 = reinterpret_cast<uint4*>(out);
     for (int q = lane; q < int(leafWordCount(L)) / 4; q += 32) {
-      const uint2 s = s2[q];
-      uint2 p0 = make_uint2(0, 0);
+      uint4 v = in4[q];
       if (CROSS) {
-        p0 = m2[q];
-        p0.x &= ~s.x;
-        p0.y &= ~s.y;
+        v.x = withoutInsideUnderSurface(v.x);
+        v.y = withoutInsideUnderSurface(v.y);
+        v.z = withoutInsideUnderSurface(v.z);
+        v.w = withoutInsideUnderSurface(v.w);
       }
-      out4[q] = make_uint4(interleavePlanes(p0.x, s.x, false), interleavePlanes(p0.x, s.x, true),
-                           interleavePlanes(p0.y, s.y, false), interleavePlanes(p0.y, s.y, true));
+      out4[q] = v;
     }
   } else {
     for (int w = lane; w < int(leafWordCount(L)); w += 32) {
-      const uint32_t s = spreadBits16(wordBits(surface, w)) << 1;
-      const uint32_t before = CROSS ? spreadBits16(wordBits(masks, w)) : 0u;
+      const uint32_t s = words[w] & kSurfacePlaneBits;
+      const uint32_t before = CROSS ? words[w] & kInsidePlaneBits : 0u;
       if (s) atomicOr(&out[w], s);
       if (before) atomicXor(&out[w], before);
     }
@@ -361,10 +365,8 @@ __global__ void __launch_bounds__(32 * warpsPerBlock<L>(), HDT_CUDA_T3_MIN_BLOCK
     sh.end[lane] = task.end;
   }
   const uint32_t first = __shfl_sync(kFullMask, task.first, 0), end = __shfl_sync(kFullMask, task.end, n - 1);
-  for (int q = lane; q < n * voxelWords<L>() / 4; q += 32) { // 16-byte stores
-    reinterpret_cast<uint4*>(sh.surface)[q] = make_uint4(0, 0, 0, 0);
-    if (CROSS) reinterpret_cast<uint4*>(sh.masks)[q] = make_uint4(0, 0, 0, 0);
-  }
+  for (int q = lane; q < n * int(leafWordCount(L)) / 4; q += 32) // 16-byte stores
+    reinterpret_cast<uint4*>(sh.words)[q] = make_uint4(0, 0, 0, 0);
   if (CROSS)
     for (int i = lane; i < n * rowWordsFor(L); i += 32) (&sh.parity[0][0])[i] = 0;
   surfaceSteps<L, CROSS>(k, first, end, n, sh);
@@ -373,7 +375,7 @@ __global__ void __launch_bounds__(32 * warpsPerBlock<L>(), HDT_CUDA_T3_MIN_BLOCK
   for (int g = 0; g < n; ++g) {
     const uint32_t leaf = __shfl_sync(kFullMask, task.leaf, g);
     const bool split = __shfl_sync(kFullMask, task.flags, g) & kTaskSplit;
-    writeLeaf<L, CROSS>(k, leaf, split, sh.surface[g], sh.masks[CROSS ? g : 0], sh.parity[CROSS ? g : 0]);
+    writeLeaf<L, CROSS>(k, leaf, split, sh.words[g], sh.parity[CROSS ? g : 0]);
   }
 }
 

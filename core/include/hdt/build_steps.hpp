@@ -50,6 +50,61 @@ HDT_HD bool triangleOverlapsElement(const LatticeTriangle& t, uint64_t cell, int
                               unpackCoord(cell, 2) * cellSize, cellSize);
 }
 
+// T2: the children of the element at `cell` (edge 2 childSize) that the
+// triangle meets, as a byte: bit c is triangleOverlapsElement(t,
+// childCoord(cell, c), childSize), for all eight at once. Each separating
+// axis a of triangleOverlapsCube projects the triangle once, relative to the
+// parent's centre P. Child c's centre is P + h s_c (h = childSize / 2, s_c
+// the child's signs, +1 where bit d of c is set), which shifts every
+// projection by h (a . s_c); so with r = h |a|_1 child c is separated on a
+// iff  min_k a.(v_k - P) - r > h (a . s_c)  or  max_k a.(v_k - P) + r <
+// h (a . s_c): the integers the per-child test compares, moved across.
+HDT_HD uint32_t triangleOverlapsChildren(const LatticeTriangle& t, uint64_t cell, int64_t childSize) {
+  const int64_t h = childSize / 2;
+  int64_t v[3][3];
+  for (int a = 0; a < 3; ++a) {
+    const int64_t centre = int64_t(unpackCoord(cell, a)) * 2 * childSize + childSize;
+    for (int i = 0; i < 3; ++i) v[i][a] = t.v[i][a] - centre;
+  }
+  uint32_t alive = 0xFFu;
+  auto axis = [&](int64_t ax, int64_t ay, int64_t az) {
+    const int64_t p0 = ax * v[0][0] + ay * v[0][1] + az * v[0][2];
+    const int64_t p1 = ax * v[1][0] + ay * v[1][1] + az * v[1][2];
+    const int64_t p2 = ax * v[2][0] + ay * v[2][1] + az * v[2][2];
+    const int64_t r = h * (detail::abs64(ax) + detail::abs64(ay) + detail::abs64(az));
+    const int64_t lo = detail::min3(p0, p1, p2) - r, hi = detail::max3(p0, p1, p2) + r;
+    const int64_t hx = h * ax, hy = h * ay, hz = h * az;
+    for (int c = 0; c < 8; ++c) {
+      const int64_t shift = ((c & 1) ? hx : -hx) + ((c & 2) ? hy : -hy) + ((c & 4) ? hz : -hz);
+      if (lo > shift || hi < shift) alive &= ~(1u << c);
+    }
+  };
+  // The cube's face normals (the bounding boxes), then the edge cross
+  // products, as triangleOverlapsCube orders them.
+  axis(1, 0, 0);
+  axis(0, 1, 0);
+  axis(0, 0, 1);
+  for (int j = 0; j < 3 && alive; ++j) {
+    const int k = j == 2 ? 0 : j + 1;
+    const int64_t e[3] = {v[k][0] - v[j][0], v[k][1] - v[j][1], v[k][2] - v[j][2]};
+    axis(0, -e[2], e[1]);
+    axis(e[2], 0, -e[0]);
+    axis(-e[1], e[0], 0);
+  }
+  if (!alive) return 0;
+  // The plane: |n . (v0 - C)| <= h |n|_1, in 128 bits.
+  int64_t n[3];
+  triangleNormal(t, n);
+  const int128_t d = int128_t(n[0]) * v[0][0] + int128_t(n[1]) * v[0][1] + int128_t(n[2]) * v[0][2];
+  const int128_t r = int128_t(h) * (detail::abs64(n[0]) + detail::abs64(n[1]) + detail::abs64(n[2]));
+  const int128_t hn[3] = {int128_t(h) * n[0], int128_t(h) * n[1], int128_t(h) * n[2]};
+  for (int c = 0; c < 8; ++c) {
+    const int128_t shift = ((c & 1) ? hn[0] : -hn[0]) + ((c & 2) ? hn[1] : -hn[1]) + ((c & 4) ? hn[2] : -hn[2]);
+    if (d - r > shift || d + r < shift) alive &= ~(1u << c);
+  }
+  return alive;
+}
+
 // T1: calls emit(cell - firstCell) for every root cell of [firstCell,
 // endCell) (x fastest, R cells an axis of edge `cellSize`) whose closed box
 // the triangle meets: the cells of its bounding box, each confirmed by the
@@ -420,22 +475,30 @@ HDT_HD void columnSpan(const RowClipper& c, const int64_t (&first)[3], const int
 // Mask of the L voxels of a leaf row (L <= 32): bits 0 .. L - 1.
 HDT_HD constexpr uint32_t fullRowMask(int L) { return L == 32 ? 0xFFFFFFFFu : ((1u << L) - 1u); }
 
-// Where a permuted row's voxels land in the leaf's x rows (one L-bit mask
-// per row y + L z): calls set(rowIndex, mask) once per x row touched. The
-// row is at (h, s) = (row height, slice), leaf-relative, and its voxels are
-// the run [first, last] along `axis` (leaf-relative; none when first > last).
-// A run along y or z sets one bit in each of consecutive x rows, so it is
+// Where a permuted row's voxels land in the leaf's x rows, as runs: calls
+// set(rowIndex, lo, hi) once per x row touched (index y + L z), with the
+// voxels [lo, hi] of that x row (lo == hi but for axis 0). The row is at
+// (h, s) = (row height, slice), leaf-relative, and its voxels are the run
+// [first, last] along `axis` (leaf-relative; none when first > last). A run
+// along y or z sets one voxel in each of consecutive x rows, so it is
 // walked as a run, not bit by bit.
 template <class Set>
-HDT_HD void forEachXRowOf(int axis, int L, int h, int s, int first, int last, Set&& set) {
+HDT_HD void forEachXRowRunOf(int axis, int L, int h, int s, int first, int last, Set&& set) {
   if (first > last) return;
   if (axis == 0) { // (x, y, z) = (i, h, s)
-    set(h + L * s, fullRowMask(last + 1) & ~fullRowMask(first));
-  } else if (axis == 1) { // (x, y, z) = (s, i, h): x rows i + L h, bit s
-    for (int i = first; i <= last; ++i) set(i + L * h, 1u << s);
-  } else { // axis 2: (x, y, z) = (h, s, i): x rows s + L i, bit h
-    for (int i = first; i <= last; ++i) set(s + L * i, 1u << h);
+    set(h + L * s, first, last);
+  } else if (axis == 1) { // (x, y, z) = (s, i, h): x rows i + L h, voxel s
+    for (int i = first; i <= last; ++i) set(i + L * h, s, s);
+  } else { // axis 2: (x, y, z) = (h, s, i): x rows s + L i, voxel h
+    for (int i = first; i <= last; ++i) set(s + L * i, h, h);
   }
+}
+
+// The same with each x row's voxels as one L-bit mask: set(rowIndex, mask).
+template <class Set>
+HDT_HD void forEachXRowOf(int axis, int L, int h, int s, int first, int last, Set&& set) {
+  forEachXRowRunOf(axis, L, h, s, first, last,
+                   [&](int row, int lo, int hi) { set(row, fullRowMask(hi + 1) & ~fullRowMask(lo)); });
 }
 
 // Classification: the rays along `axis` through the voxel centres of the
@@ -742,6 +805,13 @@ HDT_HD void orRowIntoLeaf(uint32_t* words, int L, int row, uint32_t mask, LeafPl
     const uint32_t voxel = v + uint32_t(k);
     words[voxel >> 4] |= (spreadBits16(bits) << plane) << (2 * (voxel & 15u));
   }
+}
+
+// Plane 0 of the 2-bit fields [lo, hi] of one leaf word (0 <= lo <= hi <=
+// 15); shifted left by one, plane 1. A run of voxels written straight into
+// leaf words, without spreading a row mask.
+HDT_HD constexpr uint32_t fieldRangeBits(int lo, int hi) {
+  return ((2u << (2 * hi)) - (1u << (2 * lo))) & kInsidePlaneBits; // bits 2 lo .. 2 hi + 1
 }
 
 // In-place transpose of an L x L bit matrix (L = 8, 16 or 32): afterwards

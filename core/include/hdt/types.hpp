@@ -121,23 +121,4 @@ HDT_HD constexpr uint32_t spreadBits16(uint32_t m) {
   return m;
 }
 
-// One leaf word from its two planes: bit i of the low (hi: high) 16 bits of
-// p0 to bit 2i, of p1 to bit 2i + 1; spreadBits16(p0) | spreadBits16(p1) << 1
-// as one perfect shuffle of the two halves side by side (the leaf kernels
-// write a word of each state this way: fewer steps than two spreads).
-HDT_HD uint32_t interleavePlanes(uint32_t p0, uint32_t p1, bool hi) {
-#if defined(__CUDA_ARCH__)
-  uint32_t x = __byte_perm(p0, p1, hi ? 0x7362u : 0x5140u); // bytes p0.0, p1.0, p0.1, p1.1 of the half
-#else
-  const uint32_t a = hi ? p0 >> 16 : p0 & 0xFFFFu, b = hi ? p1 >> 16 : p1 & 0xFFFFu;
-  uint32_t x = (a & 0xFFu) | ((b & 0xFFu) << 8) | ((a & 0xFF00u) << 8) | ((b & 0xFF00u) << 16);
-#endif
-  uint32_t t = (x ^ (x >> 4)) & 0x00F000F0u;
-  x ^= t ^ (t << 4);
-  t = (x ^ (x >> 2)) & 0x0C0C0C0Cu;
-  x ^= t ^ (t << 2);
-  t = (x ^ (x >> 1)) & 0x22222222u;
-  return x ^ t ^ (t << 1);
-}
-
 } // namespace hdt
