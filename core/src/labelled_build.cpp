@@ -49,6 +49,29 @@ std::vector<std::pair<Label, TriangleMesh>> splitByLabel(const TriangleMesh& mes
 
 } // namespace
 
+namespace {
+
+// The CUDA driver's labelled build where the backend asks for it (Auto: a
+// usable device); false where the per-part path must run. Auto falls back
+// on a device failure as build() does; Cuda reports it.
+bool buildOnDevice(const TriangleMesh& mesh, const BuildConfig& placed, const std::vector<PreparedMesh>& parts,
+                   const std::vector<Label>& partLabels, const LabelOptions& labels, const BuildOptions& options,
+                   Volume& out) {
+  if (options.backend == Backend::Cpu || (options.backend == Backend::Auto && !cudaAvailable(nullptr))) return false;
+  BuildConfig surface = placed;
+  surface.surfaceOnly = true; // the whole mesh gives the tree and the surface, the parts the inside
+  try {
+    return buildLabelledCuda(prepareMesh(mesh, surface), parts, partLabels, labels, options, out);
+  } catch (const Error& e) {
+    if (e.kind() == ErrorKind::Aborted || options.backend == Backend::Cuda) throw;
+    if (options.log)
+      options.log(std::string("backend auto: CUDA labelled build failed (") + e.what() + "); per-part builds follow");
+    return false;
+  }
+}
+
+} // namespace
+
 Volume voxelizeLabelled(const TriangleMesh& mesh, const BuildConfig& config, const BuildOptions& options,
                         const LabelOptions& labels) {
   // One placement for all parts: the whole mesh's (or the caller's) box.
@@ -58,23 +81,30 @@ Volume voxelizeLabelled(const TriangleMesh& mesh, const BuildConfig& config, con
     placed.hasBounds = true;
   }
   std::vector<std::pair<Label, TriangleMesh>> split = splitByLabel(mesh);
-  std::vector<Volume> parts;
+  std::vector<PreparedMesh> prepared;
   std::vector<Label> partLabels;
-  parts.reserve(split.size());
-  for (size_t i = 0; i < split.size(); ++i) {
-    BuildOptions partOptions = options;
-    if (options.progress) {
-      const double n = double(split.size());
-      partOptions.progress = [&, i, n](double f, const char* phase) {
-        return options.progress((double(i) + f) / n, phase);
-      };
-    }
-    const PreparedMesh prepared = prepareMesh(split[i].second, placed);
-    split[i].second = TriangleMesh{}; // the part's points are no longer needed
-    parts.push_back(build(prepared, partOptions));
-    partLabels.push_back(split[i].first);
+  prepared.reserve(split.size());
+  for (auto& [label, part] : split) {
+    prepared.push_back(prepareMesh(part, placed));
+    part = TriangleMesh{}; // the part's points are no longer needed
+    partLabels.push_back(label);
   }
-  Volume v = combineLabelledParts(parts, partLabels, labels);
+  Volume v;
+  if (!buildOnDevice(mesh, placed, prepared, partLabels, labels, options, v)) {
+    std::vector<Volume> parts;
+    parts.reserve(prepared.size());
+    for (size_t i = 0; i < prepared.size(); ++i) {
+      BuildOptions partOptions = options;
+      if (options.progress) {
+        const double n = double(prepared.size());
+        partOptions.progress = [&, i, n](double f, const char* phase) {
+          return options.progress((double(i) + f) / n, phase);
+        };
+      }
+      parts.push_back(build(prepared[i], partOptions));
+    }
+    v = combineLabelledParts(parts, partLabels, labels);
+  }
   for (const auto& [label, name] : mesh.labelNames)
     if (label != kOutsideLabel) v.labels.names[label] = name;
   return v;
