@@ -5,6 +5,7 @@
 #include "hdt/error.hpp"
 #include "hdt/mesh.hpp"
 
+#include <chrono>
 #include <map>
 #include <string>
 #include <utility>
@@ -80,6 +81,7 @@ Volume voxelizeLabelled(const TriangleMesh& mesh, const BuildConfig& config, con
     meshBounds(mesh, placed.boundsMin, placed.boundsMax);
     placed.hasBounds = true;
   }
+  const auto t0 = std::chrono::steady_clock::now();
   std::vector<std::pair<Label, TriangleMesh>> split = splitByLabel(mesh);
   std::vector<PreparedMesh> prepared;
   std::vector<Label> partLabels;
@@ -88,6 +90,11 @@ Volume voxelizeLabelled(const TriangleMesh& mesh, const BuildConfig& config, con
     prepared.push_back(prepareMesh(part, placed));
     part = TriangleMesh{}; // the part's points are no longer needed
     partLabels.push_back(label);
+  }
+  if (options.log) {
+    options.log("labelled build: " + std::to_string(prepared.size()) + " parts split and prepared in " +
+                std::to_string(int(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count())) +
+                " ms");
   }
   Volume v;
   if (!buildOnDevice(mesh, placed, prepared, partLabels, labels, options, v)) {
