@@ -141,7 +141,8 @@ void writeJson(std::ostream& out, const Report& r) {
   io.add("read", number(r.io.read, "%.3f"))
       .add("prepare", number(r.io.prepare, "%.3f"))
       .add("write", number(r.io.write, "%.3f"))
-      .add("transfer", number(r.io.transfer, "%.3f"));
+      .add("transfer", number(r.io.transfer, "%.3f"))
+      .add("build", number(r.io.build, "%.3f"));
 
   JsonObject o;
   o.add("mesh", quoted(r.mesh))

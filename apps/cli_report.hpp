@@ -16,6 +16,7 @@ struct IoTimes {
   double prepare = 0; // hdt::prepareMesh: validation, placement, snapping
   double write = 0;   // -o and --dense
   double transfer = 0; // --transfer: hdt::transferArrays
+  double build = 0;    // the build call as the caller waits (CUDA: copy back included; labelled: every part)
 };
 
 // One rank of a distributed build (hdt-voxelize-mpi), as rank 0 gathers it.

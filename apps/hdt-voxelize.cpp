@@ -207,10 +207,12 @@ int run(int argc, const char* const* argv, const MpiSession& session) {
   BuildOptions build = options.build;
   build.progress = [&](double fraction, const char* phase) { return progress.update(fraction, phase); };
   build.log = [&](const std::string& text) { progress.note(text); };
+  t = Clock::now();
   Volume volume = about(options.mesh, [&] {
     if (labelled) return voxelizeLabelled(mesh, options.config, build, options.overlap); // every rank builds it whole
     return session.size() > 1 ? buildAcrossRanks(session, prepared, build, &report.ranks) : hdt::build(prepared, build);
   });
+  report.io.build = msSince(t);
   progress.clear();
   if (session.rank() != 0) return 0; // rank 0 has the joined volume and writes
   t = Clock::now();

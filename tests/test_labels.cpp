@@ -15,6 +15,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <fstream>
 #include <map>
 
@@ -170,6 +171,40 @@ TEST(Labels, TouchingCubesShareTheFaceByThePolicy) {
   const Volume plain = voxelize(labelledMesh(parts), unitFrame(), cpu());
   EXPECT_EQ(firstDifference(plain, labelled), "");
   EXPECT_GT(labelled.labels.voxelLabels.size(), 0u) << "the shared face's leaves hold two labels";
+}
+
+// The split into parts renumbers each part's points: a mesh whose labels
+// share point indices and interleave in triangle order gives the volume of
+// the same parts with points of their own.
+TEST(Labels, PartsSharingPointsAndInterleavedSplitCleanly) {
+  const std::vector<Part> parts = touchingCubes();
+  const TriangleMesh separate = labelledMesh(parts);
+  TriangleMesh shared;
+  std::map<std::array<double, 3>, uint32_t> index; // one point per position
+  for (size_t p = 0; p < separate.pointCount(); ++p) {
+    const std::array<double, 3> x = {separate.points[3 * p], separate.points[3 * p + 1], separate.points[3 * p + 2]};
+    if (index.emplace(x, uint32_t(shared.pointCount())).second) shared.points.insert(shared.points.end(), x.begin(), x.end());
+  }
+  const size_t n = separate.triangleCount(), half = parts[0].mesh.triangleCount();
+  std::vector<size_t> order; // the two parts' triangles alternate
+  for (size_t i = 0; i < std::max(half, n - half); ++i) {
+    if (i < half) order.push_back(i);
+    if (half + i < n) order.push_back(half + i);
+  }
+  for (size_t t : order) {
+    for (int c = 0; c < 3; ++c) {
+      const uint32_t p = separate.triangles[3 * t + size_t(c)];
+      shared.triangles.push_back(index.at({separate.points[3 * p], separate.points[3 * p + 1], separate.points[3 * p + 2]}));
+    }
+    shared.triangleLabels.push_back(separate.triangleLabels[t]);
+  }
+  ASSERT_LT(shared.pointCount(), separate.pointCount()) << "the cubes' shared face shares no point";
+  const Volume a = voxelizeLabelled(separate, unitFrame(), cpu());
+  const Volume b = voxelizeLabelled(shared, unitFrame(), cpu());
+  EXPECT_EQ(firstDifference(a, b), "");
+  EXPECT_EQ(a.labels.elementLabels, b.labels.elementLabels);
+  EXPECT_TRUE(a.labels.voxelLabels == b.labels.voxelLabels);
+  EXPECT_TRUE(matchesReference(b, referenceLabels(parts, unitFrame(), {})));
 }
 
 TEST(Labels, NestedPartKeepsItsLabelUnderHighestAndPriority) {

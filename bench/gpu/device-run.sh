@@ -25,6 +25,8 @@
 #     winding   the winding-number inside test: CPU == CUDA tests (*CudaWinding*), then
 #               hdt_gpu_bench solid (parity) vs winding on the open meshes at 128 and 256
 #               (WINDING_MESHES, WINDING_RES, WINDING_TIMEOUT)
+#     labelbin  bench/run_label_bench.py with $BIN/hdt-voxelize (a CLI built for this machine
+#               and carried in $BIN: no MPI bundle; LABELS_RES, LABELS_REPEAT, LABELS_TIMEOUT)
 #     minibench, variant: quicker subsets used while tuning
 # Steps read a few environment variables (BENCH_*, PROFILE_*, MINIBENCH_*, TESTS_TIMEOUT).
 #
@@ -330,6 +332,16 @@ step_labels() { # CUDA == CPU labelled builds, and labelled vs plain CUDA builds
     python3 "$ROOT/bench/run_label_bench.py" --tool "$CLI_DIR/ompi/bin/hdt-voxelize" --meshes "$DEPS/meshes" \
     --backend cuda --sizes ${LABELS_RES:-2048 4096 8192} --repeat 3 --out "$OUT/labels-gpu.md" > "$OUT/labels-gpu.log" 2>&1
   say "labels bench: rc=$? in $((SECONDS - t0)) s"
+  tail -12 "$OUT/labels-gpu.log" | tee -a "$SUMMARY"
+}
+
+step_labelbin() { # labelled vs plain CUDA builds with the hdt-voxelize in $BIN (built here, carried: no
+  # MPI bundle needed); LABELS_RES, LABELS_REPEAT, LABELS_TIMEOUT
+  local t0=$SECONDS
+  timeout "${LABELS_TIMEOUT:-300}" python3 "$ROOT/bench/run_label_bench.py" --tool "$BIN/hdt-voxelize" \
+    --meshes "$DEPS/meshes" --backend cuda --sizes ${LABELS_RES:-2048 4096 8192} --repeat "${LABELS_REPEAT:-3}" \
+    --out "$OUT/labels-gpu.md" > "$OUT/labels-gpu.log" 2>&1
+  say "labelbin bench: rc=$? in $((SECONDS - t0)) s"
   tail -12 "$OUT/labels-gpu.log" | tee -a "$SUMMARY"
 }
 

@@ -2,6 +2,8 @@
 #include "hdt/builder.hpp"
 
 #include "hdt/error.hpp"
+#include "hdt/labels.hpp"
+#include "hdt/mesh.hpp"
 #include "hdt/root_ranges.hpp"
 
 #include <memory>
@@ -20,6 +22,10 @@ Volume buildCuda(const PreparedMesh&, const BuildOptions&) {
               "backend cuda requested but this build has no CUDA driver (HDT_ENABLE_CUDA=OFF)");
 }
 void prepareCuda(const BuildConfig&, const BuildOptions&) {}
+bool buildLabelledCuda(const PreparedMesh&, const std::vector<PreparedMesh>&, const std::vector<Label>&,
+                       const LabelOptions&, const BuildOptions&, Volume&) {
+  return false;
+}
 std::unique_ptr<RootRangeBuild> makeCudaRangeBuild(const PreparedMesh&, const BuildOptions&, RootRange) {
   throw Error(ErrorKind::InvalidArgument,
               "backend cuda requested but this build has no CUDA driver (HDT_ENABLE_CUDA=OFF)");

@@ -1191,7 +1191,7 @@ void checkOptionalCrc(const SectionHeader& h, const uint8_t* stored) {
 
 // An optional section holding an array of T (raw, or zstd when allowed), its
 // raw length already checked; decoded into `out`.
-template <class T> void readOptionalArray(Source& in, const SectionHeader& h, std::vector<T>& out) {
+template <class T, class A> void readOptionalArray(Source& in, const SectionHeader& h, std::vector<T, A>& out) {
   const std::string what = sectionName(h.id);
   if (h.encoding == Encoding::Raw) {
     out.resize(size_t(h.raw) / sizeof(T)); // the section is in the file: bounded by its size

@@ -5,6 +5,7 @@
 #include "hdt/error.hpp"
 #include "hdt/mesh.hpp"
 
+#include <chrono>
 #include <map>
 #include <string>
 #include <utility>
@@ -13,38 +14,76 @@ namespace hdt {
 
 namespace {
 
-// The triangles of each label as a mesh of their own (points renumbered),
-// ascending by label.
+// The triangles of each label as a mesh of their own (points renumbered in
+// order of first use by the part's triangles, in input order), ascending by
+// label. Linear: triangles grouped by label first, then one point map shared
+// by all parts, stamped with the part that wrote it (a map per label would
+// cost labels x points).
 std::vector<std::pair<Label, TriangleMesh>> splitByLabel(const TriangleMesh& mesh) {
   const size_t n = mesh.triangleCount();
   if (mesh.triangleLabels.size() != n) {
     throw Error(ErrorKind::BadInput, "labelled build: " + std::to_string(mesh.triangleLabels.size()) +
                                          " triangle labels for " + std::to_string(n) + " triangles");
   }
-  std::map<Label, TriangleMesh> parts;
-  std::map<Label, std::vector<uint32_t>> pointMaps;
+  std::vector<uint32_t> first(65537, 0); // per label: its first triangle in `byLabel`
   for (size_t t = 0; t < n; ++t) {
     const Label label = mesh.triangleLabels[t];
     if (label == kOutsideLabel)
       throw Error(ErrorKind::BadInput, "labelled build: triangle " + std::to_string(t) +
                                            " has label 0, which is reserved for outside");
-    TriangleMesh& part = parts[label];
-    std::vector<uint32_t>& map = pointMaps[label];
-    if (map.empty()) map.assign(mesh.pointCount(), ~0u);
-    for (int c = 0; c < 3; ++c) {
-      const uint32_t p = mesh.triangles[3 * t + size_t(c)];
-      if (p >= mesh.pointCount())
+    for (int c = 0; c < 3; ++c)
+      if (mesh.triangles[3 * t + size_t(c)] >= mesh.pointCount())
         throw Error(ErrorKind::BadInput, "triangle " + std::to_string(t) + " has a point index out of range");
-      if (map[p] == ~0u) {
-        map[p] = uint32_t(part.pointCount());
-        part.points.insert(part.points.end(), mesh.points.begin() + 3 * p, mesh.points.begin() + 3 * p + 3);
-      }
-      part.triangles.push_back(map[p]);
-    }
+    ++first[size_t(label) + 1];
   }
+  for (size_t l = 1; l < first.size(); ++l) first[l] += first[l - 1];
+  std::vector<uint32_t> byLabel(n), next(first.begin(), first.end() - 1);
+  for (size_t t = 0; t < n; ++t) byLabel[next[mesh.triangleLabels[t]]++] = uint32_t(t);
+
   std::vector<std::pair<Label, TriangleMesh>> out;
-  for (auto& [label, part] : parts) out.emplace_back(label, std::move(part));
+  std::vector<uint32_t> stamp(mesh.pointCount(), 0), local(mesh.pointCount()); // stamp: label + 1 of the writer
+  for (uint32_t label = 1; label < 65536; ++label) {
+    if (first[label] == first[label + 1]) continue;
+    TriangleMesh part;
+    part.triangles.reserve(3 * size_t(first[label + 1] - first[label]));
+    for (uint32_t i = first[label]; i < first[label + 1]; ++i) {
+      const size_t t = byLabel[i];
+      for (int c = 0; c < 3; ++c) {
+        const uint32_t p = mesh.triangles[3 * t + size_t(c)];
+        if (stamp[p] != label + 1) {
+          stamp[p] = label + 1;
+          local[p] = uint32_t(part.pointCount());
+          part.points.insert(part.points.end(), mesh.points.begin() + 3 * p, mesh.points.begin() + 3 * p + 3);
+        }
+        part.triangles.push_back(local[p]);
+      }
+    }
+    out.emplace_back(Label(label), std::move(part));
+  }
   return out;
+}
+
+} // namespace
+
+namespace {
+
+// The CUDA driver's labelled build where the backend asks for it (Auto: a
+// usable device); false where the per-part path must run. Auto falls back
+// on a device failure as build() does; Cuda reports it.
+bool buildOnDevice(const TriangleMesh& mesh, const BuildConfig& placed, const std::vector<PreparedMesh>& parts,
+                   const std::vector<Label>& partLabels, const LabelOptions& labels, const BuildOptions& options,
+                   Volume& out) {
+  if (options.backend == Backend::Cpu || (options.backend == Backend::Auto && !cudaAvailable(nullptr))) return false;
+  BuildConfig surface = placed;
+  surface.surfaceOnly = true; // the whole mesh gives the tree and the surface, the parts the inside
+  try {
+    return buildLabelledCuda(prepareMesh(mesh, surface), parts, partLabels, labels, options, out);
+  } catch (const Error& e) {
+    if (e.kind() == ErrorKind::Aborted || options.backend == Backend::Cuda) throw;
+    if (options.log)
+      options.log(std::string("backend auto: CUDA labelled build failed (") + e.what() + "); per-part builds follow");
+    return false;
+  }
 }
 
 } // namespace
@@ -57,24 +96,40 @@ Volume voxelizeLabelled(const TriangleMesh& mesh, const BuildConfig& config, con
     meshBounds(mesh, placed.boundsMin, placed.boundsMax);
     placed.hasBounds = true;
   }
+  const auto t0 = std::chrono::steady_clock::now();
   std::vector<std::pair<Label, TriangleMesh>> split = splitByLabel(mesh);
-  std::vector<Volume> parts;
+  const auto t1 = std::chrono::steady_clock::now();
+  std::vector<PreparedMesh> prepared;
   std::vector<Label> partLabels;
-  parts.reserve(split.size());
-  for (size_t i = 0; i < split.size(); ++i) {
-    BuildOptions partOptions = options;
-    if (options.progress) {
-      const double n = double(split.size());
-      partOptions.progress = [&, i, n](double f, const char* phase) {
-        return options.progress((double(i) + f) / n, phase);
-      };
-    }
-    const PreparedMesh prepared = prepareMesh(split[i].second, placed);
-    split[i].second = TriangleMesh{}; // the part's points are no longer needed
-    parts.push_back(build(prepared, partOptions));
-    partLabels.push_back(split[i].first);
+  prepared.reserve(split.size());
+  for (auto& [label, part] : split) {
+    prepared.push_back(prepareMesh(part, placed));
+    part = TriangleMesh{}; // the part's points are no longer needed
+    partLabels.push_back(label);
   }
-  Volume v = combineLabelledParts(parts, partLabels, labels);
+  if (options.log) {
+    const auto ms = [](std::chrono::steady_clock::time_point a, std::chrono::steady_clock::time_point b) {
+      return std::to_string(int(std::chrono::duration<double, std::milli>(b - a).count()));
+    };
+    options.log("labelled build: " + std::to_string(prepared.size()) + " parts split in " + ms(t0, t1) +
+                " ms, prepared in " + ms(t1, std::chrono::steady_clock::now()) + " ms");
+  }
+  Volume v;
+  if (!buildOnDevice(mesh, placed, prepared, partLabels, labels, options, v)) {
+    std::vector<Volume> parts;
+    parts.reserve(prepared.size());
+    for (size_t i = 0; i < prepared.size(); ++i) {
+      BuildOptions partOptions = options;
+      if (options.progress) {
+        const double n = double(prepared.size());
+        partOptions.progress = [&, i, n](double f, const char* phase) {
+          return options.progress((double(i) + f) / n, phase);
+        };
+      }
+      parts.push_back(build(prepared[i], partOptions));
+    }
+    v = combineLabelledParts(parts, partLabels, labels);
+  }
   for (const auto& [label, name] : mesh.labelNames)
     if (label != kOutsideLabel) v.labels.names[label] = name;
   return v;

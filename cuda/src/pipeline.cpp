@@ -61,11 +61,10 @@ AxisBuffers maskBuffers(Session& s, uint32_t leaves, int axes) {
 
 // Pass 1 of the axes T3 did not run (y and z of open meshes), lines, pass 2
 // and the uniform elements, all on the device.
-void classifyWhole(Session& s, Tree& tree, AxisBuffers& parity, uint32_t* words) {
-  const int axes = axesFor(s.mesh);
+void classifyWhole(Session& s, const DeviceMesh& mesh, int axes, Tree& tree, AxisBuffers& parity, uint32_t* words) {
   uint32_t* const* p = parity.ptr;
   AxisBuffers masks = maskBuffers(s, tree.leaves.count, axes);
-  leafCrossings(s.memory, s.deviceMesh, s.grid, tree.leaves, 1, axes, p, masks.ptr);
+  leafCrossings(s.memory, mesh, s.grid, tree.leaves, 1, axes, p, masks.ptr);
   LineTable tables[3];
   for (int a = 0; a < axes; ++a) {
     tables[a] = lineParity(s.memory, s.grid, tree.leaves, a, p[a]);
@@ -81,27 +80,36 @@ void classifyWhole(Session& s, Tree& tree, AxisBuffers& parity, uint32_t* words)
 
 } // namespace
 
-Volume buildWhole(Session& s, RootMapping root, bool keepResult) {
+DeviceVolume buildOnDevice(Session& s, const DeviceMesh& mesh, bool closed, bool surfaceOnly, RootMapping root) {
   const GridSpec& g = s.grid;
   const uint64_t cells = uint64_t(g.rootGrid) * g.rootGrid * g.rootGrid;
   s.clock.mark(kMapping);
   s.progress(0.1, "branching");
-  Tree tree = buildTree(s.memory, s.scalars, s.deviceMesh, g, 0, cells, std::move(root.pairs), true,
-                        branchingProgress(s));
+  DeviceVolume d;
+  d.tree = buildTree(s.memory, s.scalars, mesh, g, 0, cells, std::move(root.pairs), true, branchingProgress(s));
   s.clock.mark(kBranching);
 
   s.progress(0.4, "leaf processing");
-  const size_t wordCount = size_t(tree.leaves.count) * leafWordCount(g.leafSize);
-  DeviceBuffer<uint32_t> words(s.memory, wordCount);
-  const bool solid = !s.mesh.surfaceOnly;
-  AxisBuffers parity = parityBuffers(s, tree.leaves.count, solid ? axesFor(s.mesh) : 0);
+  const size_t wordCount = size_t(d.tree.leaves.count) * leafWordCount(g.leafSize);
+  d.words = DeviceBuffer<uint32_t>(s.memory, wordCount);
+  const int axes = closed ? 1 : 3;
+  AxisBuffers parity = parityBuffers(s, d.tree.leaves.count, surfaceOnly ? 0 : axes);
   // Solid builds: T3 runs pass 1 along x too (its time counts as T3).
-  writeLeafSurfaces(s.memory, s.scalars, s.deviceMesh, g, tree.leaves, words.data(), solid, parity.ptr[0]);
+  writeLeafSurfaces(s.memory, s.scalars, mesh, g, d.tree.leaves, d.words.data(), !surfaceOnly, parity.ptr[0]);
   s.clock.mark(kLeaf);
 
   s.progress(0.7, "classification");
-  if (solid) classifyWhole(s, tree, parity, words.data());
+  if (!surfaceOnly) classifyWhole(s, mesh, axes, d.tree, parity, d.words.data());
   s.clock.mark(kClassify);
+  return d;
+}
+
+Volume buildWhole(Session& s, RootMapping root, bool keepResult) {
+  const GridSpec& g = s.grid;
+  DeviceVolume d = buildOnDevice(s, s.deviceMesh, s.mesh.closed, s.mesh.surfaceOnly, std::move(root));
+  const Tree& tree = d.tree;
+  const DeviceBuffer<uint32_t>& words = d.words;
+  const size_t wordCount = words.size();
 
   Volume v;
   v.grid = g;

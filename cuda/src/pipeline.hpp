@@ -13,6 +13,14 @@
 namespace hdt {
 namespace cuda {
 
+// T2..classification of the whole grid for `mesh` (the session's or another
+// on the same grid: a part of a labelled build), left on the device.
+struct DeviceVolume {
+  Tree tree;
+  DeviceBuffer<uint32_t> words; // leaf words, leaves.count * leafWordCount(L)
+};
+DeviceVolume buildOnDevice(Session& s, const DeviceMesh& mesh, bool closed, bool surfaceOnly, RootMapping root);
+
 // T2..classification and the download for the whole grid, continuing from
 // the root pairs of T1. Throws DeviceMemoryExhausted when it does not fit.
 // keepResult = false skips the copy back (timing runs).

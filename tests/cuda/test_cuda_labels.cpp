@@ -5,6 +5,7 @@
 #include "cuda_compare.hpp"
 
 #include "hdt/builder.hpp"
+#include "hdt/error.hpp"
 #include "hdt/labels.hpp"
 #include "hdt/mesh.hpp"
 #include "hdt/mesh_io.hpp"
@@ -51,13 +52,40 @@ BuildConfig grid(int n, int r, int l) {
   return ::testing::AssertionSuccess();
 }
 
+// Which labelled path a CUDA build took, from its log: the device
+// combination (buildLabelledCuda) or per-part builds combined on the host.
+struct PathLog {
+  std::string text;
+  BuildOptions options(BuildOptions o) {
+    o.log = [this](const std::string& line) { text += line + "\n"; };
+    return o;
+  }
+  bool onDevice() const { return text.find("combined on the device") != std::string::npos; }
+};
+
 void expectSameOnBoth(const TriangleMesh& mesh, const BuildConfig& config, const LabelOptions& labels = {}) {
   const Volume cpu = voxelizeLabelled(mesh, config, cpuOptions(), labels);
-  const Volume gpu = voxelizeLabelled(mesh, config, cudaOptions(), labels);
+  PathLog log;
+  const Volume gpu = voxelizeLabelled(mesh, config, log.options(cudaOptions()), labels);
   EXPECT_TRUE(sameLabelled(gpu, cpu));
+  // These cases all fit the device: the device combination must be what ran.
+  EXPECT_TRUE(log.onDevice()) << log.text;
   BuildOptions chunked = cudaOptions();
-  chunked.deviceMemoryBudget = 64ull << 20; // small: builds the root grid in chunks
+  chunked.deviceMemoryBudget = 64ull << 20; // small: builds the root grid in chunks (per-part path)
   EXPECT_TRUE(sameLabelled(voxelizeLabelled(mesh, config, chunked, labels), cpu)) << "chunked";
+}
+
+// An open box (the +z face missing): classified by the three-axis majority.
+TriangleMesh openBox(const Vec3& lo, const Vec3& hi) {
+  TriangleMesh m = box(lo, hi);
+  TriangleMesh open;
+  open.points = m.points;
+  for (size_t t = 0; t < m.triangleCount(); ++t) {
+    bool top = true;
+    for (int c = 0; c < 3; ++c) top = top && m.points[3 * m.triangles[3 * t + size_t(c)] + 2] == hi[2];
+    if (!top) open.triangles.insert(open.triangles.end(), m.triangles.begin() + 3 * t, m.triangles.begin() + 3 * t + 3);
+  }
+  return open;
 }
 
 TEST(CudaLabels, TouchingCubesNestedBoxesOverlappingSpheres) {
@@ -83,6 +111,53 @@ TEST(CudaLabels, TouchingCubesNestedBoxesOverlappingSpheres) {
     surface.surfaceOnly = true;
     expectSameOnBoth(spheres, surface);
   }
+}
+
+// Parts of every kind of claim: an open part (three ray axes) beside a
+// closed one, a part nested in the open one (inherited Full claims in mixed
+// leaves), three labels where the policy orders them differently from their
+// input order.
+TEST(CudaLabels, OpenNestedAndThreeWayOverlaps) {
+  HDT_REQUIRE_CUDA();
+  const TriangleMesh mesh = combined({withLabel(openBox({-1, -1, -1}, {0.2, 1, 0.9}), 9),
+                                      withLabel(box({-0.6, -0.5, -0.5}, {-0.1, 0.4, 0.3}), 4),
+                                      withLabel(icosphere(3, 0.7, {0.4, 0.1, 0}), 2)});
+  for (const BuildConfig& c : {grid(128, 4, 8), grid(256, 8, 16)}) {
+    expectSameOnBoth(mesh, c);
+    LabelOptions highest;
+    highest.overlap = OverlapPolicy::Highest;
+    expectSameOnBoth(mesh, c, highest);
+    LabelOptions priority;
+    priority.overlap = OverlapPolicy::Priority;
+    priority.priority = {4, 9};
+    expectSameOnBoth(mesh, c, priority);
+  }
+}
+
+// A part whose triangles are all degenerate (none left after snapping):
+// the device path steps aside, and the per-part path does what the CPU does.
+TEST(CudaLabels, PartWithoutTrianglesFallsBack) {
+  HDT_REQUIRE_CUDA();
+  TriangleMesh flat;
+  flat.points = {0, 0, 0, 0.5, 0, 0, 1, 0, 0};
+  flat.triangles = {0, 1, 2};
+  const TriangleMesh mesh = combined({withLabel(box({-1, -1, -1}, {1, 1, 1}), 1), withLabel(flat, 2)});
+  PathLog log;
+  std::string cpuError, gpuError;
+  Volume cpu, gpu;
+  try {
+    cpu = voxelizeLabelled(mesh, grid(128, 4, 8), cpuOptions());
+  } catch (const Error& e) {
+    cpuError = e.what();
+  }
+  try {
+    gpu = voxelizeLabelled(mesh, grid(128, 4, 8), log.options(cudaOptions()));
+  } catch (const Error& e) {
+    gpuError = e.what();
+  }
+  EXPECT_FALSE(log.onDevice()) << log.text;
+  EXPECT_EQ(gpuError, cpuError);
+  if (cpuError.empty()) EXPECT_TRUE(sameLabelled(gpu, cpu));
 }
 
 TEST(CudaLabels, SharedMeshesByComponents) {

@@ -12,6 +12,8 @@
 // An unlabelled volume has an empty LabelField.
 #pragma once
 
+#include "hdt/default_init_allocator.hpp"
+
 #include <cstdint>
 #include <map>
 #include <string>
@@ -25,7 +27,9 @@ constexpr uint32_t kNotMixed = 0xFFFFFFFFu; // LabelField::mixedBlock of a leaf 
 
 struct LabelField {
   std::vector<Label> elementLabels; // one per element (empty: unlabelled volume)
-  std::vector<Label> voxelLabels;   // L^3 per mixed leaf, in leaf order
+  // L^3 per mixed leaf, in leaf order; resize() leaves them unwritten (the
+  // CUDA driver copies gigabytes into them: a zero fill first would cost more).
+  std::vector<Label, DefaultInitAllocator<Label>> voxelLabels;
   std::map<Label, std::string> names; // optional names of labels (>= 1)
   // Derived (indexMixedLeaves): per leaf, the index of its block in
   // voxelLabels, or kNotMixed.

@@ -54,9 +54,26 @@ private:
 
 // Builds a labelled volume from mesh.triangleLabels (one label >= 1 per
 // triangle; throws Error(BadInput) otherwise). Labels' names are taken from
-// mesh.labelNames. Progress is reported over all parts.
+// mesh.labelNames. Progress is reported over all parts. With the CUDA
+// backend (or Auto with a usable device) it runs buildLabelledCuda, else (or
+// when that does not apply) it builds every part and combines them.
 Volume voxelizeLabelled(const TriangleMesh& mesh, const BuildConfig& config, const BuildOptions& options,
                         const LabelOptions& labels = {});
+
+// The CUDA driver's labelled build (cuda/src/labelled.cpp): `whole` is the
+// whole mesh prepared surface-only on the parts' grid (its tree is the union
+// of theirs), parts[i] the prepared triangles of label partLabels[i]; each
+// part is built on the device and combined there with the function of
+// combineLabelledParts, one copy back at the end. stats.time.total is then
+// the whole call as the caller waits (copy back included). Returns false,
+// having set nothing, where it does not apply (a part classified by winding
+// number, a part without triangles, not enough device memory for all parts
+// at once, or, which one lattice rules out, part trees that are not subtrees
+// of the whole's): the caller then combines per-part builds on the host.
+// Without the CUDA driver it always returns false.
+bool buildLabelledCuda(const PreparedMesh& whole, const std::vector<PreparedMesh>& parts,
+                       const std::vector<Label>& partLabels, const LabelOptions& labels, const BuildOptions& options,
+                       Volume& out);
 
 // The combination step on its own: `parts` are built on one grid (same
 // GridSpec, surface-only flag), partLabels[i] >= 1 is the label of parts[i],

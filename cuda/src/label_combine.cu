@@ -1,0 +1,331 @@
+// Kernels of the device combination of a labelled build (label_combine.hpp).
+#include "label_combine.hpp"
+
+#include "check.hpp"
+#include "device_common.cuh"
+
+#include <cub/device/device_scan.cuh>
+
+namespace hdt {
+namespace cuda {
+namespace {
+
+constexpr unsigned kBlock = 256;
+
+__device__ __forceinline__ uint64_t threadIndex() { return uint64_t(blockIdx.x) * blockDim.x + threadIdx.x; }
+
+__device__ __forceinline__ void fail(CombineError e) { atomicOr(e.flag, 1u); }
+
+__global__ void mapPartLevelKernel(const ElementWord* partWords, uint32_t partCount, uint64_t partNextStart,
+                                   const uint32_t* map, const ElementWord* unionWords, uint64_t unionStart,
+                                   uint64_t unionNextStart, uint32_t* nextMap, uint32_t* leafMap, uint16_t rank,
+                                   uint16_t* fullRank, CombineError e) {
+  const uint64_t i = threadIndex();
+  if (i >= partCount) return;
+  const ElementWord pw = partWords[i];
+  const ElementState ps = elementState(pw);
+  if (ps == ElementState::Empty) return;
+  const uint32_t u = map ? map[i] : uint32_t(i);
+  const ElementWord uw = unionWords[u];
+  switch (ps) {
+  case ElementState::Full: {
+    uint16_t& r = fullRank[unionStart + u];
+    r = r < rank ? r : rank;
+    break;
+  }
+  case ElementState::Branch:
+    if (elementState(uw) != ElementState::Branch || !nextMap) {
+      fail(e);
+      return;
+    }
+    for (uint32_t c = 0; c < 8; ++c)
+      nextMap[uint64_t(elementPayload(pw)) - partNextStart + c] = uint32_t(uint64_t(elementPayload(uw)) - unionNextStart + c);
+    break;
+  case ElementState::Boundary:
+    if (elementState(uw) != ElementState::Boundary || !leafMap) {
+      fail(e);
+      return;
+    }
+    leafMap[elementPayload(pw)] = elementPayload(uw);
+    break;
+  default: break;
+  }
+}
+
+__global__ void orPartLeavesKernel(const uint32_t* partWords, uint64_t total, uint32_t wordsPerLeaf,
+                                   const uint32_t* leafMap, uint32_t* acc, uint32_t* claimCount, uint16_t* claimRank,
+                                   uint16_t rank) {
+  const uint64_t j = threadIndex();
+  if (j >= total) return;
+  const uint64_t pl = j / wordsPerLeaf, w = j % wordsPerLeaf;
+  const uint64_t ul = leafMap[pl];
+  acc[ul * wordsPerLeaf + w] |= partWords[j];
+  if (w == 0) {
+    claimCount[ul] += 1;
+    claimRank[ul] = rank;
+  }
+}
+
+__global__ void propagateFullKernel(const ElementWord* words, uint32_t count, uint64_t start, uint16_t* fullRank) {
+  const uint64_t i = threadIndex();
+  if (i >= count) return;
+  const ElementWord w = words[i];
+  if (elementState(w) != ElementState::Branch) return;
+  const uint16_t parent = fullRank[start + i];
+  if (parent == kNoRank) return;
+  for (uint32_t c = 0; c < 8; ++c) {
+    uint16_t& r = fullRank[uint64_t(elementPayload(w)) + c];
+    r = r < parent ? r : parent;
+  }
+}
+
+__global__ void collectInheritedKernel(const ElementWord* words, uint32_t count, uint64_t start,
+                                       const uint16_t* fullRank, uint16_t* leafInherited, uint32_t* claimCount,
+                                       uint16_t* claimRank) {
+  const uint64_t i = threadIndex();
+  if (i >= count) return;
+  const ElementWord w = words[i];
+  if (elementState(w) != ElementState::Boundary) return;
+  const uint32_t leaf = elementPayload(w);
+  const uint16_t r = fullRank[start + i];
+  leafInherited[leaf] = r;
+  if (r != kNoRank) {
+    claimCount[leaf] += 1;
+    claimRank[leaf] = r;
+  }
+}
+
+__global__ void finalizeLeafWordsKernel(uint64_t total, uint32_t wordsPerLeaf, const uint32_t* unionSurface,
+                                        const uint16_t* leafInherited, uint32_t* acc, CombineError e) {
+  const uint64_t j = threadIndex();
+  if (j >= total) return;
+  const uint32_t a = acc[j];
+  const uint32_t surface = planeOf(a, kSurfacePlane);
+  if (surface != planeOf(unionSurface[j], kSurfacePlane)) fail(e);
+  const uint32_t full = leafInherited[j / wordsPerLeaf] != kNoRank ? kInsidePlaneBits : 0u;
+  const uint32_t inside = (planeOf(a, kInsidePlane) | full) & ~surface;
+  acc[j] = inside | (surface << 1);
+}
+
+__global__ void markMultiKernel(uint32_t leaves, const uint32_t* claimCount, uint32_t* flag) {
+  const uint64_t i = threadIndex();
+  if (i < leaves) flag[i] = claimCount[i] >= 2 ? 1u : 0u;
+}
+
+// The claim's voxels (its plane bits that are in the combined state) take
+// the lower of their rank and the claim's.
+__device__ __forceinline__ void claimVoxels(uint32_t mine, uint16_t* ranks, uint16_t rank) {
+  while (mine) {
+    const int bit = __ffs(mine) - 1;
+    mine &= mine - 1;
+    uint16_t& r = ranks[bit / 2];
+    r = r < rank ? r : rank;
+  }
+}
+
+__global__ void partVoxelRanksKernel(const uint32_t* partWords, uint64_t total, uint32_t wordsPerLeaf,
+                                     const uint32_t* leafMap, const uint32_t* claimCount, const uint32_t* multiIndex,
+                                     const uint32_t* combined, uint16_t* voxelRanks, uint16_t rank) {
+  const uint64_t j = threadIndex();
+  if (j >= total) return;
+  const uint64_t pl = j / wordsPerLeaf, w = j % wordsPerLeaf;
+  const uint64_t ul = leafMap[pl];
+  if (claimCount[ul] < 2) return;
+  const uint32_t pw = partWords[j], c = combined[ul * wordsPerLeaf + w];
+  const uint32_t mine = (planeOf(pw, kSurfacePlane) & planeOf(c, kSurfacePlane)) |
+                        (planeOf(pw, kInsidePlane) & planeOf(c, kInsidePlane));
+  claimVoxels(mine, voxelRanks + (uint64_t(multiIndex[ul]) * wordsPerLeaf + w) * kVoxelsPerWord, rank);
+}
+
+__global__ void inheritedVoxelRanksKernel(uint64_t total, uint32_t wordsPerLeaf, const uint32_t* claimCount,
+                                          const uint32_t* multiIndex, const uint16_t* leafInherited,
+                                          const uint32_t* combined, uint16_t* voxelRanks) {
+  const uint64_t j = threadIndex();
+  if (j >= total) return;
+  const uint64_t ul = j / wordsPerLeaf, w = j % wordsPerLeaf;
+  const uint16_t rank = leafInherited[ul];
+  if (claimCount[ul] < 2 || rank == kNoRank) return;
+  claimVoxels(planeOf(combined[j], kInsidePlane),
+              voxelRanks + (uint64_t(multiIndex[ul]) * wordsPerLeaf + w) * kVoxelsPerWord, rank);
+}
+
+// One warp a leaf.
+__global__ void leafLabelsKernel(uint32_t leaves, uint32_t voxelsPerLeaf, const uint32_t* claimCount,
+                                 const uint16_t* claimRank, const uint32_t* multiIndex, const uint16_t* voxelRanks,
+                                 const uint16_t* labelOfRank, uint16_t* leafLabel, CombineError e) {
+  const uint64_t leaf = threadIndex() / 32;
+  const unsigned lane = threadIdx.x % 32;
+  if (leaf >= leaves) return; // whole warps leave together (blockDim is a multiple of 32)
+  const uint32_t count = claimCount[leaf];
+  if (count == 0) {
+    if (lane == 0) fail(e);
+    return;
+  }
+  if (count == 1) {
+    if (lane == 0) leafLabel[leaf] = labelOfRank[claimRank[leaf]];
+    return;
+  }
+  const uint16_t* ranks = voxelRanks + uint64_t(multiIndex[leaf]) * voxelsPerLeaf;
+  uint32_t lo = 0xFFFF, hi = 0; // over the voxels' labels >= 1
+  for (uint32_t v = lane; v < voxelsPerLeaf; v += 32) {
+    const uint16_t r = ranks[v];
+    if (r == kNoRank) continue;
+    const uint32_t label = labelOfRank[r];
+    lo = label < lo ? label : lo;
+    hi = label > hi ? label : hi;
+  }
+  for (int o = 16; o > 0; o >>= 1) {
+    const uint32_t l = __shfl_xor_sync(kFullMask, lo, o), h = __shfl_xor_sync(kFullMask, hi, o);
+    lo = l < lo ? l : lo;
+    hi = h > hi ? h : hi;
+  }
+  if (lane == 0) leafLabel[leaf] = (hi != 0 && lo == hi) ? uint16_t(lo) : uint16_t(0);
+}
+
+__global__ void markMixedKernel(uint32_t leaves, const uint32_t* claimCount, const uint16_t* leafLabel,
+                                uint32_t* flag) {
+  const uint64_t i = threadIndex();
+  if (i < leaves) flag[i] = (claimCount[i] >= 2 && leafLabel[i] == 0) ? 1u : 0u;
+}
+
+__global__ void multiLeavesKernel(uint32_t leaves, const uint32_t* claimCount, const uint32_t* multiIndex,
+                                  uint32_t* multiLeaf) {
+  const uint64_t i = threadIndex();
+  if (i < leaves && claimCount[i] >= 2) multiLeaf[multiIndex[i]] = uint32_t(i);
+}
+
+__global__ void mixedVoxelLabelsKernel(uint64_t total, uint32_t voxelsPerLeaf, const uint32_t* multiLeaf,
+                                       const uint16_t* leafLabel, const uint32_t* mixedIndex,
+                                       const uint16_t* voxelRanks, const uint16_t* labelOfRank, uint16_t* out) {
+  const uint64_t j = threadIndex();
+  if (j >= total) return;
+  const uint64_t m = j / voxelsPerLeaf, v = j % voxelsPerLeaf;
+  const uint32_t leaf = multiLeaf[m];
+  if (leafLabel[leaf] != 0) return;
+  const uint16_t r = voxelRanks[j];
+  out[uint64_t(mixedIndex[leaf]) * voxelsPerLeaf + v] = r == kNoRank ? uint16_t(0) : labelOfRank[r];
+}
+
+__global__ void finalizeElementsKernel(ElementWord* words, uint32_t count, uint64_t start, const uint16_t* fullRank,
+                                       const uint16_t* leafLabel, const uint16_t* labelOfRank,
+                                       uint16_t* elementLabels) {
+  const uint64_t i = threadIndex();
+  if (i >= count) return;
+  const ElementWord w = words[i];
+  const ElementState st = elementState(w);
+  uint16_t label = 0;
+  if (st == ElementState::Boundary) {
+    label = leafLabel[elementPayload(w)];
+  } else if (st != ElementState::Branch) {
+    const uint16_t r = fullRank[start + i];
+    words[i] = makeElement(r == kNoRank ? ElementState::Empty : ElementState::Full, 0);
+    label = r == kNoRank ? uint16_t(0) : labelOfRank[r];
+  }
+  elementLabels[start + i] = label;
+}
+
+template <class... Args, class... Params>
+void launch(const char* name, cudaStream_t s, uint64_t threads, void (*kernel)(Params...), Args... args) {
+  if (threads == 0) return;
+  kernel<<<blocksFor(threads, kBlock), kBlock, 0, s>>>(args...);
+  HDT_CUDA_CHECK_LAUNCH(name);
+}
+
+} // namespace
+
+void mapPartLevel(cudaStream_t s, const ElementWord* partWords, uint32_t partCount, uint64_t partNextStart,
+                  const uint32_t* map, const ElementWord* unionWords, uint64_t unionStart, uint64_t unionNextStart,
+                  uint32_t* nextMap, uint32_t* leafMap, uint16_t rank, uint16_t* fullRank, CombineError e) {
+  launch("mapPartLevel", s, partCount, mapPartLevelKernel, partWords, partCount, partNextStart, map, unionWords,
+         unionStart, unionNextStart, nextMap, leafMap, rank, fullRank, e);
+}
+
+void orPartLeaves(cudaStream_t s, const uint32_t* partWords, uint32_t partLeaves, uint32_t wordsPerLeaf,
+                  const uint32_t* leafMap, uint32_t* acc, uint32_t* claimCount, uint16_t* claimRank, uint16_t rank) {
+  const uint64_t total = uint64_t(partLeaves) * wordsPerLeaf;
+  launch("orPartLeaves", s, total, orPartLeavesKernel, partWords, total, wordsPerLeaf, leafMap, acc, claimCount,
+         claimRank, rank);
+}
+
+void propagateFull(cudaStream_t s, const ElementWord* unionWords, uint32_t count, uint64_t start, uint16_t* fullRank) {
+  launch("propagateFull", s, count, propagateFullKernel, unionWords, count, start, fullRank);
+}
+
+void collectInherited(cudaStream_t s, const ElementWord* leafLevelWords, uint32_t count, uint64_t start,
+                      const uint16_t* fullRank, uint16_t* leafInherited, uint32_t* claimCount, uint16_t* claimRank) {
+  launch("collectInherited", s, count, collectInheritedKernel, leafLevelWords, count, start, fullRank, leafInherited,
+         claimCount, claimRank);
+}
+
+void finalizeLeafWords(cudaStream_t s, uint32_t leaves, uint32_t wordsPerLeaf, const uint32_t* unionSurface,
+                       const uint16_t* leafInherited, uint32_t* acc, CombineError e) {
+  const uint64_t total = uint64_t(leaves) * wordsPerLeaf;
+  launch("finalizeLeafWords", s, total, finalizeLeafWordsKernel, total, wordsPerLeaf, unionSurface, leafInherited,
+         acc, e);
+}
+
+void markMulti(cudaStream_t s, uint32_t leaves, const uint32_t* claimCount, uint32_t* flag) {
+  launch("markMulti", s, leaves, markMultiKernel, leaves, claimCount, flag);
+}
+
+void partVoxelRanks(cudaStream_t s, const uint32_t* partWords, uint32_t partLeaves, uint32_t wordsPerLeaf,
+                    const uint32_t* leafMap, const uint32_t* claimCount, const uint32_t* multiIndex,
+                    const uint32_t* combined, uint16_t* voxelRanks, uint16_t rank) {
+  const uint64_t total = uint64_t(partLeaves) * wordsPerLeaf;
+  launch("partVoxelRanks", s, total, partVoxelRanksKernel, partWords, total, wordsPerLeaf, leafMap, claimCount,
+         multiIndex, combined, voxelRanks, rank);
+}
+
+void inheritedVoxelRanks(cudaStream_t s, uint32_t leaves, uint32_t wordsPerLeaf, const uint32_t* claimCount,
+                         const uint32_t* multiIndex, const uint16_t* leafInherited, const uint32_t* combined,
+                         uint16_t* voxelRanks) {
+  const uint64_t total = uint64_t(leaves) * wordsPerLeaf;
+  launch("inheritedVoxelRanks", s, total, inheritedVoxelRanksKernel, total, wordsPerLeaf, claimCount, multiIndex,
+         leafInherited, combined, voxelRanks);
+}
+
+void leafLabels(cudaStream_t s, uint32_t leaves, uint32_t voxelsPerLeaf, const uint32_t* claimCount,
+                const uint16_t* claimRank, const uint32_t* multiIndex, const uint16_t* voxelRanks,
+                const uint16_t* labelOfRank, uint16_t* leafLabel, CombineError e) {
+  launch("leafLabels", s, uint64_t(leaves) * 32, leafLabelsKernel, leaves, voxelsPerLeaf, claimCount, claimRank,
+         multiIndex, voxelRanks, labelOfRank, leafLabel, e);
+}
+
+void markMixed(cudaStream_t s, uint32_t leaves, const uint32_t* claimCount, const uint16_t* leafLabel,
+               uint32_t* flag) {
+  launch("markMixed", s, leaves, markMixedKernel, leaves, claimCount, leafLabel, flag);
+}
+
+void multiLeaves(cudaStream_t s, uint32_t leaves, const uint32_t* claimCount, const uint32_t* multiIndex,
+                 uint32_t* multiLeaf) {
+  launch("multiLeaves", s, leaves, multiLeavesKernel, leaves, claimCount, multiIndex, multiLeaf);
+}
+
+void mixedVoxelLabels(cudaStream_t s, uint32_t multiCount, uint32_t voxelsPerLeaf, const uint32_t* multiLeaf,
+                      const uint16_t* leafLabel, const uint32_t* mixedIndex, const uint16_t* voxelRanks,
+                      const uint16_t* labelOfRank, uint16_t* out) {
+  const uint64_t total = uint64_t(multiCount) * voxelsPerLeaf;
+  launch("mixedVoxelLabels", s, total, mixedVoxelLabelsKernel, total, voxelsPerLeaf, multiLeaf, leafLabel, mixedIndex,
+         voxelRanks, labelOfRank, out);
+}
+
+void finalizeElements(cudaStream_t s, ElementWord* words, uint32_t count, uint64_t start, const uint16_t* fullRank,
+                      const uint16_t* leafLabel, const uint16_t* labelOfRank, uint16_t* elementLabels) {
+  launch("finalizeElements", s, count, finalizeElementsKernel, words, count, start, fullRank, leafLabel, labelOfRank,
+         elementLabels);
+}
+
+uint32_t scanFlags(DeviceMemory& mem, const uint32_t* flags, uint32_t* index, uint32_t n) {
+  if (n == 0) return 0;
+  runCub(mem, [&](void* temp, size_t& bytes) {
+    return cub::DeviceScan::ExclusiveSum(temp, bytes, flags, index, n, mem.stream());
+  });
+  uint32_t last[2];
+  HDT_CUDA_CHECK(cudaMemcpyAsync(&last[0], index + (n - 1), sizeof(uint32_t), cudaMemcpyDeviceToHost, mem.stream()));
+  HDT_CUDA_CHECK(cudaMemcpyAsync(&last[1], flags + (n - 1), sizeof(uint32_t), cudaMemcpyDeviceToHost, mem.stream()));
+  HDT_CUDA_CHECK(cudaStreamSynchronize(mem.stream()));
+  return last[0] + last[1];
+}
+
+} // namespace cuda
+} // namespace hdt

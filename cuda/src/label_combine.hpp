@@ -1,0 +1,100 @@
+// The combination of a labelled build's parts on the device (labelled.cpp
+// schedules it): the same function as combineLabelledParts (labels.cpp) of
+// the parts' trees and leaf words, computed into the tree of the whole mesh
+// (the union of the parts' trees: an element is refined where a triangle
+// meets it, whatever its part).
+//
+// Parts are numbered by rank, the overlap policy's order (rank 0 wins);
+// kNoRank: no claim. Every kernel of one part touches each of its union
+// elements, leaves or voxels from one thread, and parts run one after
+// another on one stream, so the per-element minima need no atomics.
+#pragma once
+
+#include "device_memory.hpp"
+
+#include "hdt/types.hpp"
+
+#include <cuda_runtime.h>
+
+#include <cstdint>
+
+namespace hdt {
+namespace cuda {
+
+constexpr uint16_t kNoRank = 0xFFFF;
+
+// Any inconsistency between a part's tree and the union's (a part refined
+// where the union is not, a part surface voxel the union lacks) sets
+// *error; the host then rejects the device result.
+struct CombineError {
+  uint32_t* flag;
+};
+
+// One level of a part's tree against the union's. map: the union index
+// (level-local) of each part element of this level (null at level 0: the
+// same root cells). Writes the next level's map (Branch children) or, at the
+// leaf level, leafMap (part leaf -> union leaf); records Full elements in
+// fullRank (union global indices).
+void mapPartLevel(cudaStream_t s, const ElementWord* partWords, uint32_t partCount, uint64_t partNextStart,
+                  const uint32_t* map, const ElementWord* unionWords, uint64_t unionStart, uint64_t unionNextStart,
+                  uint32_t* nextMap, uint32_t* leafMap, uint16_t rank, uint16_t* fullRank, CombineError e);
+
+// ORs a part's leaf words into acc (union leaves) and counts the claim.
+void orPartLeaves(cudaStream_t s, const uint32_t* partWords, uint32_t partLeaves, uint32_t wordsPerLeaf,
+                  const uint32_t* leafMap, uint32_t* acc, uint32_t* claimCount, uint16_t* claimRank, uint16_t rank);
+
+// Full claims inherited from Full ancestors, one union level at a time (top down).
+void propagateFull(cudaStream_t s, const ElementWord* unionWords, uint32_t count, uint64_t start, uint16_t* fullRank);
+
+// Leaf level of the union: per union leaf, the inherited Full claim (counted
+// as a claim) in leafInherited.
+void collectInherited(cudaStream_t s, const ElementWord* leafLevelWords, uint32_t count, uint64_t start,
+                      const uint16_t* fullRank, uint16_t* leafInherited, uint32_t* claimCount, uint16_t* claimRank);
+
+// The combined leaf words, in place in acc: inside (the parts' and inherited
+// Full) where not surface. Checks that the parts' surface is the union's.
+void finalizeLeafWords(cudaStream_t s, uint32_t leaves, uint32_t wordsPerLeaf, const uint32_t* unionSurface,
+                       const uint16_t* leafInherited, uint32_t* acc, CombineError e);
+
+// 1 for leaves of two claims or more (their voxels need a rank each).
+void markMulti(cudaStream_t s, uint32_t leaves, const uint32_t* claimCount, uint32_t* flag);
+
+// The voxel ranks of multi-claim leaves: per voxel the best rank of the
+// claims in its combined state. multiIndex: exclusive scan of markMulti.
+void partVoxelRanks(cudaStream_t s, const uint32_t* partWords, uint32_t partLeaves, uint32_t wordsPerLeaf,
+                    const uint32_t* leafMap, const uint32_t* claimCount, const uint32_t* multiIndex,
+                    const uint32_t* combined, uint16_t* voxelRanks, uint16_t rank);
+void inheritedVoxelRanks(cudaStream_t s, uint32_t leaves, uint32_t wordsPerLeaf, const uint32_t* claimCount,
+                         const uint32_t* multiIndex, const uint16_t* leafInherited, const uint32_t* combined,
+                         uint16_t* voxelRanks);
+
+// Per union leaf its label: the one claim's, or, for multi-claim leaves, the
+// one label of its voxels (0: mixed, as combineLeafLabels).
+void leafLabels(cudaStream_t s, uint32_t leaves, uint32_t voxelsPerLeaf, const uint32_t* claimCount,
+                const uint16_t* claimRank, const uint32_t* multiIndex, const uint16_t* voxelRanks,
+                const uint16_t* labelOfRank, uint16_t* leafLabel, CombineError e);
+
+// 1 for mixed leaves (multi-claim, label 0).
+void markMixed(cudaStream_t s, uint32_t leaves, const uint32_t* claimCount, const uint16_t* leafLabel,
+               uint32_t* flag);
+
+// multiLeaf[multiIndex[i]] = i for the multi-claim leaves i.
+void multiLeaves(cudaStream_t s, uint32_t leaves, const uint32_t* claimCount, const uint32_t* multiIndex,
+                 uint32_t* multiLeaf);
+
+// The voxel labels of mixed leaves, in leaf order (mixedIndex: exclusive
+// scan of markMixed), from the ranks of the multiCount multi-claim leaves.
+void mixedVoxelLabels(cudaStream_t s, uint32_t multiCount, uint32_t voxelsPerLeaf, const uint32_t* multiLeaf,
+                      const uint16_t* leafLabel, const uint32_t* mixedIndex, const uint16_t* voxelRanks,
+                      const uint16_t* labelOfRank, uint16_t* out);
+
+// One union level's final words (uniform elements: Full where a part claims
+// them) and element labels, in place.
+void finalizeElements(cudaStream_t s, ElementWord* words, uint32_t count, uint64_t start, const uint16_t* fullRank,
+                      const uint16_t* leafLabel, const uint16_t* labelOfRank, uint16_t* elementLabels);
+
+// Exclusive scan of n 0/1 flags into index; returns their sum (waits for it).
+uint32_t scanFlags(DeviceMemory& mem, const uint32_t* flags, uint32_t* index, uint32_t n);
+
+} // namespace cuda
+} // namespace hdt

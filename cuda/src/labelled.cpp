@@ -1,0 +1,323 @@
+// buildLabelledCuda (hdt/labels.hpp): a labelled build that never leaves the
+// device until its one copy back.
+//
+// 1. The whole mesh's tree and surface (T1..T3, surface only): the union of
+//    the parts' trees, since an element is refined where any triangle meets it.
+// 2. Each part, built on the device with its own triangles and inside test,
+//    is mapped onto that tree level by level (its elements are a subset of
+//    the union's, in the same order) and folded in: its Full elements as
+//    claims, its leaf words ORed into the union's leaves, its claim counted.
+// 3. Full claims go down the union's tree; the leaf words are finished
+//    (inside where not surface); leaves of two claims or more get a rank per
+//    voxel, the best claim in the voxel's state (second pass over the parts,
+//    which stay on the device); leaf labels, mixed leaves' voxel labels and
+//    the element words and labels follow.
+// It is combineLabelledParts (labels.cpp) of the same part builds, so the
+// bytes are the CPU's; a part tree that is not a subset of the union's or a
+// surface that differs (which cannot happen with one lattice) makes the
+// caller fall back to the per-part path rather than return a wrong volume.
+#include "label_combine.hpp"
+#include "host_copy.hpp"
+#include "pipeline.hpp"
+#include "session.hpp"
+
+#include "hdt/error.hpp"
+#include "hdt/host_memory.hpp"
+#include "hdt/labels.hpp"
+#include "hdt/mesh.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <numeric>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace hdt {
+namespace {
+
+using namespace cuda;
+using Clock = std::chrono::steady_clock;
+
+// A part's tree or surface that does not fit the union's (see the top).
+struct Mismatch : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+// What a part keeps on the device for the second pass.
+struct PartOnDevice {
+  uint16_t rank = 0;
+  uint32_t leaves = 0;
+  DeviceBuffer<uint32_t> words;   // its leaf words
+  DeviceBuffer<uint32_t> leafMap; // its leaf -> union leaf
+};
+
+template <class T>
+void fill(Session& s, DeviceBuffer<T>& b, int byte) {
+  if (b.size()) HDT_CUDA_CHECK(cudaMemsetAsync(b.data(), byte, b.bytes(), s.stream.get()));
+}
+
+template <class T>
+void download(Session& s, T* host, const T* device, size_t count) {
+  if (count == 0) return;
+  s.sync();
+  const auto t0 = Clock::now();
+  copyToHost(s.stream.get(), host, device, count * sizeof(T));
+  s.copyBackMs += std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+  s.copyBackBytes += count * sizeof(T);
+}
+
+std::vector<uint64_t> levelStarts(const Tree& t) {
+  std::vector<uint64_t> start{0};
+  for (const Level& lv : t.levels) start.push_back(start.back() + lv.count);
+  return start;
+}
+
+// Part i's rank: its place in the overlap policy's order (0 wins).
+std::vector<uint16_t> ranksOf(const std::vector<Label>& partLabels, const LabelOptions& labels,
+                              std::vector<uint16_t>& labelOfRank) {
+  const LabelRanking ranking(labels);
+  std::vector<uint32_t> order(partLabels.size());
+  std::iota(order.begin(), order.end(), 0u);
+  std::sort(order.begin(), order.end(),
+            [&](uint32_t a, uint32_t b) { return ranking.rank(partLabels[a]) < ranking.rank(partLabels[b]); });
+  std::vector<uint16_t> rank(partLabels.size());
+  labelOfRank.resize(partLabels.size());
+  for (size_t r = 0; r < order.size(); ++r) {
+    rank[order[r]] = uint16_t(r);
+    labelOfRank[r] = partLabels[order[r]];
+  }
+  return rank;
+}
+
+struct UnionState {
+  DeviceVolume tree; // the whole mesh's, surface only
+  std::vector<uint64_t> start;
+  DeviceBuffer<uint16_t> fullRank;      // per element
+  DeviceBuffer<uint32_t> acc;           // combined leaf words
+  DeviceBuffer<uint32_t> claimCount;    // per leaf
+  DeviceBuffer<uint16_t> claimRank;     // per leaf: one of its claims (the only one when count is 1)
+  DeviceBuffer<uint16_t> leafInherited; // per leaf: best inherited Full claim
+  DeviceBuffer<uint32_t> error;
+};
+
+// Step 2 for one part: build, map onto the union, fold in.
+PartOnDevice foldPart(Session& s, UnionState& u, const PreparedMesh& part, uint16_t rank) {
+  const GridSpec& g = s.grid;
+  const uint64_t cells = uint64_t(g.rootGrid) * g.rootGrid * g.rootGrid;
+  DeviceBuffer<LatticeTriangle> tris(s.memory, part.triangles.size());
+  HDT_CUDA_CHECK(cudaMemcpyAsync(tris.data(), part.triangles.data(), tris.bytes(), cudaMemcpyHostToDevice,
+                                 s.stream.get()));
+  const DeviceMesh mesh{tris.data(), uint32_t(part.triangles.size())};
+  RootMapping root = mapTrianglesToRootCells(s.memory, s.scalars, mesh, g, 0, cells, false);
+  DeviceVolume pv = buildOnDevice(s, mesh, part.closed, part.surfaceOnly, std::move(root));
+  const std::vector<uint64_t> start = levelStarts(pv.tree);
+  const size_t h = size_t(g.height);
+  if (pv.tree.levels.size() != h + 1 || pv.tree.levels[0].count != u.tree.tree.levels[0].count)
+    throw Mismatch("a part's levels differ from the whole mesh's");
+  PartOnDevice out;
+  out.rank = rank;
+  out.leaves = pv.tree.leaves.count;
+  out.leafMap = DeviceBuffer<uint32_t>(s.memory, out.leaves);
+  const CombineError e{u.error.data()};
+  DeviceBuffer<uint32_t> map;
+  for (size_t k = 0; k <= h; ++k) {
+    DeviceBuffer<uint32_t> next;
+    if (k < h) next = DeviceBuffer<uint32_t>(s.memory, pv.tree.levels[k + 1].count);
+    mapPartLevel(s.stream.get(), pv.tree.levels[k].words.data(), pv.tree.levels[k].count, start[k + 1],
+                 k == 0 ? nullptr : map.data(), u.tree.tree.levels[k].words.data(), u.start[k], u.start[k + 1],
+                 k < h ? next.data() : nullptr, k == h ? out.leafMap.data() : nullptr, rank, u.fullRank.data(), e);
+    map = std::move(next);
+  }
+  orPartLeaves(s.stream.get(), pv.words.data(), out.leaves, leafWordCount(g.leafSize), out.leafMap.data(),
+               u.acc.data(), u.claimCount.data(), u.claimRank.data(), rank);
+  out.words = std::move(pv.words);
+  s.sync(); // the part's tree and triangles go back to the pool now
+  return out;
+}
+
+Volume combineOnDevice(Session& s, UnionState& u, std::vector<PartOnDevice>& parts,
+                       const std::vector<uint16_t>& labelOfRankHost) {
+  const GridSpec& g = s.grid;
+  const cudaStream_t st = s.stream.get();
+  const size_t h = size_t(g.height);
+  const uint32_t leaves = u.tree.tree.leaves.count;
+  const uint32_t W = leafWordCount(g.leafSize);
+  const uint32_t V = uint32_t(g.leafSize) * g.leafSize * g.leafSize;
+  const CombineError e{u.error.data()};
+  DeviceBuffer<uint16_t> labelOfRank(s.memory, labelOfRankHost.size());
+  HDT_CUDA_CHECK(cudaMemcpyAsync(labelOfRank.data(), labelOfRankHost.data(), labelOfRank.bytes(),
+                                 cudaMemcpyHostToDevice, st));
+  std::vector<Level>& levels = u.tree.tree.levels;
+
+  for (size_t k = 0; k < h; ++k) propagateFull(st, levels[k].words.data(), levels[k].count, u.start[k], u.fullRank.data());
+  collectInherited(st, levels[h].words.data(), levels[h].count, u.start[h], u.fullRank.data(), u.leafInherited.data(),
+                   u.claimCount.data(), u.claimRank.data());
+  finalizeLeafWords(st, leaves, W, u.tree.words.data(), u.leafInherited.data(), u.acc.data(), e);
+  u.tree.words = DeviceBuffer<uint32_t>();
+
+  DeviceBuffer<uint32_t> flags(s.memory, leaves), multiIndex(s.memory, leaves);
+  markMulti(st, leaves, u.claimCount.data(), flags.data());
+  const uint32_t multi = scanFlags(s.memory, flags.data(), multiIndex.data(), leaves);
+  DeviceBuffer<uint16_t> voxelRanks(s.memory, size_t(multi) * V);
+  fill(s, voxelRanks, 0xFF);
+  for (const PartOnDevice& p : parts)
+    partVoxelRanks(st, p.words.data(), p.leaves, W, p.leafMap.data(), u.claimCount.data(), multiIndex.data(),
+                   u.acc.data(), voxelRanks.data(), p.rank);
+  inheritedVoxelRanks(st, leaves, W, u.claimCount.data(), multiIndex.data(), u.leafInherited.data(), u.acc.data(),
+                      voxelRanks.data());
+  s.sync();
+  parts.clear();
+
+  DeviceBuffer<uint16_t> leafLabel(s.memory, leaves);
+  leafLabels(st, leaves, V, u.claimCount.data(), u.claimRank.data(), multiIndex.data(), voxelRanks.data(),
+             labelOfRank.data(), leafLabel.data(), e);
+  markMixed(st, leaves, u.claimCount.data(), leafLabel.data(), flags.data());
+  DeviceBuffer<uint32_t> mixedIndex(s.memory, leaves);
+  const uint32_t mixed = scanFlags(s.memory, flags.data(), mixedIndex.data(), leaves);
+  DeviceBuffer<uint32_t> multiLeaf(s.memory, multi);
+  multiLeaves(st, leaves, u.claimCount.data(), multiIndex.data(), multiLeaf.data());
+  DeviceBuffer<uint16_t> voxelLabels(s.memory, size_t(mixed) * V);
+  mixedVoxelLabels(st, multi, V, multiLeaf.data(), leafLabel.data(), mixedIndex.data(), voxelRanks.data(),
+                   labelOfRank.data(), voxelLabels.data());
+  DeviceBuffer<uint16_t> elementLabels(s.memory, u.start.back());
+  for (size_t k = 0; k <= h; ++k)
+    finalizeElements(st, levels[k].words.data(), levels[k].count, u.start[k], u.fullRank.data(), leafLabel.data(),
+                     labelOfRank.data(), elementLabels.data());
+  s.clock.mark(kClassify);
+
+  uint32_t error = 0;
+  download(s, &error, u.error.data(), 1);
+  if (error) throw Mismatch("the parts' trees or surfaces do not match the whole mesh's");
+
+  Volume v;
+  v.grid = g;
+  v.levelStart = u.start;
+  v.elements.resize(u.start.back());
+  for (size_t k = 0; k <= h; ++k) download(s, v.elements.data() + u.start[k], levels[k].words.data(), levels[k].count);
+  v.leafWords.resize(size_t(leaves) * W);
+  download(s, v.leafWords.data(), u.acc.data(), v.leafWords.size());
+  v.labels.elementLabels.resize(u.start.back());
+  download(s, v.labels.elementLabels.data(), elementLabels.data(), v.labels.elementLabels.size());
+  v.labels.voxelLabels.resize(voxelLabels.size());
+  download(s, v.labels.voxelLabels.data(), voxelLabels.data(), voxelLabels.size());
+  s.clock.mark(kDownload);
+  return v;
+}
+
+Volume buildLabelled(const PreparedMesh& whole, const std::vector<PreparedMesh>& parts,
+                     const std::vector<Label>& partLabels, const LabelOptions& labels, const BuildOptions& options) {
+  const auto wall0 = Clock::now();
+  const GridSpec& g = whole.grid;
+  const uint64_t cells = uint64_t(g.rootGrid) * g.rootGrid * g.rootGrid;
+  // Progress: the whole mesh, each part, the combination.
+  double stage = 0;
+  const double stages = double(parts.size() + 2);
+  BuildOptions wrapped = options;
+  if (options.progress)
+    wrapped.progress = [&](double f, const char* phase) { return options.progress((stage + f) / stages, phase); };
+  Session s(whole, wrapped);
+  uploadTriangles(s);
+
+  UnionState u;
+  {
+    RootMapping root = mapTrianglesToRootCells(s.memory, s.scalars, s.deviceMesh, g, 0, cells, false);
+    u.tree = buildOnDevice(s, s.deviceMesh, true, true, std::move(root));
+  }
+  s.triangles = DeviceBuffer<LatticeTriangle>();
+  u.start = levelStarts(u.tree.tree);
+  const uint32_t leaves = u.tree.tree.leaves.count;
+  u.fullRank = DeviceBuffer<uint16_t>(s.memory, u.start.back());
+  u.acc = DeviceBuffer<uint32_t>(s.memory, size_t(leaves) * leafWordCount(g.leafSize));
+  u.claimCount = DeviceBuffer<uint32_t>(s.memory, leaves);
+  u.claimRank = DeviceBuffer<uint16_t>(s.memory, leaves);
+  u.leafInherited = DeviceBuffer<uint16_t>(s.memory, leaves);
+  u.error = DeviceBuffer<uint32_t>(s.memory, 1);
+  fill(s, u.fullRank, 0xFF);
+  fill(s, u.acc, 0);
+  fill(s, u.claimCount, 0);
+  fill(s, u.claimRank, 0xFF);
+  fill(s, u.error, 0);
+
+  std::vector<uint16_t> labelOfRank;
+  const std::vector<uint16_t> rank = ranksOf(partLabels, labels, labelOfRank);
+  std::vector<PartOnDevice> onDevice;
+  onDevice.reserve(parts.size());
+  for (size_t i = 0; i < parts.size(); ++i) {
+    stage = double(i + 1);
+    onDevice.push_back(foldPart(s, u, parts[i], rank[i]));
+  }
+  stage = stages - 1;
+  s.progress(0.0, "combining labels");
+  s.sync();
+  const auto combine0 = Clock::now();
+  Volume v = combineOnDevice(s, u, onDevice, labelOfRank);
+  s.sync();
+  s.clock.collect(s.ms);
+  const auto finish0 = Clock::now();
+
+  indexMixedLeaves(v);
+  v.surfaceOnly = parts[0].surfaceOnly;
+  v.closedMesh = true;
+  Statistics& st = v.stats;
+  for (const PreparedMesh& p : parts) {
+    v.closedMesh = v.closedMesh && p.closed;
+    st.triangles += p.triangles.size();
+    st.degenerateTriangles += p.degenerateTriangles;
+  }
+  v.insideTest = InsideTest::Parity;
+  computeStructureStatistics(v);
+  st.backend = "cuda";
+  st.threads = 0;
+  st.time.mapping = s.ms[kMapping];
+  st.time.branching = s.ms[kBranching];
+  st.time.leaf = s.ms[kLeaf];
+  st.time.classify = s.ms[kClassify];
+  st.peakDeviceBytes = s.memory.peak();
+  st.peakHostBytes = peakResidentBytes();
+  s.progress(1.0, "done");
+  // As the caller waits: every part, the combination and the copy back.
+  st.time.total = std::chrono::duration<double, std::milli>(Clock::now() - wall0).count();
+  if (options.log) {
+    const auto ms = [](Clock::time_point a, Clock::time_point b) {
+      return std::to_string(int(std::chrono::duration<double, std::milli>(b - a).count()));
+    };
+    options.log("CUDA labelled build: " + std::to_string(parts.size()) + " parts combined on the device: " +
+                ms(wall0, combine0) + " ms the whole mesh and the parts, " + ms(combine0, finish0) +
+                " ms the combination and the copy back (" + std::to_string(s.copyBackBytes >> 20) + " MiB in " +
+                std::to_string(int(s.copyBackMs)) + " ms), " + ms(finish0, Clock::now()) + " ms the statistics");
+  }
+  return v;
+}
+
+bool sameGrid(const GridSpec& a, const GridSpec& b) {
+  return a.resolution == b.resolution && a.rootGrid == b.rootGrid && a.leafSize == b.leafSize &&
+         a.height == b.height && a.origin == b.origin && a.voxelSize == b.voxelSize;
+}
+
+} // namespace
+
+bool buildLabelledCuda(const PreparedMesh& whole, const std::vector<PreparedMesh>& parts,
+                       const std::vector<Label>& partLabels, const LabelOptions& labels, const BuildOptions& options,
+                       Volume& out) {
+  const auto skip = [&](const std::string& why) {
+    if (options.log) options.log("CUDA labelled build: per-part builds combined on the host (" + why + ")");
+    return false;
+  };
+  if (parts.empty() || parts.size() != partLabels.size() || parts.size() > kNoRank) return skip("no parts");
+  for (const PreparedMesh& p : parts) {
+    if (p.triangles.empty()) return skip("a part has no triangles");
+    if (!p.surfaceOnly && p.insideTest == InsideTest::WindingNumber) return skip("a part uses the winding number");
+    if (p.surfaceOnly != parts[0].surfaceOnly || !sameGrid(p.grid, whole.grid)) return skip("the parts are not on one grid");
+  }
+  try {
+    out = buildLabelled(whole, parts, partLabels, labels, options);
+    return true;
+  } catch (const Mismatch& e) {
+    return skip(e.what());
+  } catch (const DeviceMemoryExhausted& e) {
+    return skip("does not fit the device in one piece: " + std::to_string(e.neededBytes() >> 20) + " MiB more");
+  }
+}
+
+} // namespace hdt
