@@ -88,10 +88,32 @@ struct WindingTriangle {
   double secondMoment; // integral of |x - centroid|^2 over the triangle: area * sum |v - centroid|^2 / 12
 };
 
+// An edge of the mesh's boundary 1-chain: the triangles' directed edges,
+// identified by their exact lattice corners, with opposite directions
+// cancelling and equal ones adding; only edges with a nonzero net count
+// (weight = |count|) remain. A closed, consistently oriented mesh has none.
+struct WindingEdge {
+  double a[3], b[3];
+  double weight; // |net count|
+  double length;
+  double lo[3], hi[3];
+};
+
+// Consecutive boundary edges (in a spatial order) bounded together.
+struct WindingEdgeGroup {
+  double lo[3], hi[3];   // bounding box of the edges
+  double weightedLength; // sum weight * length
+  double weight;         // sum weight
+  uint32_t first, count; // edges [first, first + count)
+};
+
 struct WindingTreeView {
   const WindingNode* nodes;
   const WindingTriangle* triangles;
   uint32_t triangleCount;
+  const WindingEdge* edges = nullptr;
+  const WindingEdgeGroup* edgeGroups = nullptr;
+  uint32_t edgeGroupCount = 0;
 };
 
 constexpr int kWindingStack = 96; // > 2 * tree depth (depth <= 40 for 2^32 triangles in leaves of 8)
@@ -272,7 +294,12 @@ struct WindingOpenHeap {
   }
 };
 
-HDT_HD WindingSum windingSumOverBox(const WindingTreeView& t, const double* lo, const double* hi, int maxOpen) {
+// `slack` (steradians) is added to the error while deciding whether to
+// refine further (not to the returned error): a point query that must stay
+// clear of 2 pi by slack more, because its value is carried to other
+// points (windingGradientBound).
+HDT_HD WindingSum windingSumOverBox(const WindingTreeView& t, const double* lo, const double* hi, int maxOpen,
+                                    double slack = 0) {
   double c[3], rho2 = 0;
   for (int a = 0; a < 3; ++a) {
     c[a] = 0.5 * (lo[a] + hi[a]);
@@ -320,11 +347,12 @@ HDT_HD WindingSum windingSumOverBox(const WindingTreeView& t, const double* lo, 
     auto totals = [&] {
       return WindingSum{exact + heap.sumTotal, exactError + (heap.errorTotal > 0 ? heap.errorTotal : 0.0), true};
     };
+    auto slacked = [&](const WindingSum& w) { return WindingSum{w.sum, w.error + slack, w.ok}; };
     WindingSum s = totals();
-    if (windingVerdict(s, t.triangleCount) != kWindingUnsure || heap.count == 0) {
+    if (windingVerdict(slacked(s), t.triangleCount) != kWindingUnsure || heap.count == 0) {
       heap.resum();
       s = totals();
-      if (windingVerdict(s, t.triangleCount) != kWindingUnsure || heap.count == 0) return s;
+      if (windingVerdict(slacked(s), t.triangleCount) != kWindingUnsure || heap.count == 0) return s;
     }
     // Over a box, the variation of the triangles summed exactly only grows as
     // nodes are opened: once it alone reaches 1/2, give up (split the box).
@@ -353,6 +381,130 @@ HDT_HD bool windingInsideAt(const WindingTreeView& t, double px, double py, doub
   const int v = windingVerdict(windingSumOverBox(t, p, p, 1 << 30), t.triangleCount);
   if (v != kWindingUnsure) return v == kWindingInside;
   return windingSumAll(t, px, py, pz) >= 2.0 * kWindingPi;
+}
+
+// ---- carrying a certified value across space that holds no triangle --------
+//
+// Off the mesh S, each triangle's solid angle is smooth and its gradient is
+// the Biot-Savart field of the triangle's boundary loop (unit current): grad
+// Omega(x) = -(loop integral of dl x (x - y) / |x - y|^3), up to sign. The
+// triangles' loops add up to the boundary 1-chain (WindingEdge): an interior
+// edge met in both directions cancels exactly (same segment, opposite dl),
+// one met twice in the same direction counts twice. For one straight segment
+// at distance d from x (d_perp: to its line, foot at t = 0, the segment from
+// t1 to t2), the field is |int_t1^t2 d_perp dt / (t^2 + d_perp^2)^(3/2)|
+// <= min(len / d^2, 2 / d): the integrand is at most 1 / d^2, and the
+// integral is at most 2 / d_perp = 2 / d when the foot lies on the segment,
+// at most (1 - t1 / d) / d_perp = d_perp / (d (d + t1)) <= 1 / d when not.
+// So |grad Omega| <= sum_e weight_e min(len_e / d_e^2, 2 / d_e) at x, and for
+// two points joined by a path inside a box that meets no triangle,
+// |Omega(q) - Omega(p)| <= path length * that sum with d_e the distance from
+// the box to edge e. On a closed, consistently oriented mesh there is no
+// edge: w is constant on every connected piece of space off the mesh.
+
+// The bound on |grad Omega| (steradians per voxel) over the box [lo, hi]:
+// INFINITY when a boundary edge meets the box. A group of edges is bounded
+// as one (its box's distance) unless its edges one by one say less.
+HDT_HD double windingEdgeBound(double weightedLength, double weight, double d) {
+  const double byLength = weightedLength / (d * d), byDistance = 2.0 * weight / d;
+  return byLength < byDistance ? byLength : byDistance;
+}
+
+HDT_HD double windingGradientBound(const WindingTreeView& t, const double* lo, const double* hi) {
+  double total = 0;
+  for (uint32_t g = 0; g < t.edgeGroupCount; ++g) {
+    const WindingEdgeGroup& group = t.edgeGroups[g];
+    const double dg = windingBoxDistance(group.lo, group.hi, lo, hi);
+    const double asGroup = dg > 0 ? windingEdgeBound(group.weightedLength, group.weight, dg) : INFINITY;
+    double oneByOne = 0;
+    for (uint32_t i = group.first; i < group.first + group.count && oneByOne < asGroup; ++i) {
+      const WindingEdge& e = t.edges[i];
+      const double d = windingBoxDistance(e.lo, e.hi, lo, hi); // <= the distance to the segment
+      if (!(d > 0)) return INFINITY;
+      oneByOne = oneByOne + windingEdgeBound(e.weight * e.length, e.weight, d);
+    }
+    total = total + (oneByOne < asGroup ? oneByOne : asGroup);
+  }
+  return total;
+}
+
+// Openings a point query may spend to seed a region before the region falls
+// back to the per-voxel decision.
+constexpr int kWindingSeedOpenings = 4096;
+
+// The verdict for every point within `reach` (path length, voxels) of point p
+// inside a region whose gradient bound is `gradient`: inside / outside when
+// the certified sum at p stays clear of 2 pi by reach * gradient more, else
+// unsure. `s` is p's sum (windingSumOverBox at p).
+HDT_HD int windingCarriedVerdict(const WindingSum& s, double reach, double gradient, uint32_t n) {
+  if (!s.ok || !(reach * gradient < INFINITY)) return kWindingUnsure;
+  return windingVerdict(WindingSum{s.sum, s.error + reach * gradient, true}, n);
+}
+
+// ---- leaves: face-connected pieces of non-surface voxels --------------------
+//
+// The closed box of a non-surface voxel meets no triangle (the surface rule,
+// touching counts), so the segment between the centres of two face-adjacent
+// non-surface voxels, which lies in the union of their closed boxes, meets
+// none either. A breadth-first search from a seed voxel over face-adjacent
+// non-surface voxels of a leaf gives each voxel a path of that many unit
+// segments, inside the bounding box of the piece's voxel boxes.
+
+// Labels the pieces of one leaf of edge L (at most 32): label[v] = piece
+// (0xFFFF for surface voxels), steps[v] = path length from the piece's seed
+// (its lowest voxel index), queue: L^3 scratch. Writes each piece's seed,
+// voxel box [lo, hi) (leaf coordinates) and largest step count; returns the
+// number of pieces (at most maxPieces; -1 when there are more).
+struct WindingPiece {
+  uint32_t seed;
+  int lo[3], hi[3];
+  int reach;
+};
+
+template <class IsSurface>
+HDT_HD int windingLeafPieces(int L, IsSurface&& isSurface, uint16_t* label, uint16_t* steps, uint16_t* queue,
+                             WindingPiece* pieces, int maxPieces) {
+  const uint32_t n = uint32_t(L) * uint32_t(L) * uint32_t(L);
+  for (uint32_t v = 0; v < n; ++v) label[v] = isSurface(v) ? uint16_t(0xFFFF) : uint16_t(0xFFFE);
+  int count = 0;
+  for (uint32_t seed = 0; seed < n; ++seed) {
+    if (label[seed] != 0xFFFE) continue;
+    if (count == maxPieces) return -1;
+    WindingPiece& p = pieces[count];
+    p.seed = seed;
+    p.reach = 0;
+    for (int a = 0; a < 3; ++a) {
+      p.lo[a] = L;
+      p.hi[a] = 0;
+    }
+    uint32_t head = 0, tail = 0;
+    label[seed] = uint16_t(count);
+    steps[seed] = 0;
+    queue[tail++] = uint16_t(seed);
+    while (head < tail) {
+      const uint32_t v = queue[head++];
+      const int c[3] = {int(v % uint32_t(L)), int((v / uint32_t(L)) % uint32_t(L)), int(v / (uint32_t(L) * uint32_t(L)))};
+      for (int a = 0; a < 3; ++a) {
+        if (c[a] < p.lo[a]) p.lo[a] = c[a];
+        if (c[a] + 1 > p.hi[a]) p.hi[a] = c[a] + 1;
+      }
+      if (steps[v] > p.reach) p.reach = steps[v];
+      const uint32_t stride[3] = {1u, uint32_t(L), uint32_t(L) * uint32_t(L)};
+      for (int a = 0; a < 3; ++a) {
+        for (int side = -1; side <= 1; side += 2) {
+          const int to = c[a] + side;
+          if (to < 0 || to >= L) continue;
+          const uint32_t u = side < 0 ? v - stride[a] : v + stride[a];
+          if (label[u] != 0xFFFE) continue;
+          label[u] = uint16_t(count);
+          steps[u] = uint16_t(steps[v] + 1);
+          queue[tail++] = uint16_t(u);
+        }
+      }
+    }
+    ++count;
+  }
+  return count;
 }
 
 // A box query that needs more openings than this is split instead.
