@@ -327,37 +327,21 @@ void classifyLeaf(const WindingTreeView& t, uint32_t* words, int L, const std::a
   const int count = windingLeafPieces(
       L, [&](uint32_t v) { return view.voxel(int(v % uint32_t(L)), int((v / uint32_t(L)) % uint32_t(L)), int(v / uint32_t(L * L))) == VoxelState::Surface; },
       label.data(), steps.data(), queue.data(), pieces.data(), int(pieces.size()));
-  std::vector<uint8_t> decided(n, 0);
-  bool allDecided = true;
+  std::vector<uint8_t> decided(n, 0); // 0 open, 1 decided, 2 per-voxel decision
+  std::vector<uint32_t> visit(n, 0);
+  uint32_t stamp = 0;
   for (int k = 0; k < count; ++k) {
-    const WindingPiece& piece = pieces[size_t(k)];
-    double lo[3], hi[3], seed[3];
-    const int sc[3] = {int(piece.seed % uint32_t(L)), int((piece.seed / uint32_t(L)) % uint32_t(L)),
-                       int(piece.seed / uint32_t(L * L))};
-    for (int a = 0; a < 3; ++a) {
-      lo[a] = origin[size_t(a)] + piece.lo[a];
-      hi[a] = origin[size_t(a)] + piece.hi[a];
-      seed[a] = origin[size_t(a)] + sc[a] + 0.5;
-    }
-    const double gradient = windingGradientBound(t, lo, hi);
-    const double slack = piece.reach * gradient;
-    int whole = kWindingUnsure;
-    WindingSum s{0, 0, false};
-    if (slack < kWindingPi) {
-      s = windingSumOverBox(t, seed, seed, kWindingSeedOpenings, slack);
-      whole = windingCarriedVerdict(s, piece.reach, gradient, t.triangleCount);
-    }
-    for (size_t v = 0; v < n; ++v) {
-      if (label[v] != uint16_t(k)) continue;
-      const int verdict = whole != kWindingUnsure ? whole : windingCarriedVerdict(s, steps[v], gradient, t.triangleCount);
-      if (verdict == kWindingUnsure) {
-        allDecided = false;
-        continue;
-      }
-      decided[v] = 1;
-      if (verdict == kWindingInside) words[v / kVoxelsPerWord] |= 1u << (2 * (v % kVoxelsPerWord));
-    }
+    windingCarryPiece(t, L, origin.data(), pieces[size_t(k)], k, label.data(), steps.data(), queue.data(), visit.data(),
+                      &stamp, decided.data(), [&](uint32_t v, bool inside) {
+                        if (inside) words[v / kVoxelsPerWord] |= 1u << (2 * (v % kVoxelsPerWord));
+                      });
   }
+  bool allDecided = true;
+  for (size_t v = 0; v < n; ++v)
+    if (label[v] != 0xFFFF && decided[v] != 1) {
+      allDecided = false;
+      decided[v] = 0;
+    }
   if (count < 0) std::fill(decided.begin(), decided.end(), uint8_t(0));
   if (count < 0 || !allDecided) decideLeafVoxels(t, words, L, origin, decided);
 }
@@ -369,24 +353,9 @@ struct UniformVerdict {
   bool split = false;
 };
 
-// One certified sum at the element's centre carried to every voxel centre
-// (straight segments inside the element, which meets no triangle); when that
-// leaves it unsure, the per-voxel decision.
+// Decided box by box (windingDecideBox): each box first tries one certified
+// sum at its centre carried to its voxel centres (windingCarriedBoxVerdict).
 UniformVerdict classifyUniform(const WindingTreeView& t, const std::array<int, 3>& origin, int edge) {
-  double lo[3], hi[3], centre[3];
-  for (int a = 0; a < 3; ++a) {
-    lo[a] = origin[size_t(a)];
-    hi[a] = origin[size_t(a)] + edge;
-    centre[a] = origin[size_t(a)] + 0.5 * edge;
-  }
-  const double half = 0.5 * (edge - 1); // centre to the farthest voxel centre, per axis
-  const double reach = std::sqrt(3.0 * half * half) * (1 + 1e-12);
-  const double gradient = windingGradientBound(t, lo, hi);
-  if (reach * gradient < kWindingPi) {
-    const WindingSum s = windingSumOverBox(t, centre, centre, kWindingSeedOpenings, reach * gradient);
-    const int v = windingCarriedVerdict(s, reach, gradient, t.triangleCount);
-    if (v != kWindingUnsure) return {v == kWindingInside, false};
-  }
   VoxelBox box;
   for (int a = 0; a < 3; ++a) {
     box.lo[a] = origin[size_t(a)];
