@@ -267,6 +267,119 @@ TEST(WindingBounds, RandomClustersHoldTheExactSum) {
   EXPECT_GT(c.checks, 10000);
 }
 
+// ---- the gradient bound: the boundary edges' Biot-Savart field ----------------------
+
+// Pairs of points on short arcs around the middle of edge y = 0 of a large
+// right triangle in the plane z = 0 (the side y < 0, off the triangle): the
+// solid angle changes there at the rate 2 / rho of a long straight current,
+// which the bound over the pair's box reaches within about 1 / 0.9. `copies`
+// triangles are summed (a duplicated triangle doubles the edge's weight).
+struct GradientCheck {
+  double worstRatio = 0;
+  int violations = 0, checks = 0;
+  std::string first;
+};
+
+GradientCheck checkGradientAroundEdge(const Tris& tris) {
+  const WindingTree tree = buildWindingTree(tris);
+  const WindingTreeView t = tree.view();
+  GradientCheck c;
+  for (double rho = 0.6; rho < 12; rho *= 1.3) {
+    for (double phi = -1.5; phi <= 1.5; phi += 0.25) {
+      const double h = 0.05 * rho; // arc step
+      const double p[3] = {20.3, -rho * std::cos(phi), rho * std::sin(phi)};
+      const double q[3] = {20.3, p[1] + h * std::sin(phi), p[2] + h * std::cos(phi)};
+      if (q[1] >= 0) continue; // stay off the triangle
+      double lo[3], hi[3], len2 = 0;
+      for (int a = 0; a < 3; ++a) {
+        lo[a] = std::min(p[a], q[a]);
+        hi[a] = std::max(p[a], q[a]);
+        len2 += (q[a] - p[a]) * (q[a] - p[a]);
+      }
+      const double allowed = std::sqrt(len2) * windingGradientBound(t, lo, hi);
+      const long double change = fabsl(sumL(tris, q) - sumL(tris, p));
+      ++c.checks;
+      if (allowed > 0) c.worstRatio = std::max(c.worstRatio, double(change / allowed));
+      if (change > (long double)allowed * 1.0000001L + 1e-15L && c.violations++ == 0) {
+        c.first = "rho " + std::to_string(rho) + " phi " + std::to_string(phi) + ": change " +
+                  std::to_string(double(change)) + " > bound " + std::to_string(allowed);
+      }
+    }
+  }
+  return c;
+}
+
+LatticeTriangle bigTriangle(bool reversed) {
+  LatticeTriangle t = facing(2, {0, 0, 0}, 40 * 256); // (0,0,0) (40,0,0) (0,40,0), facing +z
+  if (reversed) std::swap(t.v[1], t.v[2]);
+  return t;
+}
+
+TEST(WindingGradient, BoundIsSoundAndNearlyReachedAroundAnOpenEdge) {
+  const GradientCheck c = checkGradientAroundEdge({bigTriangle(false)});
+  EXPECT_EQ(c.violations, 0) << c.first;
+  EXPECT_GT(c.worstRatio, 0.6) << "the arcs no longer come near the bound: the test lost its teeth";
+  EXPECT_GT(c.checks, 100);
+}
+
+// A duplicated triangle: each edge is met twice in the same direction and
+// counts twice (a chain that dropped repeats would give half the bound).
+TEST(WindingGradient, DuplicatedTrianglesCountTheirEdgesTwice) {
+  const WindingTree tree = buildWindingTree({bigTriangle(false), bigTriangle(false)});
+  ASSERT_EQ(tree.edges.size(), 3u);
+  for (const WindingEdge& e : tree.edges) EXPECT_EQ(e.weight, 2.0);
+  const GradientCheck c = checkGradientAroundEdge({bigTriangle(false), bigTriangle(false)});
+  EXPECT_EQ(c.violations, 0) << c.first;
+  EXPECT_GT(c.worstRatio, 0.6);
+}
+
+// Inconsistent orientation: a triangle and its reverse cancel everywhere (no
+// boundary, w = 0); two triangles that share an edge in the same direction
+// add it twice, and the bound holds around it.
+TEST(WindingGradient, InconsistentOrientation) {
+  const WindingTree cancel = buildWindingTree({bigTriangle(false), bigTriangle(true)});
+  EXPECT_TRUE(cancel.edges.empty());
+  const double lo[3] = {5, -3, 1}, hi[3] = {9, -1, 2};
+  EXPECT_EQ(windingGradientBound(cancel.view(), lo, hi), 0.0);
+  // The mirror image of the big triangle across y = 0 faces -z and runs the
+  // shared edge (0,0,0)-(40,0,0) the same way: that edge counts twice.
+  // Reversed, it faces +z like its neighbour and the shared edge cancels.
+  LatticeTriangle mirror = bigTriangle(false);
+  for (int j = 0; j < 3; ++j) mirror.v[j][1] = -mirror.v[j][1];
+  LatticeTriangle consistentMirror = mirror;
+  std::swap(consistentMirror.v[1], consistentMirror.v[2]);
+  EXPECT_EQ(buildWindingTree({bigTriangle(false), consistentMirror}).edges.size(), 4u);
+  const Tris folded = {bigTriangle(false), mirror};
+  const WindingTree doubled = buildWindingTree(folded);
+  ASSERT_EQ(doubled.edges.size(), 5u);
+  double weights = 0;
+  for (const WindingEdge& e : doubled.edges) weights += e.weight;
+  EXPECT_EQ(weights, 6.0); // four edges once, the shared one twice
+  // Around the shared edge, off both triangles (z != 0 half-space): the arcs
+  // of checkGradientAroundEdge cross y = 0 only above or below the plane.
+  const WindingTreeView t = doubled.view();
+  double worst = 0;
+  int violations = 0;
+  for (double rho = 0.6; rho < 12; rho *= 1.3) {
+    for (double phi = 0.3; phi <= 2.8; phi += 0.25) { // z > 0
+      const double h = 0.05 * rho;
+      const double p[3] = {20.3, rho * std::cos(phi), rho * std::sin(phi)};
+      const double q[3] = {20.3, p[1] - h * std::sin(phi), p[2] + h * std::cos(phi)};
+      double blo[3], bhi[3];
+      for (int a = 0; a < 3; ++a) {
+        blo[a] = std::min(p[a], q[a]);
+        bhi[a] = std::max(p[a], q[a]);
+      }
+      const double allowed = h * windingGradientBound(t, blo, bhi);
+      const long double change = fabsl(sumL(folded, q) - sumL(folded, p));
+      worst = std::max(worst, double(change / allowed));
+      violations += change > (long double)allowed * 1.0000001L + 1e-15L;
+    }
+  }
+  EXPECT_EQ(violations, 0);
+  EXPECT_GT(worst, 0.6) << "the shared edge no longer dominates: the test lost its teeth";
+}
+
 // ---- next to w = 1/2 ---------------------------------------------------------------
 
 // A hemisphere in the unit-voxel frame of an N^3 grid (voxel centres at

@@ -143,7 +143,95 @@ WindingTree buildWindingTree(const std::vector<LatticeTriangle>& triangles) {
   b.fill(0, 0, uint32_t(triangles.size()));
   tree.triangles.resize(triangles.size());
   for (size_t i = 0; i < triangles.size(); ++i) tree.triangles[i] = windingTriangle(triangles[b.order[i]]);
+  buildWindingEdges(triangles, tree);
   return tree;
+}
+
+namespace {
+
+// Interleaves the low 21 bits of x, y, z (x lowest).
+uint64_t mortonKey(uint64_t x, uint64_t y, uint64_t z) {
+  uint64_t key = 0;
+  for (int b = 0; b < 21; ++b)
+    key |= (((x >> b) & 1) << (3 * b)) | (((y >> b) & 1) << (3 * b + 1)) | (((z >> b) & 1) << (3 * b + 2));
+  return key;
+}
+
+} // namespace
+
+void buildWindingEdges(const std::vector<LatticeTriangle>& triangles, WindingTree& tree) {
+  using Corner = std::array<int32_t, 3>;
+  struct Directed {
+    Corner lo, hi; // the corners in lexicographic order
+    int sign;      // +1: the triangle runs lo -> hi
+  };
+  std::vector<Directed> all;
+  all.reserve(3 * triangles.size());
+  for (const LatticeTriangle& t : triangles) {
+    for (int j = 0; j < 3; ++j) {
+      const Corner from{t.v[j][0], t.v[j][1], t.v[j][2]};
+      const Corner to{t.v[(j + 1) % 3][0], t.v[(j + 1) % 3][1], t.v[(j + 1) % 3][2]};
+      all.push_back(from < to ? Directed{from, to, 1} : Directed{to, from, -1});
+    }
+  }
+  std::sort(all.begin(), all.end(),
+            [](const Directed& x, const Directed& y) { return x.lo != y.lo ? x.lo < y.lo : x.hi < y.hi; });
+  struct Keyed {
+    uint64_t key;
+    Corner lo, hi;
+    int count;
+  };
+  std::vector<Keyed> open;
+  for (size_t i = 0; i < all.size();) {
+    size_t j = i;
+    int net = 0;
+    for (; j < all.size() && all[j].lo == all[i].lo && all[j].hi == all[i].hi; ++j) net += all[j].sign;
+    if (net != 0) {
+      // Midpoint key in whole voxels (lattice coordinates are non-negative).
+      const auto mid = [&](int a) { return uint64_t((int64_t(all[i].lo[size_t(a)]) + all[i].hi[size_t(a)]) / 512); };
+      open.push_back({mortonKey(mid(0), mid(1), mid(2)), all[i].lo, all[i].hi, net});
+    }
+    i = j;
+  }
+  std::sort(open.begin(), open.end(), [](const Keyed& x, const Keyed& y) {
+    if (x.key != y.key) return x.key < y.key;
+    return x.lo != y.lo ? x.lo < y.lo : x.hi < y.hi;
+  });
+  tree.edges.clear();
+  tree.edgeGroups.clear();
+  for (const Keyed& k : open) {
+    WindingEdge e;
+    for (int a = 0; a < 3; ++a) {
+      e.a[a] = double(k.lo[size_t(a)]) / double(kLatticePerVoxel);
+      e.b[a] = double(k.hi[size_t(a)]) / double(kLatticePerVoxel);
+      e.lo[a] = std::min(e.a[a], e.b[a]);
+      e.hi[a] = std::max(e.a[a], e.b[a]);
+    }
+    e.weight = double(std::abs(k.count));
+    const double dx = e.b[0] - e.a[0], dy = e.b[1] - e.a[1], dz = e.b[2] - e.a[2];
+    e.length = std::sqrt(dx * dx + dy * dy + dz * dz) * (1 + 1e-12); // covers the root's rounding
+    tree.edges.push_back(e);
+  }
+  for (uint32_t first = 0; first < tree.edges.size(); first += kWindingEdgeGroup) {
+    WindingEdgeGroup g{};
+    g.first = first;
+    g.count = std::min<uint32_t>(kWindingEdgeGroup, uint32_t(tree.edges.size()) - first);
+    for (int a = 0; a < 3; ++a) {
+      g.lo[a] = INFINITY;
+      g.hi[a] = -INFINITY;
+    }
+    for (uint32_t i = first; i < first + g.count; ++i) {
+      const WindingEdge& e = tree.edges[i];
+      for (int a = 0; a < 3; ++a) {
+        g.lo[a] = std::min(g.lo[a], e.lo[a]);
+        g.hi[a] = std::max(g.hi[a], e.hi[a]);
+      }
+      g.weightedLength += e.weight * e.length;
+      g.weight += e.weight;
+    }
+    g.weightedLength *= 1 + 1e-12; // the sum's rounding
+    tree.edgeGroups.push_back(g);
+  }
 }
 
 InsideTest resolveInsideTest(InsideTest requested, bool closedMesh) {
@@ -191,8 +279,10 @@ bool hasSurfaceVoxel(const LeafView& view, const VoxelBox& b) {
   return false;
 }
 
-void classifyLeaf(const WindingTreeView& t, uint32_t* words, int L, const std::array<int, 3>& origin) {
-  for (uint32_t i = 0; i < leafWordCount(L); ++i) words[i] &= kSurfacePlaneBits;
+// The per-voxel decision (windingDecideBox) of the non-surface voxels of a
+// leaf that `decided` does not mark (all of them when decided is empty).
+void decideLeafVoxels(const WindingTreeView& t, uint32_t* words, int L, const std::array<int, 3>& origin,
+                      const std::vector<uint8_t>& decided) {
   const LeafView view{words, L};
   VoxelBox box;
   for (int a = 0; a < 3; ++a) {
@@ -207,15 +297,53 @@ void classifyLeaf(const WindingTreeView& t, uint32_t* words, int L, const std::a
     }
     return l;
   };
+  auto settled = [&](int x, int y, int z) {
+    return view.voxel(x, y, z) == VoxelState::Surface || (!decided.empty() && decided[size_t(x + L * (y + L * z))]);
+  };
   windingDecideBox(
       t, box,
-      [&](const VoxelBox& b) {
-        if (!b.single()) return false;
+      [&](const VoxelBox& b) { // nothing left to decide in b
         const VoxelBox l = local(b);
-        return view.voxel(l.lo[0], l.lo[1], l.lo[2]) == VoxelState::Surface;
+        for (int z = l.lo[2]; z < l.hi[2]; ++z)
+          for (int y = l.lo[1]; y < l.hi[1]; ++y)
+            for (int x = l.lo[0]; x < l.hi[0]; ++x)
+              if (!settled(x, y, z)) return false;
+        return true;
       },
       [&](const VoxelBox& b) { return hasSurfaceVoxel(view, local(b)); },
       [&](const VoxelBox& b, bool inside) { settleLeafBox(words, L, local(b), inside); }, [] { return false; });
+}
+
+// One leaf: each face-connected piece of its non-surface voxels is decided
+// from one certified sum at its seed carried along the pieces' paths
+// (windingGradientBound over the piece's box); the voxels it leaves unsure
+// take the per-voxel decision.
+void classifyLeaf(const WindingTreeView& t, uint32_t* words, int L, const std::array<int, 3>& origin) {
+  for (uint32_t i = 0; i < leafWordCount(L); ++i) words[i] &= kSurfacePlaneBits;
+  const LeafView view{words, L};
+  const size_t n = size_t(L) * size_t(L) * size_t(L);
+  std::vector<uint16_t> label(n), steps(n), queue(n);
+  std::vector<WindingPiece> pieces(n / 2 + 1);
+  const int count = windingLeafPieces(
+      L, [&](uint32_t v) { return view.voxel(int(v % uint32_t(L)), int((v / uint32_t(L)) % uint32_t(L)), int(v / uint32_t(L * L))) == VoxelState::Surface; },
+      label.data(), steps.data(), queue.data(), pieces.data(), int(pieces.size()));
+  std::vector<uint8_t> decided(n, 0); // 0 open, 1 decided, 2 per-voxel decision
+  std::vector<uint32_t> visit(n, 0);
+  uint32_t stamp = 0;
+  for (int k = 0; k < count; ++k) {
+    windingCarryPiece(t, L, origin.data(), pieces[size_t(k)], k, label.data(), steps.data(), queue.data(), visit.data(),
+                      &stamp, decided.data(), [&](uint32_t v, bool inside) {
+                        if (inside) words[v / kVoxelsPerWord] |= 1u << (2 * (v % kVoxelsPerWord));
+                      });
+  }
+  bool allDecided = true;
+  for (size_t v = 0; v < n; ++v)
+    if (label[v] != 0xFFFF && decided[v] != 1) {
+      allDecided = false;
+      decided[v] = 0;
+    }
+  if (count < 0) std::fill(decided.begin(), decided.end(), uint8_t(0));
+  if (count < 0 || !allDecided) decideLeafVoxels(t, words, L, origin, decided);
 }
 
 // A uniform element's verdict: inside, or split when its voxel centres lie
@@ -225,6 +353,8 @@ struct UniformVerdict {
   bool split = false;
 };
 
+// Decided box by box (windingDecideBox): each box first tries one certified
+// sum at its centre carried to its voxel centres (windingCarriedBoxVerdict).
 UniformVerdict classifyUniform(const WindingTreeView& t, const std::array<int, 3>& origin, int edge) {
   VoxelBox box;
   for (int a = 0; a < 3; ++a) {

@@ -53,6 +53,19 @@ TriangleMesh openCube() {
   return withoutTriangles(box({-1, -1, -1}, {1, 1, 1}), [](double, double, double z) { return z > 0.5; });
 }
 
+// The open cube with its +x face turned inward: the face's edges shared
+// with its neighbours run the same way as theirs (the boundary 1-chain
+// counts them twice), and w there is neither 0 nor 1.
+TriangleMesh openCubeOneFaceFlipped() {
+  TriangleMesh m = openCube();
+  for (size_t t = 0; t < m.triangleCount(); ++t) {
+    bool plusX = true;
+    for (int j = 0; j < 3; ++j) plusX = plusX && m.points[3 * m.triangles[3 * t + j]] > 0.5;
+    if (plusX) std::swap(m.triangles[3 * t + 1], m.triangles[3 * t + 2]);
+  }
+  return m;
+}
+
 } // namespace
 
 std::vector<WindingShape> windingShapes() {
@@ -83,6 +96,7 @@ std::vector<WindingShape> windingShapes() {
   TriangleMesh degenerate = openCube();
   degenerate.triangles.insert(degenerate.triangles.end(), {0, 0, 1, 2, 2, 2, 0, 1, 0});
   out.push_back({"open_cube_zero_area", degenerate});
+  out.push_back({"open_cube_one_face_flipped", openCubeOneFaceFlipped()});
   return out;
 }
 

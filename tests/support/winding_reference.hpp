@@ -26,7 +26,8 @@ struct WindingShape {
 // Cube without its +z face, sphere with a cut cap, two overlapping closed
 // spheres, nested shells (inner one inward: a cavity), a self-intersecting
 // folded sphere, an open cube with every triangle doubled, a closed sphere
-// with some triangles doubled, an open cube with zero-area triangles.
+// with some triangles doubled, an open cube with zero-area triangles, an
+// open cube with one face turned inward (inconsistent orientation).
 std::vector<WindingShape> windingShapes();
 
 // Every voxel of the volume against the reference: surface voxels must match

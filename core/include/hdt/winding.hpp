@@ -88,10 +88,32 @@ struct WindingTriangle {
   double secondMoment; // integral of |x - centroid|^2 over the triangle: area * sum |v - centroid|^2 / 12
 };
 
+// An edge of the mesh's boundary 1-chain: the triangles' directed edges,
+// identified by their exact lattice corners, with opposite directions
+// cancelling and equal ones adding; only edges with a nonzero net count
+// (weight = |count|) remain. A closed, consistently oriented mesh has none.
+struct WindingEdge {
+  double a[3], b[3];
+  double weight; // |net count|
+  double length;
+  double lo[3], hi[3];
+};
+
+// Consecutive boundary edges (in a spatial order) bounded together.
+struct WindingEdgeGroup {
+  double lo[3], hi[3];   // bounding box of the edges
+  double weightedLength; // sum weight * length
+  double weight;         // sum weight
+  uint32_t first, count; // edges [first, first + count)
+};
+
 struct WindingTreeView {
   const WindingNode* nodes;
   const WindingTriangle* triangles;
   uint32_t triangleCount;
+  const WindingEdge* edges = nullptr;
+  const WindingEdgeGroup* edgeGroups = nullptr;
+  uint32_t edgeGroupCount = 0;
 };
 
 constexpr int kWindingStack = 96; // > 2 * tree depth (depth <= 40 for 2^32 triangles in leaves of 8)
@@ -272,7 +294,12 @@ struct WindingOpenHeap {
   }
 };
 
-HDT_HD WindingSum windingSumOverBox(const WindingTreeView& t, const double* lo, const double* hi, int maxOpen) {
+// `slack` (steradians) is added to the error while deciding whether to
+// refine further (not to the returned error): a point query that must stay
+// clear of 2 pi by slack more, because its value is carried to other
+// points (windingGradientBound).
+HDT_HD WindingSum windingSumOverBox(const WindingTreeView& t, const double* lo, const double* hi, int maxOpen,
+                                    double slack = 0) {
   double c[3], rho2 = 0;
   for (int a = 0; a < 3; ++a) {
     c[a] = 0.5 * (lo[a] + hi[a]);
@@ -320,11 +347,12 @@ HDT_HD WindingSum windingSumOverBox(const WindingTreeView& t, const double* lo, 
     auto totals = [&] {
       return WindingSum{exact + heap.sumTotal, exactError + (heap.errorTotal > 0 ? heap.errorTotal : 0.0), true};
     };
+    auto slacked = [&](const WindingSum& w) { return WindingSum{w.sum, w.error + slack, w.ok}; };
     WindingSum s = totals();
-    if (windingVerdict(s, t.triangleCount) != kWindingUnsure || heap.count == 0) {
+    if (windingVerdict(slacked(s), t.triangleCount) != kWindingUnsure || heap.count == 0) {
       heap.resum();
       s = totals();
-      if (windingVerdict(s, t.triangleCount) != kWindingUnsure || heap.count == 0) return s;
+      if (windingVerdict(slacked(s), t.triangleCount) != kWindingUnsure || heap.count == 0) return s;
     }
     // Over a box, the variation of the triangles summed exactly only grows as
     // nodes are opened: once it alone reaches 1/2, give up (split the box).
@@ -353,6 +381,275 @@ HDT_HD bool windingInsideAt(const WindingTreeView& t, double px, double py, doub
   const int v = windingVerdict(windingSumOverBox(t, p, p, 1 << 30), t.triangleCount);
   if (v != kWindingUnsure) return v == kWindingInside;
   return windingSumAll(t, px, py, pz) >= 2.0 * kWindingPi;
+}
+
+// ---- carrying a certified value across space that holds no triangle --------
+//
+// Off the mesh S, each triangle's solid angle is smooth and its gradient is
+// the Biot-Savart field of the triangle's boundary loop (unit current): grad
+// Omega(x) = -(loop integral of dl x (x - y) / |x - y|^3), up to sign. The
+// triangles' loops add up to the boundary 1-chain (WindingEdge): an interior
+// edge met in both directions cancels exactly (same segment, opposite dl),
+// one met twice in the same direction counts twice. For one straight segment
+// at distance d from x (d_perp: to its line, foot at t = 0, the segment from
+// t1 to t2), the field is |int_t1^t2 d_perp dt / (t^2 + d_perp^2)^(3/2)|
+// <= min(len / d^2, 2 / d): the integrand is at most 1 / d^2, and the
+// integral is at most 2 / d_perp = 2 / d when the foot lies on the segment,
+// at most (1 - t1 / d) / d_perp = d_perp / (d (d + t1)) <= 1 / d when not.
+// So |grad Omega| <= sum_e weight_e min(len_e / d_e^2, 2 / d_e) at x, and for
+// two points joined by a path inside a box that meets no triangle,
+// |Omega(q) - Omega(p)| <= path length * that sum with d_e the distance from
+// the box to edge e. On a closed, consistently oriented mesh there is no
+// edge: w is constant on every connected piece of space off the mesh.
+
+// The bound on |grad Omega| (steradians per voxel) over the box [lo, hi]:
+// INFINITY when a boundary edge meets the box. A group of edges is bounded
+// as one (its box's distance) unless its edges one by one say less.
+HDT_HD double windingEdgeBound(double weightedLength, double weight, double d) {
+  const double byLength = weightedLength / (d * d), byDistance = 2.0 * weight / d;
+  return byLength < byDistance ? byLength : byDistance;
+}
+
+// A lower bound on the distance from the box [lo, hi] (centre c, half
+// diagonal rho) to edge e: its bounding box's distance, or the centre's
+// distance to the segment less rho (1e-6 voxels below it: the rounding of a
+// few operations on coordinates below 2^17).
+HDT_HD double windingEdgeDistance(const WindingEdge& e, const double* lo, const double* hi, const double* c, double rho) {
+  const double boxes = windingBoxDistance(e.lo, e.hi, lo, hi);
+  double ab[3], ac[3], abab = 0, acab = 0;
+  for (int a = 0; a < 3; ++a) {
+    ab[a] = e.b[a] - e.a[a];
+    ac[a] = c[a] - e.a[a];
+    abab = abab + ab[a] * ab[a];
+    acab = acab + ac[a] * ab[a];
+  }
+  const double f = abab > 0 ? (acab <= 0 ? 0.0 : (acab >= abab ? 1.0 : acab / abab)) : 0.0;
+  double s = 0;
+  for (int a = 0; a < 3; ++a) {
+    const double g = ac[a] - f * ab[a];
+    s = s + g * g;
+  }
+  const double segment = sqrt(s) - rho - 1e-6;
+  return segment > boxes ? segment : boxes;
+}
+
+HDT_HD double windingGradientBound(const WindingTreeView& t, const double* lo, const double* hi) {
+  double total = 0, c[3], rho2 = 0;
+  for (int a = 0; a < 3; ++a) {
+    c[a] = 0.5 * (lo[a] + hi[a]);
+    rho2 = rho2 + 0.25 * (hi[a] - lo[a]) * (hi[a] - lo[a]);
+  }
+  const double rho = sqrt(rho2) * (1 + 1e-12);
+  for (uint32_t g = 0; g < t.edgeGroupCount; ++g) {
+    const WindingEdgeGroup& group = t.edgeGroups[g];
+    const double dg = windingBoxDistance(group.lo, group.hi, lo, hi);
+    const double asGroup = dg > 0 ? windingEdgeBound(group.weightedLength, group.weight, dg) : INFINITY;
+    double oneByOne = 0;
+    for (uint32_t i = group.first; i < group.first + group.count && oneByOne < asGroup; ++i) {
+      const WindingEdge& e = t.edges[i];
+      const double d = windingEdgeDistance(e, lo, hi, c, rho); // <= the distance to the segment
+      if (!(d > 0)) return INFINITY;
+      oneByOne = oneByOne + windingEdgeBound(e.weight * e.length, e.weight, d);
+    }
+    total = total + (oneByOne < asGroup ? oneByOne : asGroup);
+  }
+  return total;
+}
+
+// Openings a point query may spend to seed a region before the region falls
+// back to the per-voxel decision.
+constexpr int kWindingSeedOpenings = 4096;
+
+// The verdict for every point within `reach` (path length, voxels) of point p
+// inside a region whose gradient bound is `gradient`: inside / outside when
+// the certified sum at p stays clear of 2 pi by reach * gradient more, else
+// unsure. `s` is p's sum (windingSumOverBox at p).
+HDT_HD int windingCarriedVerdict(const WindingSum& s, double reach, double gradient, uint32_t n) {
+  if (!s.ok || !(reach * gradient < INFINITY)) return kWindingUnsure;
+  return windingVerdict(WindingSum{s.sum, s.error + reach * gradient, true}, n);
+}
+
+// ---- leaves: face-connected pieces of non-surface voxels --------------------
+//
+// The closed box of a non-surface voxel meets no triangle (the surface rule,
+// touching counts), so the segment between the centres of two face-adjacent
+// non-surface voxels, which lies in the union of their closed boxes, meets
+// none either. A breadth-first search from a seed voxel over face-adjacent
+// non-surface voxels of a leaf gives each voxel a path of that many unit
+// segments, inside the bounding box of the piece's voxel boxes.
+
+// Labels the pieces of one leaf of edge L (at most 32): label[v] = piece
+// (0xFFFF for surface voxels), steps[v] = path length from the piece's seed
+// (its lowest voxel index), queue: L^3 scratch. Writes each piece's seed,
+// voxel box [lo, hi) (leaf coordinates) and largest step count; returns the
+// number of pieces (at most maxPieces; -1 when there are more).
+struct WindingPiece {
+  uint32_t seed;
+  int lo[3], hi[3];
+  int reach;
+};
+
+template <class IsSurface>
+HDT_HD int windingLeafPieces(int L, IsSurface&& isSurface, uint16_t* label, uint16_t* steps, uint16_t* queue,
+                             WindingPiece* pieces, int maxPieces) {
+  const uint32_t n = uint32_t(L) * uint32_t(L) * uint32_t(L);
+  for (uint32_t v = 0; v < n; ++v) label[v] = isSurface(v) ? uint16_t(0xFFFF) : uint16_t(0xFFFE);
+  int count = 0;
+  for (uint32_t seed = 0; seed < n; ++seed) {
+    if (label[seed] != 0xFFFE) continue;
+    if (count == maxPieces) return -1;
+    WindingPiece& p = pieces[count];
+    p.seed = seed;
+    p.reach = 0;
+    for (int a = 0; a < 3; ++a) {
+      p.lo[a] = L;
+      p.hi[a] = 0;
+    }
+    uint32_t head = 0, tail = 0;
+    label[seed] = uint16_t(count);
+    steps[seed] = 0;
+    queue[tail++] = uint16_t(seed);
+    while (head < tail) {
+      const uint32_t v = queue[head++];
+      const int c[3] = {int(v % uint32_t(L)), int((v / uint32_t(L)) % uint32_t(L)), int(v / (uint32_t(L) * uint32_t(L)))};
+      for (int a = 0; a < 3; ++a) {
+        if (c[a] < p.lo[a]) p.lo[a] = c[a];
+        if (c[a] + 1 > p.hi[a]) p.hi[a] = c[a] + 1;
+      }
+      if (steps[v] > p.reach) p.reach = steps[v];
+      const uint32_t stride[3] = {1u, uint32_t(L), uint32_t(L) * uint32_t(L)};
+      for (int a = 0; a < 3; ++a) {
+        for (int side = -1; side <= 1; side += 2) {
+          const int to = c[a] + side;
+          if (to < 0 || to >= L) continue;
+          const uint32_t u = side < 0 ? v - stride[a] : v + stride[a];
+          if (label[u] != 0xFFFE) continue;
+          label[u] = uint16_t(count);
+          steps[u] = uint16_t(steps[v] + 1);
+          queue[tail++] = uint16_t(u);
+        }
+      }
+    }
+    ++count;
+  }
+  return count;
+}
+
+// Seeds a leaf piece may take before its remaining voxels fall back to the
+// per-voxel decision, and the path lengths a seed's value is carried.
+constexpr int kWindingPieceSeeds = 1024;
+constexpr int kWindingSeedReach[5] = {16, 8, 4, 2, 1};
+
+// Decides the voxels of piece k of a leaf (labels and scratch from
+// windingLeafPieces; leaf origin in voxels): first its seed carried over the
+// whole piece; where that is not enough, seeds taken in voxel order among the
+// voxels still open, each carried up to the path length its clearance allows
+// (the gradient bound over the box its paths can reach). state[v]: 0 open,
+// 1 decided, 2 left to the per-voxel decision; settle(v, inside) for each
+// decided voxel. visit: L^3 scratch of stamps (kept across pieces; *stamp
+// counts).
+template <class Settle>
+HDT_HD void windingCarryPiece(const WindingTreeView& t, int L, const int* origin, const WindingPiece& piece, int k,
+                              const uint16_t* label, uint16_t* steps, uint16_t* queue, uint32_t* visit,
+                              uint32_t* stamp, uint8_t* state, Settle&& settle) {
+  const uint32_t n = uint32_t(L) * uint32_t(L) * uint32_t(L), uL = uint32_t(L);
+  double plo[3], phi[3];
+  for (int a = 0; a < 3; ++a) {
+    plo[a] = origin[a] + piece.lo[a];
+    phi[a] = origin[a] + piece.hi[a];
+  }
+  auto centreOf = [&](uint32_t v, double* c) {
+    c[0] = origin[0] + int(v % uL) + 0.5;
+    c[1] = origin[1] + int((v / uL) % uL) + 0.5;
+    c[2] = origin[2] + int(v / (uL * uL)) + 0.5;
+  };
+  // Breadth-first from `from` over the piece up to `depth` steps, deciding
+  // each open voxel from s carried with the gradient bound.
+  auto carry = [&](uint32_t from, int depth, const WindingSum& s, double gradient) {
+    const uint32_t mark = ++*stamp;
+    uint32_t head = 0, tail = 0;
+    visit[from] = mark;
+    steps[from] = 0;
+    queue[tail++] = uint16_t(from);
+    const uint32_t stride[3] = {1u, uL, uL * uL};
+    while (head < tail) {
+      const uint32_t v = queue[head++];
+      if (state[v] == 0) {
+        const int verdict = windingCarriedVerdict(s, steps[v], gradient, t.triangleCount);
+        if (verdict != kWindingUnsure) {
+          state[v] = 1;
+          settle(v, verdict == kWindingInside);
+        }
+      }
+      if (steps[v] >= depth) continue;
+      const int c[3] = {int(v % uL), int((v / uL) % uL), int(v / (uL * uL))};
+      for (int a = 0; a < 3; ++a)
+        for (int side = -1; side <= 1; side += 2) {
+          const int to = c[a] + side;
+          if (to < 0 || to >= L) continue;
+          const uint32_t u = side < 0 ? v - stride[a] : v + stride[a];
+          if (label[u] != uint16_t(k) || visit[u] == mark) continue;
+          visit[u] = mark;
+          steps[u] = uint16_t(steps[v] + 1);
+          queue[tail++] = uint16_t(u);
+        }
+    }
+  };
+  // The whole piece from its seed.
+  const double gradient = windingGradientBound(t, plo, phi);
+  double seedCentre[3];
+  centreOf(piece.seed, seedCentre);
+  if (piece.reach * gradient < kWindingPi) {
+    const WindingSum s = windingSumOverBox(t, seedCentre, seedCentre, kWindingSeedOpenings, piece.reach * gradient);
+    if (windingCarriedVerdict(s, piece.reach, gradient, t.triangleCount) != kWindingUnsure) {
+      carry(piece.seed, 1 << 15, s, gradient);
+      return;
+    }
+  }
+  // Seeds among the open voxels, in voxel order.
+  int seeds = 0;
+  for (uint32_t v = piece.seed; v < n; ++v) {
+    if (label[v] != uint16_t(k) || state[v] != 0) continue;
+    if (seeds++ == kWindingPieceSeeds) {
+      for (uint32_t u = v; u < n; ++u)
+        if (label[u] == uint16_t(k) && state[u] == 0) state[u] = 2;
+      return;
+    }
+    double c[3];
+    centreOf(v, c);
+    // The gradient bound over each reach's box; the sum is refined for the
+    // largest reach that a clear w (0 or 1: 2 pi from the threshold) could
+    // carry, and the reach actually taken is the largest its clearance allows.
+    double g[5];
+    int want = 4;
+    for (int i = 4; i >= 0; --i) {
+      const int r = kWindingSeedReach[i];
+      double lo[3], hi[3];
+      for (int a = 0; a < 3; ++a) {
+        lo[a] = c[a] - 0.5 - r > plo[a] ? c[a] - 0.5 - r : plo[a];
+        hi[a] = c[a] + 0.5 + r < phi[a] ? c[a] + 0.5 + r : phi[a];
+      }
+      g[i] = windingGradientBound(t, lo, hi);
+      if (r * g[i] < 1.5 * kWindingPi) want = i;
+    }
+    const double slack = kWindingSeedReach[want] * g[want] < 1.5 * kWindingPi ? 1.02 * kWindingSeedReach[want] * g[want] : 0.0;
+    const WindingSum s = windingSumOverBox(t, c, c, kWindingSeedOpenings, slack);
+    const double clearance = fabs(s.sum - 2.0 * kWindingPi) - (s.error * 1.001 + windingMargin(t.triangleCount));
+    if (!(clearance > 0)) {
+      state[v] = 2; // w too close to 1/2 for this sum: the per-voxel decision
+      continue;
+    }
+    int depth = 0;
+    double gd = 0;
+    for (int i = 0; i < 5; ++i) {
+      if (kWindingSeedReach[i] * g[i] * 1.01 < clearance) {
+        depth = kWindingSeedReach[i];
+        gd = g[i];
+        break;
+      }
+    }
+    carry(v, depth, s, gd);
+  }
 }
 
 // A box query that needs more openings than this is split instead.
@@ -468,6 +765,25 @@ struct VoxelBox {
   HDT_HD bool single() const { return size(0) == 1 && size(1) == 1 && size(2) == 1; }
 };
 
+// The carried verdict over a box of voxels whose closed box meets no
+// triangle: one certified sum at the box's centre (at least half a voxel from
+// every triangle), carried along straight segments to every voxel centre.
+HDT_HD int windingCarriedBoxVerdict(const WindingTreeView& t, const VoxelBox& b) {
+  double lo[3], hi[3], centre[3], reach2 = 0;
+  for (int a = 0; a < 3; ++a) {
+    lo[a] = b.lo[a];
+    hi[a] = b.hi[a];
+    centre[a] = 0.5 * (lo[a] + hi[a]);
+    const double half = 0.5 * (b.size(a) - 1); // to the farthest voxel centre
+    reach2 = reach2 + half * half;
+  }
+  const double reach = sqrt(reach2) * (1 + 1e-12);
+  const double gradient = windingGradientBound(t, lo, hi);
+  if (!(reach * gradient < kWindingPi)) return kWindingUnsure;
+  const WindingSum s = windingSumOverBox(t, centre, centre, kWindingSeedOpenings, reach * gradient);
+  return windingCarriedVerdict(s, reach, gradient, t.triangleCount);
+}
+
 // Decides every voxel centre of `box`: calls settle(box, inside) for boxes
 // whose centres are all certified on one side, settling single voxels by
 // windingInsideAt. skip(box) drops boxes that need no answer (all surface);
@@ -491,9 +807,13 @@ HDT_HD void windingDecideBox(const WindingTreeView& t, const VoxelBox& box, Skip
       continue;
     }
     const bool small = b.size(0) <= kWindingListBox && b.size(1) <= kWindingListBox && b.size(2) <= kWindingListBox;
-    const int v = direct(b) ? int(kWindingUnsure)
-                            : windingVerdict(windingSumOverBox(t, lo, hi, small ? kWindingSmallBoxOpenings : kWindingBoxOpenings),
-                                             t.triangleCount);
+    int v = kWindingUnsure;
+    if (!direct(b)) {
+      v = windingCarriedBoxVerdict(t, b);
+      if (v == kWindingUnsure)
+        v = windingVerdict(windingSumOverBox(t, lo, hi, small ? kWindingSmallBoxOpenings : kWindingBoxOpenings),
+                           t.triangleCount);
+    }
     if (v != kWindingUnsure) {
       settle(b, v == kWindingInside);
       continue;

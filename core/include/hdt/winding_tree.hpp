@@ -23,10 +23,22 @@ struct PreparedMesh;
 struct WindingTree {
   std::vector<WindingNode> nodes;
   std::vector<WindingTriangle> triangles;
-  WindingTreeView view() const { return {nodes.data(), triangles.data(), uint32_t(triangles.size())}; }
+  std::vector<WindingEdge> edges;           // the boundary 1-chain, in groups
+  std::vector<WindingEdgeGroup> edgeGroups; // of kWindingEdgeGroup consecutive edges
+  WindingTreeView view() const {
+    return {nodes.data(), triangles.data(), uint32_t(triangles.size()), edges.data(), edgeGroups.data(),
+            uint32_t(edgeGroups.size())};
+  }
 };
 
 WindingTree buildWindingTree(const std::vector<LatticeTriangle>& triangles);
+
+constexpr uint32_t kWindingEdgeGroup = 16;
+
+// The boundary 1-chain of the triangles (WindingEdge), sorted by the Morton
+// key of the edges' midpoints (ties by corners) and cut into groups: a
+// function of the triangles only.
+void buildWindingEdges(const std::vector<LatticeTriangle>& triangles, WindingTree& tree);
 
 // The test a build runs: Auto is Parity for closed meshes, WindingNumber for
 // open ones; Parity and WindingNumber are taken as asked.
