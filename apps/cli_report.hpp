@@ -16,6 +16,11 @@ struct IoTimes {
   double prepare = 0; // hdt::prepareMesh: validation, placement, snapping
   double write = 0;   // -o and --dense
   double transfer = 0; // --transfer: hdt::transferArrays
+  // Where the rest of the process's time goes (--json only): the wait for the
+  // device's set-up (hdt::prepareCuda, beside the read), the build call (copy
+  // back included), the wait for the memory estimate (beside the build), and
+  // all of it from the start of main() to the report.
+  double deviceWait = 0, build = 0, estimateWait = 0, sinceStart = 0;
 };
 
 struct Report {
