@@ -217,6 +217,12 @@ int run(int argc, const char* const* argv, const MpiSession& session, Clock::tim
     if (labelled) return voxelizeLabelled(mesh, options.config, build, options.overlap); // every rank builds it whole
     return session.size() > 1 ? buildAcrossRanks(session, prepared, build) : hdt::build(prepared, build);
   });
+  // The streamed blocks' tasks read the volume: they end before it is freed,
+  // on every path out of here (after the write they have ended already).
+  struct StopStreaming {
+    HdtLeafEncoder& leaves;
+    ~StopStreaming() { leaves.abandon(); }
+  } stopStreaming{streamedLeaves};
   progress.clear();
   report.io.build = msSince(t);
   if (session.rank() != 0) return 0; // rank 0 has the joined volume and writes

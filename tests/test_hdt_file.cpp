@@ -932,6 +932,14 @@ TEST(HdtFileV3, StreamedLeafBlocksNotCoveringTheVolumeAreNotUsed) {
     EXPECT_TRUE(serializeHdt(v, c.write, &streamed) == serializeHdt(v, c.write)) << c.what;
     EXPECT_FALSE(streamed.usedByWriter()) << c.what;
   }
+  // A build that failed after its words arrived abandons them (the driver's
+  // volume is freed): nothing of them is used afterwards.
+  HdtLeafEncoder streamed;
+  streamed.begin(v.leafWords.data(), n);
+  streamed.arrived(n);
+  streamed.abandon();
+  EXPECT_TRUE(serializeHdt(v, compressed(), &streamed) == serializeHdt(v, compressed()));
+  EXPECT_FALSE(streamed.usedByWriter()) << "abandoned";
 }
 
 TEST(HdtFileCorrupt, ZstdBlocks) {

@@ -148,6 +148,10 @@ int main(int argc, char** argv) {
     HdtLeafEncoder streamed;
     if (a.stream) options.leafSink = &streamed;
     const Volume v = a.cuda ? buildCudaWithReport(prepared, options, &report, true) : build(prepared, options);
+    struct StopStreaming { // the blocks' tasks read v: they end before it is freed
+      HdtLeafEncoder& leaves;
+      ~StopStreaming() { leaves.abandon(); }
+    } stopStreaming{streamed};
     const double buildWallMs = msSince(t);
     writeHdt(v, a.hdt, HdtWriteOptions{}, &streamed);
     options.leafSink = nullptr;

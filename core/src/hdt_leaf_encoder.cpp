@@ -49,6 +49,21 @@ HdtLeafEncoder::~HdtLeafEncoder() {
 
 void HdtLeafEncoder::waitForBlocks() { state_->wait(); }
 
+void HdtLeafEncoder::abandon() {
+  State& s = *state_;
+  try {
+    s.wait();
+  } catch (...) {
+    // the build's own error is the one to report
+  }
+#if defined(HDT_HAVE_ZSTD)
+  s.compressor.reset();
+  s.words = nullptr;
+  s.count = s.arrivedWords = 0;
+  s.handedOut = 0;
+#endif
+}
+
 bool HdtLeafEncoder::usedByWriter() const { return state_->used; }
 
 void HdtLeafEncoder::begin(const uint32_t* words, size_t count) {

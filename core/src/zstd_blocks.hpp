@@ -50,6 +50,8 @@ class BlockCompressor {
 public:
   BlockCompressor(size_t size, int level, uint32_t blockLog = kWriterBlockLog);
   ~BlockCompressor();
+  BlockCompressor(const BlockCompressor&) = delete;
+  BlockCompressor& operator=(const BlockCompressor&) = delete;
   uint64_t blocks() const;
   // Blocks [first, end) of `data` (the whole `size` bytes; only those blocks
   // are read), in parallel. Calls for disjoint ranges may run at once.

@@ -47,6 +47,7 @@ Volume build(const PreparedMesh& mesh, const BuildOptions& options, CudaBuildRep
   uploadTriangles(s);
 
   Volume v;
+  const SinkAbandonGuard abandonOnError(options.leafSink);
   bool whole = false;
   try {
     RootMapping root = mapTrianglesToRootCells(s.memory, s.scalars, s.deviceMesh, g, 0, cells, true);

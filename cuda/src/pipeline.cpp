@@ -104,6 +104,7 @@ Volume buildWhole(Session& s, RootMapping root, bool keepResult) {
   s.clock.mark(kClassify);
 
   Volume v;
+  const SinkAbandonGuard abandonOnError(s.options.leafSink);
   v.grid = g;
   v.surfaceOnly = s.mesh.surfaceOnly;
   v.closedMesh = s.mesh.closed;

@@ -25,15 +25,18 @@ void validateThreads(int threads);
 // A consumer of the leaf grids while a driver copies them into the volume:
 // begin() once the volume's leaf array exists, then arrived(n) each time words
 // [0, n) of it hold their final value (n grows; the last call has n = count).
-// Calls come from the driver's threads, one at a time. The CUDA driver feeds
-// it from its copy back for one-piece builds whose leaves nothing rewrites on
-// the host (not the winding-number test); the CPU driver, labelled and
-// chunked builds never call it. Used by the .hdt writer (HdtLeafEncoder).
+// Calls come from the driver's threads, one at a time. When the build fails
+// after begin(), abandon() comes before the words are freed: the sink stops
+// reading them before it returns. The CUDA driver feeds it from its copy back
+// for one-piece builds whose leaves nothing rewrites on the host (not the
+// winding-number test); the CPU driver, labelled and chunked builds never
+// call it. Used by the .hdt writer (HdtLeafEncoder).
 class LeafArrivalSink {
 public:
   virtual ~LeafArrivalSink() = default;
   virtual void begin(const uint32_t* words, size_t count) = 0;
   virtual void arrived(size_t count) = 0;
+  virtual void abandon() = 0;
 };
 
 struct BuildOptions {

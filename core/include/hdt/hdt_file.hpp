@@ -31,7 +31,9 @@ struct HdtWriteOptions {
 // depends only on its bytes and the level). Where it does not cover exactly
 // that volume's leaf words with the writer's options (another volume, a build
 // that did not feed it, raw or version-2 leaves, another level), the writer
-// compresses as usual. One build at a time; begin() starts over.
+// compresses as usual. One build at a time; begin() starts over. Its tasks
+// read the volume's leaf words: wait for them (waitForBlocks, or the writer,
+// or the destructor) before those words are freed.
 class HdtLeafEncoder final : public LeafArrivalSink {
 public:
   explicit HdtLeafEncoder(const HdtWriteOptions& options = {});
@@ -40,6 +42,7 @@ public:
   HdtLeafEncoder& operator=(const HdtLeafEncoder&) = delete;
   void begin(const uint32_t* words, size_t count) override;
   void arrived(size_t count) override;
+  void abandon() override;
   // Returns once the blocks handed out so far are compressed (the writer
   // waits by itself; for tests and timing). Rethrows a compression error.
   void waitForBlocks();
