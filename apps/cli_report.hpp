@@ -44,7 +44,8 @@ struct Report {
 // active_voxels, inside_voxels, paper_bits_per_active_voxel, topology_bytes,
 // leaf_bytes, backend, threads, time_ms {mapping, branching, leaf, classify,
 // total}, peak_host_bytes, then degenerate_triangles, closed_mesh,
-// peak_device_bytes, surface_only, io_ms {read, prepare, write, transfer}, hdt_file,
+// peak_device_bytes, surface_only, io_ms {read, prepare, write, transfer,
+// device_wait, build, estimate_wait, since_start}, hdt_file,
 // dense_file, duplicate_triangles, warnings [strings],
 // host_bytes_estimate, inside_test ("parity" or "winding": the test that
 // ran), inside_test_requested, inside_test_reason, winding_refined_elements,
