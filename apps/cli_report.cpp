@@ -142,7 +142,10 @@ void writeJson(std::ostream& out, const Report& r) {
       .add("prepare", number(r.io.prepare, "%.3f"))
       .add("write", number(r.io.write, "%.3f"))
       .add("transfer", number(r.io.transfer, "%.3f"))
-      .add("build", number(r.io.build, "%.3f"));
+      .add("device_wait", number(r.io.deviceWait, "%.3f"))
+      .add("build", number(r.io.build, "%.3f"))
+      .add("estimate_wait", number(r.io.estimateWait, "%.3f"))
+      .add("since_start", number(r.io.sinceStart, "%.3f"));
 
   JsonObject o;
   o.add("mesh", quoted(r.mesh))

@@ -16,7 +16,11 @@ struct IoTimes {
   double prepare = 0; // hdt::prepareMesh: validation, placement, snapping
   double write = 0;   // -o and --dense
   double transfer = 0; // --transfer: hdt::transferArrays
-  double build = 0;    // the build call as the caller waits (CUDA: copy back included; labelled: every part)
+  // Where the rest of the process's time goes (--json only): the wait for the
+  // device's set-up (hdt::prepareCuda, beside the read), the build call (copy
+  // back included), the wait for the memory estimate (beside the build), and
+  // all of it from the start of main() to the report.
+  double deviceWait = 0, build = 0, estimateWait = 0, sinceStart = 0;
 };
 
 // One rank of a distributed build (hdt-voxelize-mpi), as rank 0 gathers it.
@@ -55,7 +59,8 @@ struct Report {
 // active_voxels, inside_voxels, paper_bits_per_active_voxel, topology_bytes,
 // leaf_bytes, backend, threads, time_ms {mapping, branching, leaf, classify,
 // total}, peak_host_bytes, then degenerate_triangles, closed_mesh,
-// peak_device_bytes, surface_only, io_ms {read, prepare, write, transfer}, hdt_file,
+// peak_device_bytes, surface_only, io_ms {read, prepare, write, transfer,
+// device_wait, build, estimate_wait, since_start}, hdt_file,
 // dense_file, duplicate_triangles, warnings [strings],
 // host_bytes_estimate, inside_test ("parity" or "winding": the test that
 // ran), inside_test_requested, inside_test_reason, winding_refined_elements,

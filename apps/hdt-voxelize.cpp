@@ -123,11 +123,12 @@ void checkOutputs(const Options& options) {
 
 // Writes -o and --dense to temporary files and renames them into place only
 // when both are complete: a failed --dense leaves no new -o file behind.
-void writeOutputs(const Options& options, const Volume& volume) {
+// `streamed`: the leaf blocks compressed during the build's copy back.
+void writeOutputs(const Options& options, const Volume& volume, HdtLeafEncoder& streamed) {
   std::unique_ptr<AtomicFile> hdt, dense, labels;
   if (!options.hdtPath.empty()) {
     hdt = std::make_unique<AtomicFile>(options.hdtPath);
-    about(options.hdtPath, [&] { writeHdt(volume, *hdt); });
+    about(options.hdtPath, [&] { writeHdt(volume, *hdt, HdtWriteOptions{}, &streamed); });
   }
   if (!options.densePath.empty()) {
     dense = std::make_unique<AtomicFile>(options.densePath);
@@ -166,7 +167,7 @@ private:
   std::thread thread_;
 };
 
-int run(int argc, const char* const* argv, const MpiSession& session) {
+int run(int argc, const char* const* argv, const MpiSession& session, Clock::time_point start) {
   const Options options = parseOptions(argc, argv);
   if (options.help) {
     std::cout << usageText();
@@ -201,19 +202,30 @@ int run(int argc, const char* const* argv, const MpiSession& session) {
   std::future<uint64_t> hostBytesEstimate; // rank 0 reports
   if (session.rank() == 0)
     hostBytesEstimate = std::async(std::launch::async, [&prepared] { return estimateHostBytes(prepared); });
+  t = Clock::now();
   warmUp.join();
+  report.io.deviceWait = msSince(t);
 
   ProgressLine progress(!options.quiet && session.rank() == 0);
   BuildOptions build = options.build;
   build.progress = [&](double fraction, const char* phase) { return progress.update(fraction, phase); };
   build.log = [&](const std::string& text) { progress.note(text); };
+  // -o's leaf blocks are compressed while the CUDA driver copies them back.
+  HdtLeafEncoder streamedLeaves;
+  if (!options.hdtPath.empty() && !labelled && session.size() == 1) build.leafSink = &streamedLeaves;
   t = Clock::now();
   Volume volume = about(options.mesh, [&] {
     if (labelled) return voxelizeLabelled(mesh, options.config, build, options.overlap); // every rank builds it whole
     return session.size() > 1 ? buildAcrossRanks(session, prepared, build, &report.ranks) : hdt::build(prepared, build);
   });
-  report.io.build = msSince(t);
+  // The streamed blocks' tasks read the volume: they end before it is freed,
+  // on every path out of here (after the write they have ended already).
+  struct StopStreaming {
+    HdtLeafEncoder& leaves;
+    ~StopStreaming() { leaves.abandon(); }
+  } stopStreaming{streamedLeaves};
   progress.clear();
+  report.io.build = msSince(t);
   if (session.rank() != 0) return 0; // rank 0 has the joined volume and writes
   t = Clock::now();
   about(options.mesh, [&] { transferArrays(mesh, arrays, volume); }); // a host pass after the build
@@ -225,7 +237,7 @@ int run(int argc, const char* const* argv, const MpiSession& session) {
   }
 
   t = Clock::now();
-  writeOutputs(options, volume);
+  writeOutputs(options, volume, streamedLeaves);
   report.hdtPath = options.hdtPath;
   report.densePath = options.densePath;
   report.denseLabelsPath = options.denseLabelsPath;
@@ -238,6 +250,8 @@ int run(int argc, const char* const* argv, const MpiSession& session) {
   report.requestedInsideTest = prepared.requestedInsideTest;
   report.io.write = msSince(t);
   report.hostBytesEstimate = hostBytesEstimate.get();
+  report.io.estimateWait = msSince(t);
+  report.io.sinceStart = std::chrono::duration<double, std::milli>(t - start).count();
 
   report.volume = &volume;
   if (options.json) writeJson(std::cout, report);
@@ -262,6 +276,7 @@ int exitCode(ErrorKind kind) {
 
 int main(int argc, char** argv) {
   using namespace hdt::cli;
+  const auto start = std::chrono::steady_clock::now();
   // Past a file-size limit (ulimit -f) a write fails with EFBIG instead of
   // killing the process, so the error is reported and the temporary removed.
   ::signal(SIGXFSZ, SIG_IGN);
@@ -269,7 +284,7 @@ int main(int argc, char** argv) {
   // Across ranks an error on one rank ends them all (the others would wait forever).
   auto failed = [&](int code) { return session.size() > 1 ? (session.abort(code), code) : code; };
   try {
-    return run(argc, argv, session);
+    return run(argc, argv, session, start);
   } catch (const UsageError& e) {
     std::fprintf(stderr, "hdt-voxelize: %s\nTry 'hdt-voxelize --help'.\n", e.what());
     return failed(2);

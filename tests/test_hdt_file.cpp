@@ -28,6 +28,7 @@
 #include <iterator>
 #include <limits>
 #include <new>
+#include <thread>
 
 // ---- allocation probe ----------------------------------------------------------------
 // Records the largest single operator-new request while armed, to prove that
@@ -850,6 +851,95 @@ TEST(HdtFileV3, BytesDoNotDependOnTheThreadCount) {
     tbb::global_control c(tbb::global_control::max_allowed_parallelism, threads);
     EXPECT_TRUE(bytesOf(v, compressed()) == single) << threads << " threads";
   }
+}
+
+// The leaf blocks compressed as the leaf words arrive (HdtLeafEncoder, what
+// the CUDA driver's copy back feeds) give the bytes of the writer on its own,
+// whatever the pieces: one, block-aligned, odd sizes and repeats, one word
+// short until the end; to memory and to a file, from another thread too.
+TEST(HdtFileV3, StreamedLeafBlocksGiveTheSameBytes) {
+  if (!haveZstd()) GTEST_SKIP() << "built without zstd";
+  const Volume v = multiBlockVolume();
+  const std::vector<uint8_t> plain = bytesOf(v, compressed());
+  const size_t n = v.leafWords.size(), blockWords = kBlockBytes / 4;
+  ASSERT_GT(n, 2 * blockWords);
+  ASSERT_NE(n % blockWords, 0u);
+  const std::vector<std::vector<size_t>> arrivals = {
+      {n},
+      {blockWords, 2 * blockWords, n},
+      {1, 12345, 12345, blockWords - 1, blockWords + 1, 2 * blockWords + 7, n - 1, n - 1, n},
+      {n / 3, 2 * n / 3, n},
+  };
+  for (size_t a = 0; a < arrivals.size(); ++a) {
+    // The words land piece by piece in a volume that held zeros: a block
+    // compressed before all its words are there would differ.
+    Volume landing = v;
+    std::fill(landing.leafWords.begin(), landing.leafWords.end(), 0u);
+    HdtLeafEncoder streamed;
+    std::thread feeder([&] { // the driver's copying threads, not the writer's
+      streamed.begin(landing.leafWords.data(), n);
+      size_t landed = 0;
+      for (size_t count : arrivals[a]) {
+        std::copy(v.leafWords.begin() + long(landed), v.leafWords.begin() + long(count),
+                  landing.leafWords.begin() + long(landed));
+        landed = std::max(landed, count);
+        streamed.arrived(count);
+        streamed.waitForBlocks(); // what is handed out is compressed now, before more words land
+      }
+    });
+    feeder.join();
+    EXPECT_TRUE(serializeHdt(landing, compressed(), &streamed) == plain) << "arrivals " << a;
+    EXPECT_TRUE(streamed.usedByWriter()) << "arrivals " << a;
+  }
+  const std::string path = tempPath("format_streamed.hdt");
+  HdtLeafEncoder streamed;
+  streamed.begin(v.leafWords.data(), n);
+  streamed.arrived(n / 2);
+  streamed.arrived(n);
+  writeHdt(v, path, compressed(), &streamed);
+  EXPECT_TRUE(streamed.usedByWriter());
+  std::ifstream in(path, std::ios::binary);
+  EXPECT_TRUE(std::vector<uint8_t>((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>()) == plain);
+  std::remove(path.c_str());
+}
+
+// Where the encoder does not cover the volume's leaves exactly with the
+// writer's options, the writer compresses them itself: still the same bytes.
+TEST(HdtFileV3, StreamedLeafBlocksNotCoveringTheVolumeAreNotUsed) {
+  if (!haveZstd()) GTEST_SKIP() << "built without zstd";
+  const Volume v = multiBlockVolume();
+  const size_t n = v.leafWords.size();
+  const Volume copy = v; // the same words elsewhere
+  HdtWriteOptions level1 = compressed();
+  level1.zstdLevel = 1;
+  struct Case {
+    const char* what;
+    const uint32_t* words;
+    size_t count, arrived;
+    HdtWriteOptions write;
+  };
+  const Case cases[] = {
+      {"not all arrived", v.leafWords.data(), n, n - 1, compressed()},
+      {"another volume's words", copy.leafWords.data(), n, n, compressed()},
+      {"fewer words", v.leafWords.data(), n - 1, n - 1, compressed()},
+      {"another level", v.leafWords.data(), n, n, level1},
+      {"one frame (version 2)", v.leafWords.data(), n, n, oneFrame()},
+  };
+  for (const Case& c : cases) {
+    HdtLeafEncoder streamed;
+    streamed.begin(c.words, c.count);
+    streamed.arrived(c.arrived);
+    EXPECT_TRUE(serializeHdt(v, c.write, &streamed) == serializeHdt(v, c.write)) << c.what;
+    EXPECT_FALSE(streamed.usedByWriter()) << c.what;
+  }
+  // A build that failed after its words arrived abandons them (the driver's
+  // volume is freed): nothing of them is used afterwards.
+  HdtLeafEncoder streamed;
+  streamed.begin(v.leafWords.data(), n);
+  streamed.arrived(n);
+  streamed.abandon();
+  EXPECT_TRUE(serializeHdt(v, compressed(), &streamed) == serializeHdt(v, compressed()));
+  EXPECT_FALSE(streamed.usedByWriter()) << "abandoned";
 }
 
 TEST(HdtFileCorrupt, ZstdBlocks) {

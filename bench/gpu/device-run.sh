@@ -42,7 +42,8 @@ mkdir -p "$OUT"
 export LD_LIBRARY_PATH=$DEPS/lib/x86_64-linux-gnu:/usr/local/cuda/lib64:${LD_LIBRARY_PATH:-}
 export HDT_MESHES_DIR=$DEPS/meshes
 export PATH=/usr/local/cuda/bin:$PATH
-if [ -x "$DEPS/bin/hdt_cuda_tests" ]; then BIN=$DEPS/bin; else BIN=$ROOT/build-device/bin; fi
+# DEVICE_BIN: a folder of binaries built elsewhere for this machine (a helper's staged build)
+if [ -n "${DEVICE_BIN:-}" ]; then BIN=$DEVICE_BIN; elif [ -x "$DEPS/bin/hdt_cuda_tests" ]; then BIN=$DEPS/bin; else BIN=$ROOT/build-device/bin; fi
 TESTS=$BIN/hdt_cuda_tests
 BENCH=$BIN/hdt_gpu_bench
 E2E=$BIN/hdt_e2e_bench
@@ -148,22 +149,45 @@ step_quick() {
 step_tests() { run_tests tests "${TESTS_FILTER:-*}" "${TESTS_TIMEOUT:-540}"; }
 
 step_cli() { # CLI_RUNS: "MESH:N[:surface] ..." hdt-voxelize MESH --resolution N --backend cuda -o, wall
-  # time of the whole process (built from source: buildsrc first), twice each (the second finds the
-  # file cache warm)
+  # time of the whole process (built from source: buildsrc first, or DEVICE_BIN), CLI_REPEAT times each
+  # (default 2; the later ones find the file cache warm); the --json reports with the wall time in
+  # $OUT/cli-runs.jsonl
   local cli=$ROOT/build-device/apps/hdt-voxelize t0=$SECONDS
-  ninja -C "$ROOT/build-device" hdt-voxelize >> "$OUT/build.log" 2>&1 || { say "cli: build failed"; return; }
+  if [ -x "$BIN/hdt-voxelize" ]; then cli=$BIN/hdt-voxelize
+  else ninja -C "$ROOT/build-device" hdt-voxelize >> "$OUT/build.log" 2>&1 || { say "cli: build failed"; return; }; fi
   for spec in ${CLI_RUNS:-stanford-dragon-100k.ply:8192 nefertiti.ply:8192}; do
     IFS=: read -r m n mode <<< "$spec"
-    for k in 1 2; do
+    for k in $(seq "${CLI_REPEAT:-2}"); do
       local s=$(date +%s.%N)
       "$cli" "$DEPS/meshes/$m" --resolution "$n" --backend cuda ${mode:+--surface-only} -o /tmp/cli.hdt --json \
         > /tmp/cli-last.json 2>> /tmp/cli.log || say "cli: rc=$? for $spec"
-      local e=$(date +%s.%N)
-      say "cli: $m $n ${mode:-solid} wall $(python3 -c "print(round(($e - $s) * 1000))") ms, file $(stat -c %s /tmp/cli.hdt) bytes, $(python3 -c "import json; d = json.load(open('/tmp/cli-last.json')); print('io_ms', d['io_ms'], 'phases_ms', d['time_ms']['total'], 'peak_host_GiB', round(d['peak_host_bytes'] / 2**30, 2))" 2>&1)"
+      local e=$(date +%s.%N) wall
+      wall=$(python3 -c "print(round(($e - $s) * 1000))")
+      python3 -c "import json, sys; d = json.load(open('/tmp/cli-last.json')); d['process_wall_ms'] = $wall; d['date'] = '$(date -u +%FT%TZ)'; print(json.dumps(d))" >> "$OUT/cli-runs.jsonl" 2>/dev/null
+      say "cli: $m $n ${mode:-solid} wall $wall ms, file $(stat -c %s /tmp/cli.hdt) bytes, $(python3 -c "import json; d = json.load(open('/tmp/cli-last.json')); print('io_ms', d['io_ms'], 'phases_ms', d['time_ms']['total'], 'peak_host_GiB', round(d['peak_host_bytes'] / 2**30, 2))" 2>&1)"
       rm -f /tmp/cli.hdt
     done
   done
   say "cli: done in $((SECONDS - t0)) s"
+}
+
+step_copy() { # hdt_copy_bench: copy-back variants into fresh pageable memory (COPY_MB, COPY_REPS), then
+  # the process floor: a context alone, with 64 MiB pinned, 1 GiB allocated, 1 GiB kept in the pool
+  local t0=$SECONDS
+  timeout "${COPY_TIMEOUT:-200}" "$BIN/hdt_copy_bench" --mb "${COPY_MB:-400,3600}" --reps "${COPY_REPS:-3}" \
+    --out "$OUT/copy-runs.jsonl" > "$OUT/copy.log" 2>&1
+  say "copy: rc=$? in $((SECONDS - t0)) s"
+  python3 - "$OUT/copy-runs.jsonl" <<'PY' | tee -a "$SUMMARY"
+import json, sys, collections
+runs = collections.defaultdict(list)
+for l in open(sys.argv[1]):
+    r = json.loads(l); runs[(r['variant'], r['bytes'])].append(r['gb_per_s'])
+for (v, b), g in runs.items(): print(f"{v:26} {b/1e6:6.0f} MB  GB/s " + " ".join(f"{x:5.1f}" for x in g))
+PY
+  for how in ${COPY_PROBES:-none ctx reset pin pool all none ctx reset pin pool all}; do
+    local s=$(date +%s.%N) line; line=$("$BIN/hdt_copy_bench" --probe $how); local e=$(date +%s.%N)
+    say "$line, process wall $(python3 -c "print(round(($e - $s) * 1000))") ms"
+  done
 }
 
 step_sanitize() { # memcheck on every CUDA test; initcheck and synccheck on a reduced set

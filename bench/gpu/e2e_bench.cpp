@@ -11,6 +11,8 @@
 //                 device phase time is the warm reference for the first
 //   --prepare-repeat K  after the run, K more preparations of the same mesh in
 //                 this process (warm: threads up, memory reused): the best
+//   --no-stream   the leaf blocks compressed by the writer after the build,
+//                 not while the copy back brings them (HdtLeafEncoder)
 //   --write-breakdown  after the run, the writer's parts: the same encoding
 //                 into memory (checks + zstd blocks), the same as version 2's
 //                 one zstd frame, and a file without compression
@@ -42,7 +44,7 @@ using Clock = std::chrono::steady_clock;
 struct Args {
   std::string mesh, hdt = "/tmp/hdt_e2e.hdt", out = "e2e-runs.jsonl";
   int res = 1024, subdivide = 0, prepareRepeat = 0;
-  bool surfaceOnly = false, cuda = true, cold = false, warmCheck = false, writeBreakdown = false;
+  bool surfaceOnly = false, cuda = true, cold = false, warmCheck = false, writeBreakdown = false, stream = true;
 };
 
 Args parse(int argc, char** argv) {
@@ -62,6 +64,7 @@ Args parse(int argc, char** argv) {
     else if (k == "--cold") a.cold = true;
     else if (k == "--warm-check") a.warmCheck = true;
     else if (k == "--write-breakdown") a.writeBreakdown = true;
+    else if (k == "--no-stream") a.stream = false;
     else if (k == "--prepare-repeat") a.prepareRepeat = std::stoi(value());
     else if (!k.empty() && k[0] != '-' && a.mesh.empty()) a.mesh = k;
     else throw std::runtime_error("unknown argument " + k);
@@ -117,7 +120,8 @@ int main(int argc, char** argv) {
                            (a.subdivide ? " (subdivided x" + std::to_string(1 << (2 * a.subdivide)) + ")" : "");
   j << "{\"mesh\": \"" << name << "\", \"resolution\": " << a.res << ", \"surface_only\": "
     << (a.surfaceOnly ? "true" : "false") << ", \"backend\": \"" << (a.cuda ? "cuda" : "cpu")
-    << "\", \"cold\": " << (a.cold ? "true" : "false") << ", \"date\": \"" << today()
+    << "\", \"cold\": " << (a.cold ? "true" : "false") << ", \"streamed_write\": " << (a.stream ? "true" : "false")
+    << ", \"date\": \"" << today()
     << "\", \"host_threads\": " << std::thread::hardware_concurrency();
   try {
     BuildConfig config;
@@ -141,9 +145,16 @@ int main(int argc, char** argv) {
     if (warmUp.joinable()) warmUp.join();
     const double warmUpWaitMs = msSince(t);
     CudaBuildReport report;
+    HdtLeafEncoder streamed;
+    if (a.stream) options.leafSink = &streamed;
     const Volume v = a.cuda ? buildCudaWithReport(prepared, options, &report, true) : build(prepared, options);
+    struct StopStreaming { // the blocks' tasks read v: they end before it is freed
+      HdtLeafEncoder& leaves;
+      ~StopStreaming() { leaves.abandon(); }
+    } stopStreaming{streamed};
     const double buildWallMs = msSince(t);
-    writeHdt(v, a.hdt);
+    writeHdt(v, a.hdt, HdtWriteOptions{}, &streamed);
+    options.leafSink = nullptr;
     const double writeMs = msSince(t);
     const double wallMs = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
     struct stat st {};

@@ -10,6 +10,8 @@ HEAD = ("| mesh | triangles | N | mode | leaf GB | read | prepare | warm-up wait
 
 def row(r):
     mode = "surface" if r["surface_only"] else "solid"
+    if r.get("streamed_write") is False:  # --no-stream: the writer compresses after the build
+        mode += ", no stream"
     if "error" in r:
         return f"| {r['mesh']} | | {r['resolution']} | {mode} | error: {r['error'][:80]} |" + " |" * 12
     copy = f"{r['copy_back_ms']:.1f} ({r['copy_back_gb_per_s']:.1f})" if r["copy_back_bytes"] else "-"

@@ -13,6 +13,7 @@
 #include "hdt/hdt_file.hpp"
 
 #include "hdt/atomic_file.hpp"
+#include "hdt_leaf_encoder.hpp"
 #include "zstd_blocks.hpp"
 
 #include "hdt/error.hpp"
@@ -785,16 +786,16 @@ void encodeArrays(const Volume& v, EncodedVolume& e) {
       optionalSectionCrc(Section::ArrayValues, Encoding::Raw, e.arrayValueBytes, e.arrayValueBytes, crc);
 }
 
-EncodedVolume encodeRequired(const Volume& v, const HdtWriteOptions& options);
+EncodedVolume encodeRequired(const Volume& v, const HdtWriteOptions& options, HdtLeafEncoder* streamed);
 
-EncodedVolume encode(const Volume& v, const HdtWriteOptions& options) {
-  EncodedVolume e = encodeRequired(v, options);
+EncodedVolume encode(const Volume& v, const HdtWriteOptions& options, HdtLeafEncoder* streamed) {
+  EncodedVolume e = encodeRequired(v, options, streamed);
   encodeLabels(v, options, e);
   encodeArrays(v, e);
   return e;
 }
 
-EncodedVolume encodeRequired(const Volume& v, const HdtWriteOptions& options) {
+EncodedVolume encodeRequired(const Volume& v, const HdtWriteOptions& options, HdtLeafEncoder* streamed) {
   EncodedVolume e;
   const GridSpec& g = v.grid;
   {
@@ -838,7 +839,8 @@ EncodedVolume encodeRequired(const Volume& v, const HdtWriteOptions& options) {
 #if defined(HDT_HAVE_ZSTD)
   if (options.compressLeaves && !v.leafWords.empty() && options.leafBlocks) {
     e.leafEncoding = Encoding::ZstdBlocks;
-    e.blocks = compressLeafBlocks(v.leafWords, options.zstdLevel);
+    std::unique_ptr<zstd_blocks::Encoded> done = streamed ? takeStreamedLeafBlocks(*streamed, v.leafWords, options) : nullptr;
+    e.blocks = done ? std::move(*done) : compressLeafBlocks(v.leafWords, options.zstdLevel);
     e.leafCrc = e.blocks.crc;
     return e;
   }
@@ -850,6 +852,7 @@ EncodedVolume encodeRequired(const Volume& v, const HdtWriteOptions& options) {
   }
 #else
   (void)options;
+  (void)streamed;
 #endif
   e.leafCrc = crcOfWords(v.leafWords);
   return e;
@@ -958,7 +961,8 @@ void emit(const EncodedVolume& e, const Volume& v, Sink& out) {
 }
 
 // Checks the volume and the options, then encodes; throws hdt::Error.
-EncodedVolume prepare(const Volume& v, const HdtWriteOptions& options, const std::string& name) {
+EncodedVolume prepare(const Volume& v, const HdtWriteOptions& options, const std::string& name,
+                      HdtLeafEncoder* streamed) {
 #if defined(HDT_HAVE_ZSTD)
   if (options.compressLeaves &&
       (options.zstdLevel < ZSTD_minCLevel() || options.zstdLevel > ZSTD_maxCLevel())) {
@@ -981,7 +985,7 @@ EncodedVolume prepare(const Volume& v, const HdtWriteOptions& options, const std
   EncodedVolume e;
   std::exception_ptr encodeError;
   try {
-    e = encode(v, options);
+    e = encode(v, options, streamed);
   } catch (...) {
     encodeError = std::current_exception();
   }
@@ -1562,9 +1566,9 @@ struct FileClose {
 
 } // namespace
 
-std::vector<uint8_t> serializeHdt(const Volume& volume, const HdtWriteOptions& options) {
+std::vector<uint8_t> serializeHdt(const Volume& volume, const HdtWriteOptions& options, HdtLeafEncoder* streamed) {
   const std::string name = "<memory>";
-  const EncodedVolume e = prepare(volume, options, name);
+  const EncodedVolume e = prepare(volume, options, name, streamed);
   std::vector<uint8_t> bytes;
   try {
     bytes.reserve(toSize(encodedSize(e, volume)));
@@ -1576,16 +1580,17 @@ std::vector<uint8_t> serializeHdt(const Volume& volume, const HdtWriteOptions& o
   return bytes;
 }
 
-void writeHdt(const Volume& volume, AtomicFile& out, const HdtWriteOptions& options) {
-  const EncodedVolume e = prepare(volume, options, out.path());
+void writeHdt(const Volume& volume, AtomicFile& out, const HdtWriteOptions& options, HdtLeafEncoder* streamed) {
+  const EncodedVolume e = prepare(volume, options, out.path(), streamed);
   FileSink sink(out.stream(), out.path());
   emit(e, volume, sink);
 }
 
-void writeHdt(const Volume& volume, const std::string& path, const HdtWriteOptions& options) {
+void writeHdt(const Volume& volume, const std::string& path, const HdtWriteOptions& options,
+              HdtLeafEncoder* streamed) {
   // Encode first: a refused volume must not leave a file behind. The bytes go
   // to a temporary file renamed over `path` only once complete (atomic_file.hpp).
-  const EncodedVolume e = prepare(volume, options, path);
+  const EncodedVolume e = prepare(volume, options, path, streamed);
   AtomicFile out(path);
   FileSink sink(out.stream(), path);
   emit(e, volume, sink);

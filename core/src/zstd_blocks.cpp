@@ -55,11 +55,12 @@ uint64_t Encoded::storedBytes() const {
   return n;
 }
 
-Encoded compress(const uint8_t* data, size_t size, int level, uint32_t blockLog) {
-  const uint64_t n = blockCount(size, blockLog);
+struct BlockCompressor::State {
+  size_t size;
+  int level;
+  uint32_t blockLog;
   Encoded e;
-  e.frames.resize(static_cast<size_t>(n));
-  std::vector<uint32_t> crcs(static_cast<size_t>(n));
+  std::vector<uint32_t> crcs;
   // Each thread compresses into its own worst-case buffer, then keeps an
   // exact-size copy: the working set is one bound a thread, not a block.
   struct Worker {
@@ -67,26 +68,58 @@ Encoded compress(const uint8_t* data, size_t size, int level, uint32_t blockLog)
     std::vector<uint8_t> scratch;
   };
   tbb::enumerable_thread_specific<Worker> workers;
-  const size_t bound = ZSTD_compressBound(size_t(1) << blockLog);
-  tbb::parallel_for(uint64_t(0), n, [&](uint64_t i) {
-    Worker& w = workers.local();
+};
+
+BlockCompressor::BlockCompressor(size_t size, int level, uint32_t blockLog) : state_(new State) {
+  state_->size = size;
+  state_->level = level;
+  state_->blockLog = blockLog;
+  const uint64_t n = blockCount(size, blockLog);
+  state_->e.frames.resize(static_cast<size_t>(n));
+  state_->crcs.resize(static_cast<size_t>(n));
+}
+
+BlockCompressor::~BlockCompressor() { delete state_; }
+
+uint64_t BlockCompressor::blocks() const { return state_->e.frames.size(); }
+
+void BlockCompressor::compressBlocks(const uint8_t* data, uint64_t first, uint64_t end) {
+  State& st = *state_;
+  const size_t bound = ZSTD_compressBound(size_t(1) << st.blockLog);
+  tbb::parallel_for(first, end, [&](uint64_t i) {
+    State::Worker& w = st.workers.local();
     if (!w.cctx) throw std::bad_alloc();
     if (w.scratch.size() < bound) w.scratch.resize(bound);
-    const size_t bytes = blockBytes(size, blockLog, i);
+    const size_t bytes = blockBytes(st.size, st.blockLog, i);
     // One-shot: the frame states its content size, and the output depends
     // only on the block and the level (no workers, no shared state).
-    const size_t c = ZSTD_compressCCtx(w.cctx.get(), w.scratch.data(), bound, data + (i << blockLog), bytes, level);
+    const size_t c =
+        ZSTD_compressCCtx(w.cctx.get(), w.scratch.data(), bound, data + (i << st.blockLog), bytes, st.level);
     if (ZSTD_isError(c)) throw Error(ErrorKind::OutOfResources, std::string("zstd compress: ") + ZSTD_getErrorName(c));
-    e.frames[size_t(i)].assign(w.scratch.data(), w.scratch.data() + c);
-    crcs[size_t(i)] = crcOf(e.frames[size_t(i)].data(), c);
+    st.e.frames[size_t(i)].assign(w.scratch.data(), w.scratch.data() + c);
+    st.crcs[size_t(i)] = crcOf(st.e.frames[size_t(i)].data(), c);
   });
-  putLe(e.table, blockLog, 4);
-  putLe(e.table, n, 4);
+}
+
+Encoded BlockCompressor::finish() {
+  State& st = *state_;
+  Encoded e = std::move(st.e);
+  putLe(e.table, st.blockLog, 4);
+  putLe(e.table, e.frames.size(), 4);
   for (const auto& f : e.frames) putLe(e.table, f.size(), 8);
   uLong crc = crcOf(e.table.data(), e.table.size());
-  for (size_t i = 0; i < e.frames.size(); ++i) crc = crc32_combine(crc, crcs[i], z_off_t(e.frames[i].size()));
+  for (size_t i = 0; i < e.frames.size(); ++i) crc = crc32_combine(crc, st.crcs[i], z_off_t(e.frames[i].size()));
   e.crc = static_cast<uint32_t>(crc);
+  st.e = Encoded();
+  st.crcs.clear();
+  st.workers.clear();
   return e;
+}
+
+Encoded compress(const uint8_t* data, size_t size, int level, uint32_t blockLog) {
+  BlockCompressor c(size, level, blockLog);
+  c.compressBlocks(data, 0, c.blocks());
+  return c.finish();
 }
 
 Layout check(const uint8_t* stored, size_t storedBytes, uint64_t rawBytes) {

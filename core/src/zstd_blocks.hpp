@@ -43,6 +43,28 @@ struct Encoded {
 // hdt::Error(OutOfResources) when zstd fails.
 Encoded compress(const uint8_t* data, size_t size, int level, uint32_t blockLog = kWriterBlockLog);
 
+// The same encoding a few blocks at a time, as their bytes become final
+// (hdt::HdtLeafEncoder): compress() is this over all blocks at once, so the
+// bytes are the same however the blocks are handed in.
+class BlockCompressor {
+public:
+  BlockCompressor(size_t size, int level, uint32_t blockLog = kWriterBlockLog);
+  ~BlockCompressor();
+  BlockCompressor(const BlockCompressor&) = delete;
+  BlockCompressor& operator=(const BlockCompressor&) = delete;
+  uint64_t blocks() const;
+  // Blocks [first, end) of `data` (the whole `size` bytes; only those blocks
+  // are read), in parallel. Calls for disjoint ranges may run at once.
+  void compressBlocks(const uint8_t* data, uint64_t first, uint64_t end);
+  // Once every block is compressed: the table and the CRC; the compressor is
+  // then empty.
+  Encoded finish();
+
+private:
+  struct State;
+  State* state_;
+};
+
 // Where each block's frame lies in the stored bytes, once checked.
 struct Layout {
   uint32_t blockLog = 0;

@@ -17,6 +17,7 @@
 #include <algorithm>
 #include <chrono>
 #include <string>
+#include <thread>
 
 namespace hdt {
 namespace cuda {
@@ -46,6 +47,7 @@ Volume build(const PreparedMesh& mesh, const BuildOptions& options, CudaBuildRep
   uploadTriangles(s);
 
   Volume v;
+  const SinkAbandonGuard abandonOnError(options.leafSink);
   bool whole = false;
   try {
     RootMapping root = mapTrianglesToRootCells(s.memory, s.scalars, s.deviceMesh, g, 0, cells, true);
@@ -160,7 +162,20 @@ void prepareCuda(const BuildConfig& config, const BuildOptions& options) {
   try {
     if (!cudaAvailable(nullptr)) return;
     cuda::DeviceGuard guard(options.device);
-    cuda::reserveCopyStaging();
+    // Pinning the staging ring takes tens of ms of the driver's time, the
+    // memory pool and the kernels' loading as much again: side by side.
+    std::thread pinning([device = options.device] {
+      try {
+        cuda::DeviceGuard here(device);
+        cuda::reserveCopyStaging();
+      } catch (...) {
+        cudaGetLastError(); // copyToHost pins (or falls back) itself
+      }
+    });
+    struct Join {
+      std::thread& t;
+      ~Join() { t.join(); }
+    } join{pinning};
     {
       cuda::Stream stream;
       const uint64_t free = cuda::DeviceMemory::obtainable(options.device);

@@ -1,32 +1,53 @@
 // Copy-back at the interconnect's speed: device memory to pageable host
-// memory through a ring of pinned staging buffers. The DMA of the next
-// pieces runs while the host copies the last one out of its staging buffer
-// (in parallel: one core's memcpy, page faults included, is far slower than
-// the link), so the copy costs about max(link, host memcpy) per byte instead
-// of the driver's pageable path (one staging thread, no overlap).
+// memory through a ring of pinned staging buffers. What bounds it on a VM is
+// the host side: the first touch of the destination's pages and the copy out
+// of the staging buffers (the link moves 55 GB/s; bench/results/end-to-end.md).
+// So the copy out never waits at a barrier: the destination is cut at its own
+// 2 MiB (huge page) boundaries into tasks that the host threads take in order,
+// each thread faulting in and filling whole pages of its own, and a slot of the
+// ring goes back to the DMA as soon as its last task is done.
 #pragma once
 
 #include <cuda_runtime.h>
 
 #include <cstddef>
+#include <functional>
 
 namespace hdt {
 namespace cuda {
+
+// Called with n each time bytes [0, n) of the destination hold their final
+// value (n grows; the last call has n = bytes), on one of the copying threads,
+// never two at once.
+using CopiedPrefix = std::function<void(size_t n)>;
 
 // Copies `bytes` from `device` (memory of the current device) to `host` in
 // stream order (after the work queued on `stream`) and returns when `host`
 // holds them. Small copies, and all copies where no memory can be pinned,
 // take the driver's pageable path. Thread-safe: concurrent callers take turns
 // on the current device's ring (one a device, for the life of the process).
-void copyToHost(cudaStream_t stream, void* host, const void* device, size_t bytes);
+void copyToHost(cudaStream_t stream, void* host, const void* device, size_t bytes,
+                const CopiedPrefix& copied = {});
 
-// Host to host, in parallel (oneTBB): what one core's memcpy cannot fill,
-// fresh pages' first touch included.
+// Host to host, in parallel (oneTBB), in tasks cut at the destination's huge
+// page boundaries: what one core's memcpy cannot fill, first touch included.
 void copyHostParallel(void* dst, const void* src, size_t bytes);
 
 // Allocates the current device's staging ring now (pinning costs tens of ms: at process start,
 // not inside the first build's copy-back). Idempotent.
 void reserveCopyStaging();
+
+// The ring's shape, for the copy benchmark (bench/gpu/copy_bench.cpp): the
+// same copy through a ring of `slots` pinned buffers of `pieceBytes`
+// allocated by the caller (cudaMallocHost), with `events` (one a slot).
+struct StagingRing {
+  int slots = 0;
+  size_t pieceBytes = 0;
+  unsigned char* const* slot = nullptr;
+  const cudaEvent_t* arrived = nullptr;
+};
+void copyThroughRing(const StagingRing& ring, cudaStream_t stream, void* host, const void* device, size_t bytes,
+                     const CopiedPrefix& copied = {});
 
 } // namespace cuda
 } // namespace hdt

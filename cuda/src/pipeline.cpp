@@ -17,11 +17,11 @@ int axesFor(const PreparedMesh& mesh) { return mesh.closed ? 1 : 3; }
 // host_copy.cpp, after the work queued before it: the wait for that work is
 // not copy-back time, the copy itself is (Session::copyBackMs).
 template <class T>
-void download(Session& s, T* host, const DeviceBuffer<T>& d, size_t count) {
+void download(Session& s, T* host, const DeviceBuffer<T>& d, size_t count, const CopiedPrefix& copied = {}) {
   if (count == 0) return;
   s.sync();
   const auto t0 = std::chrono::steady_clock::now();
-  copyToHost(s.stream.get(), host, d.data(), count * sizeof(T));
+  copyToHost(s.stream.get(), host, d.data(), count * sizeof(T), copied);
   s.copyBackMs += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   s.copyBackBytes += count * sizeof(T);
 }
@@ -112,6 +112,7 @@ Volume buildWhole(Session& s, RootMapping root, bool keepResult) {
   const size_t wordCount = words.size();
 
   Volume v;
+  const SinkAbandonGuard abandonOnError(s.options.leafSink);
   v.grid = g;
   v.surfaceOnly = s.mesh.surfaceOnly;
   v.closedMesh = s.mesh.closed;
@@ -130,7 +131,16 @@ Volume buildWhole(Session& s, RootMapping root, bool keepResult) {
   for (size_t k = 0; k < tree.levels.size(); ++k)
     download(s, v.elements.data() + v.levelStart[k], tree.levels[k].words, tree.levels[k].count);
   v.leafWords.resize(wordCount);
-  download(s, v.leafWords.data(), words, wordCount);
+  // The leaf grids' consumer (the .hdt writer's zstd blocks) starts on each
+  // piece as it lands, unless the host rewrites them (the winding number).
+  LeafArrivalSink* sink = s.mesh.insideTest == InsideTest::WindingNumber ? nullptr : s.options.leafSink;
+  CopiedPrefix copied;
+  if (sink) {
+    sink->begin(v.leafWords.data(), wordCount);
+    copied = [sink](size_t bytes) { sink->arrived(bytes / sizeof(uint32_t)); };
+  }
+  download(s, v.leafWords.data(), words, wordCount, copied);
+  if (sink && wordCount == 0) sink->arrived(0);
   s.clock.mark(kDownload);
   s.sync();
   s.clock.collect(s.ms);

@@ -5,9 +5,11 @@
 #include "phases.hpp"
 #include "session.hpp"
 
+#include "hdt/builder.hpp"
 #include "hdt/volume.hpp"
 
 #include <cstdint>
+#include <exception>
 #include <vector>
 
 namespace hdt {
@@ -24,6 +26,23 @@ DeviceVolume buildOnDevice(Session& s, const DeviceMesh& mesh, bool closed, bool
 // T2..classification and the download for the whole grid, continuing from
 // the root pairs of T1. Throws DeviceMemoryExhausted when it does not fit.
 // keepResult = false skips the copy back (timing runs).
+// Tells the build's LeafArrivalSink that the words it was given go away when
+// an exception leaves the scope: declare it after the Volume whose leaf
+// words it guards (it is destroyed first).
+class SinkAbandonGuard {
+public:
+  explicit SinkAbandonGuard(LeafArrivalSink* sink) : sink_(sink), exceptions_(std::uncaught_exceptions()) {}
+  ~SinkAbandonGuard() {
+    if (sink_ && std::uncaught_exceptions() > exceptions_) sink_->abandon();
+  }
+  SinkAbandonGuard(const SinkAbandonGuard&) = delete;
+  SinkAbandonGuard& operator=(const SinkAbandonGuard&) = delete;
+
+private:
+  LeafArrivalSink* const sink_;
+  const int exceptions_;
+};
+
 Volume buildWhole(Session& s, RootMapping root, bool keepResult);
 
 // Phase A of a chunk [firstCell, endCell): its tree (chunk-local payloads),

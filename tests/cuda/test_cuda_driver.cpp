@@ -7,6 +7,7 @@
 
 #include "hdt/builder.hpp"
 #include "hdt/error.hpp"
+#include "hdt/hdt_file.hpp"
 #include "hdt/mesh.hpp"
 #include "support/shapes.hpp"
 
@@ -52,6 +53,36 @@ TEST(CudaDriver, PreparedDeviceGivesTheCpuBytes) {
     EXPECT_GT(gpu.leafWords.size() * 4, size_t(20) << 20) << "the ring is not exercised";
     EXPECT_TRUE(sameVolume(gpu, build(mesh, cpuOptions())));
   }
+}
+
+// The copy back feeds the .hdt writer's leaf blocks piece by piece
+// (HdtLeafEncoder): the CPU driver's volume, and the file the writer gives
+// without the streamed blocks, byte for byte. Winding-number builds rewrite
+// their leaves on the host after the copy: the writer compresses those itself.
+TEST(CudaDriver, StreamedLeafBlocksGiveTheWrittenBytes) {
+  HDT_REQUIRE_CUDA();
+  for (bool surfaceOnly : {false, true}) {
+    const Shape s = makeShape("two_bodies", 2048);
+    const PreparedMesh mesh = prepareMesh(s.mesh, s.config(2048, 16, 16, surfaceOnly));
+    HdtLeafEncoder streamed;
+    BuildOptions options = cudaOptions();
+    options.leafSink = &streamed;
+    const Volume gpu = build(mesh, options);
+    EXPECT_GT(gpu.leafWords.size() * 4, size_t(20) << 20) << "the ring is not exercised";
+    EXPECT_TRUE(sameVolume(gpu, build(mesh, cpuOptions())));
+    EXPECT_TRUE(serializeHdt(gpu, {}, &streamed) == serializeHdt(gpu)) << "surface only " << surfaceOnly;
+    EXPECT_TRUE(streamed.usedByWriter()) << "surface only " << surfaceOnly;
+  }
+  const Shape s = makeShape("open_hemisphere", 256);
+  BuildConfig config = s.config(256, 8, 16, false);
+  config.insideTest = InsideTest::WindingNumber;
+  const PreparedMesh mesh = prepareMesh(s.mesh, config);
+  HdtLeafEncoder streamed;
+  BuildOptions options = cudaOptions();
+  options.leafSink = &streamed;
+  const Volume gpu = build(mesh, options);
+  EXPECT_TRUE(serializeHdt(gpu, {}, &streamed) == serializeHdt(gpu));
+  EXPECT_FALSE(streamed.usedByWriter()) << "the winding number rewrites the leaves after the copy";
 }
 
 struct ChunkCase {

@@ -22,6 +22,23 @@ constexpr int kMaxCpuThreads = 256;
 // Throws Error(InvalidArgument) unless 0 <= threads <= kMaxCpuThreads.
 void validateThreads(int threads);
 
+// A consumer of the leaf grids while a driver copies them into the volume:
+// begin() once the volume's leaf array exists, then arrived(n) each time words
+// [0, n) of it hold their final value (n grows; the last call has n = count).
+// Calls come from the driver's threads, one at a time. When the build fails
+// after begin(), abandon() comes before the words are freed: the sink stops
+// reading them before it returns. The CUDA driver feeds it from its copy back
+// for one-piece builds whose leaves nothing rewrites on the host (not the
+// winding-number test); the CPU driver, labelled and chunked builds never
+// call it. Used by the .hdt writer (HdtLeafEncoder).
+class LeafArrivalSink {
+public:
+  virtual ~LeafArrivalSink() = default;
+  virtual void begin(const uint32_t* words, size_t count) = 0;
+  virtual void arrived(size_t count) = 0;
+  virtual void abandon() = 0;
+};
+
 struct BuildOptions {
   Backend backend = Backend::Auto;
   int threads = 0;     // CPU threads, 0 to kMaxCpuThreads; 0 = what oneTBB sees (cores, affinity)
@@ -40,6 +57,8 @@ struct BuildOptions {
   std::function<bool(double fraction, const char* phase)> progress;
   // Informational messages (backend fallback and the like).
   std::function<void(const std::string&)> log;
+  // Not owned; may be null. See LeafArrivalSink.
+  LeafArrivalSink* leafSink = nullptr;
 };
 
 // CPU driver (oneTBB).
