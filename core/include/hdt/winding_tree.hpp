@@ -5,6 +5,7 @@
 
 #include "hdt/config.hpp"
 #include "hdt/lattice.hpp"
+#include "hdt/mesh.hpp" // LatticeTriangles
 #include "hdt/winding.hpp"
 
 #include <cstdint>
@@ -26,7 +27,7 @@ struct WindingTree {
   WindingTreeView view() const { return {nodes.data(), triangles.data(), uint32_t(triangles.size())}; }
 };
 
-WindingTree buildWindingTree(const std::vector<LatticeTriangle>& triangles);
+WindingTree buildWindingTree(const LatticeTriangles& triangles);
 
 // The test a build runs: Auto is Parity for closed meshes, WindingNumber for
 // open ones; Parity and WindingNumber are taken as asked.
