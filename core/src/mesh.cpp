@@ -12,16 +12,12 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
-#include <tbb/parallel_invoke.h>
 
 #include <algorithm>
 #include <array>
 #include <chrono>
 #include <cmath>
-#include <functional>
 #include <sstream>
-#include <type_traits>
-#include <utility>
 
 namespace hdt {
 
