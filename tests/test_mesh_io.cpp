@@ -422,7 +422,7 @@ TEST(SharedMeshes, TriangleCountsMatchTheManifest) {
 
 // Brute force: every undirected lattice edge of the prepared triangles used
 // an even number of times.
-bool closedByEdgeCounts(const std::vector<LatticeTriangle>& tris) {
+bool closedByEdgeCounts(const LatticeTriangles& tris) {
   std::map<std::array<int32_t, 6>, int> count;
   for (const LatticeTriangle& t : tris) {
     for (int j = 0; j < 3; ++j) {
@@ -435,7 +435,7 @@ bool closedByEdgeCounts(const std::vector<LatticeTriangle>& tris) {
 }
 
 // Brute force: triangles whose sorted corners repeat an earlier triangle's.
-size_t duplicatesByCornerCounts(const std::vector<LatticeTriangle>& tris) {
+size_t duplicatesByCornerCounts(const LatticeTriangles& tris) {
   std::set<std::array<std::array<int32_t, 3>, 3>> seen;
   for (const LatticeTriangle& t : tris) {
     std::array<std::array<int32_t, 3>, 3> c;

@@ -29,7 +29,7 @@ namespace hdt {
 namespace test {
 namespace {
 
-using Tris = std::vector<LatticeTriangle>;
+using Tris = LatticeTriangles;
 
 // ---- the independent reference: long double, the C library's atan2l, input order ----
 

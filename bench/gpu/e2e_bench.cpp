@@ -76,7 +76,8 @@ Args parse(int argc, char** argv) {
 std::string num(double v);
 
 std::string partsJson(const PrepareTimes& p) {
-  return "{\"bounds\": " + num(p.bounds) + ", \"snap\": " + num(p.snap) + ", \"kept\": " + num(p.kept) +
+  return "{\"bounds\": " + num(p.bounds) + ", \"snap\": " + num(p.snap) + ", \"numbers\": " + num(p.numbers) +
+         ", \"kept\": " + num(p.kept) +
          ", \"closed_and_duplicates\": " + num(p.closedAndDuplicates) + "}";
 }
 

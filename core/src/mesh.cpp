@@ -2,23 +2,22 @@
 
 #include "hdt/error.hpp"
 #include "hdt/geometry.hpp"
-#include "hdt/huge_pages.hpp" // HugePageAllocator, prefaultParallel
+#include "hdt/huge_pages.hpp" // prefaultParallel
+#include "hdt/mesh_topology.hpp"
 #include "hdt/volume.hpp"
 #include "hdt/winding_tree.hpp"
+
+#include "scratch.hpp"
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
-#include <tbb/parallel_invoke.h>
 
 #include <algorithm>
 #include <array>
 #include <chrono>
 #include <cmath>
-#include <functional>
 #include <sstream>
-#include <type_traits>
-#include <utility>
 
 namespace hdt {
 
@@ -58,23 +57,42 @@ void meshBounds(const TriangleMesh& mesh, std::array<double, 3>& lo, std::array<
     bool bad = false;
   };
   const size_t np = mesh.pointCount();
+  const uint32_t* triangles = mesh.triangles.data();
+  const double* points = mesh.points.data();
   // min and max are exact, so the bounds do not depend on how the work is split.
   const Box box = tbb::parallel_reduce(
       tbb::blocked_range<size_t>(0, mesh.triangles.size(), 1 << 14), Box{},
       [&](const tbb::blocked_range<size_t>& r, Box b) {
-        for (size_t i = r.begin(); i != r.end(); ++i) {
-          const uint32_t p = mesh.triangles[i];
-          if (p >= np) {
-            b.bad = true;
-            break;
-          }
+        // Four independent lanes (min, max and add have latencies of several
+        // cycles). x * 0 is 0 for a finite x and NaN for the others, so
+        // `nonFinite` ends NaN where one was seen.
+        double lo[3][4], hi[3][4], nonFinite[4] = {0, 0, 0, 0};
+        for (int a = 0; a < 3; ++a)
+          for (int k = 0; k < 4; ++k) lo[a][k] = b.lo[a], hi[a][k] = b.hi[a];
+        auto add = [&](size_t p, int k) {
           for (int a = 0; a < 3; ++a) {
-            const double x = mesh.points[3 * size_t(p) + a];
-            b.bad |= !std::isfinite(x);
-            b.lo[a] = std::min(b.lo[a], x);
-            b.hi[a] = std::max(b.hi[a], x);
+            const double x = points[3 * p + a];
+            nonFinite[k] += x * 0.0;
+            lo[a][k] = std::min(lo[a][k], x);
+            hi[a][k] = std::max(hi[a][k], x);
           }
+        };
+        size_t i = r.begin();
+        for (; i + 4 <= r.end() && !b.bad; i += 4) {
+          const size_t p[4] = {triangles[i], triangles[i + 1], triangles[i + 2], triangles[i + 3]};
+          b.bad = (p[0] >= np) | (p[1] >= np) | (p[2] >= np) | (p[3] >= np);
+          if (!b.bad)
+            for (int k = 0; k < 4; ++k) add(p[k], k);
         }
+        for (; i < r.end() && !b.bad; ++i) {
+          b.bad = triangles[i] >= np;
+          if (!b.bad) add(triangles[i], 0);
+        }
+        for (int a = 0; a < 3; ++a) {
+          b.lo[a] = std::min(std::min(lo[a][0], lo[a][1]), std::min(lo[a][2], lo[a][3]));
+          b.hi[a] = std::max(std::max(hi[a][0], hi[a][1]), std::max(hi[a][2], hi[a][3]));
+        }
+        b.bad |= !(nonFinite[0] + nonFinite[1] + nonFinite[2] + nonFinite[3] == 0);
         return b;
       },
       [](Box a, const Box& b) {
@@ -92,161 +110,11 @@ void meshBounds(const TriangleMesh& mesh, std::array<double, 3>& lo, std::array<
 
 namespace {
 
-// Fresh memory's pages are faulted in by several threads (one thread's page
-// faults were most of prepareMesh's time); vectors that are written in
-// parallel loops are not zeroed first, and large ones get 2 MiB pages (the
-// edge keys are scattered over tens of MB: with 4 KiB pages, a TLB miss and
-// often a page fault a write).
-template <class T> struct ScratchAllocator : HugePageAllocator<T> {
-  template <class U> struct rebind {
-    using other = ScratchAllocator<U>;
-  };
-  ScratchAllocator() noexcept = default;
-  template <class U> ScratchAllocator(const ScratchAllocator<U>&) noexcept {}
-  template <class U> void construct(U* p) noexcept(std::is_nothrow_default_constructible<U>::value) {
-    ::new (static_cast<void*>(p)) U;
-  }
-  template <class U, class... A> void construct(U* p, A&&... a) {
-    ::new (static_cast<void*>(p)) U(std::forward<A>(a)...);
-  }
-};
-template <class T> using Scratch = std::vector<T, ScratchAllocator<T>>;
-
-// An undirected edge: its two lattice points as 96-bit keys, a < b.
-struct Edge {
-  unsigned __int128 a, b;
-  bool operator<(const Edge& o) const { return a < o.a || (a == o.a && b < o.b); }
-  bool operator==(const Edge& o) const { return a == o.a && b == o.b; }
-};
-
-unsigned __int128 pointKey(const int32_t* p) {
-  return (static_cast<unsigned __int128>(uint32_t(p[0])) << 64) | (uint64_t(uint32_t(p[1])) << 32) | uint32_t(p[2]);
-}
-
-Edge edgeOf(const LatticeTriangle& t, int j) {
-  const unsigned __int128 p = pointKey(t.v[j]), q = pointKey(t.v[(j + 1) % 3]);
-  return p < q ? Edge{p, q} : Edge{q, p};
-}
-
-// A triangle's corners in increasing order (any order, any orientation).
-struct Corners {
-  unsigned __int128 p[3];
-  bool operator<(const Corners& o) const {
-    return p[0] < o.p[0] || (p[0] == o.p[0] && (p[1] < o.p[1] || (p[1] == o.p[1] && p[2] < o.p[2])));
-  }
-  bool operator==(const Corners& o) const { return p[0] == o.p[0] && p[1] == o.p[1] && p[2] == o.p[2]; }
-};
-
-Corners cornersOf(const LatticeTriangle& t, int) {
-  Corners c{{pointKey(t.v[0]), pointKey(t.v[1]), pointKey(t.v[2])}};
-  if (c.p[1] < c.p[0]) std::swap(c.p[0], c.p[1]);
-  if (c.p[2] < c.p[1]) std::swap(c.p[1], c.p[2]);
-  if (c.p[1] < c.p[0]) std::swap(c.p[0], c.p[1]);
-  return c;
-}
-
-// Equal keys land in the same bucket: a hash of their 128-bit parts.
-template <size_t K> uint32_t bucketOf(const unsigned __int128 (&parts)[K], int bits) { // bits in [1, 12]
-  uint64_t h = 0x9E3779B97F4A7C15ull;
-  for (unsigned __int128 k : parts) {
-    h = (h ^ uint64_t(k)) * 0xFF51AFD7ED558CCDull;
-    h = (h ^ uint64_t(k >> 64)) * 0xC4CEB9FE1A85EC53ull;
-  }
-  return uint32_t((h ^ (h >> 29)) >> (64 - bits));
-}
-uint32_t bucketOf(const Edge& e, int bits) {
-  const unsigned __int128 parts[2] = {e.a, e.b};
-  return bucketOf(parts, bits);
-}
-uint32_t bucketOf(const Corners& c, int bits) { return bucketOf(c.p, bits); }
-
-// The K keys of every triangle (keyOf(triangle, j), j < K) scattered into
-// hash buckets, so that equal keys share a bucket: counted per fixed block
-// of triangles (the layout does not depend on the thread count), then each
-// block writes its own slots. Linear and parallel; each bucket can then be
-// sorted and its runs examined on its own (forEachRun).
-template <class Key> struct Buckets {
-  Scratch<Key> keys;
-  std::vector<size_t> start; // bucket b: keys[start[b], start[b + 1])
-};
-
-template <int K, class Key, class KeyOf> Buckets<Key> bucketKeys(const std::vector<LatticeTriangle>& tris, KeyOf keyOf) {
-  const size_t n = tris.size(), keys = K * n;
-  // About 256 keys a bucket (at most 4096 buckets) and at most 64 blocks:
-  // the count table stays small (2 MiB) for any mesh.
-  const int bits = std::clamp(int(std::log2(double(keys) / 256.0 + 1.0)), 1, 12);
-  const size_t buckets = size_t(1) << bits;
-  const size_t blocks = std::clamp<size_t>((n + (1 << 14) - 1) >> 14, 1, 64), block = (n + blocks - 1) / blocks;
-  Scratch<uint16_t> bucket(keys);
-  std::vector<size_t> offset(blocks * buckets, 0); // per block and bucket: count, then first slot
-  tbb::parallel_for(size_t(0), blocks, [&](size_t k) {
-    size_t* count = offset.data() + k * buckets;
-    for (size_t t = k * block; t < std::min(n, (k + 1) * block); ++t)
-      for (int j = 0; j < K; ++j) ++count[bucket[K * t + j] = uint16_t(bucketOf(keyOf(tris[t], j), bits))];
-  });
-  Buckets<Key> out;
-  out.start.assign(buckets + 1, 0);
-  size_t slot = 0;
-  for (size_t b = 0; b < buckets; ++b) {
-    out.start[b] = slot;
-    for (size_t k = 0; k < blocks; ++k) {
-      const size_t c = offset[k * buckets + b];
-      offset[k * buckets + b] = slot;
-      slot += c;
-    }
-  }
-  out.start[buckets] = slot;
-  out.keys = Scratch<Key>(keys);
-  tbb::parallel_for(size_t(0), blocks, [&](size_t k) {
-    size_t* next = offset.data() + k * buckets;
-    for (size_t t = k * block; t < std::min(n, (k + 1) * block); ++t)
-      for (int j = 0; j < K; ++j) out.keys[next[bucket[K * t + j]]++] = keyOf(tris[t], j);
-  });
-  return out;
-}
-
-// Sums runLength -> value over the runs of equal keys, each bucket sorted in
-// parallel (the sum does not depend on the order of the buckets).
-template <class Key, class Value> size_t sumOverRuns(Buckets<Key>& b, Value value) {
-  return tbb::parallel_reduce(
-      tbb::blocked_range<size_t>(0, b.start.size() - 1), size_t(0),
-      [&](const tbb::blocked_range<size_t>& r, size_t sum) {
-        for (size_t k = r.begin(); k != r.end(); ++k) {
-          Key* first = b.keys.data() + b.start[k];
-          Key* last = b.keys.data() + b.start[k + 1];
-          std::sort(first, last);
-          for (Key* i = first; i != last;) {
-            Key* j = i + 1;
-            while (j != last && *j == *i) ++j;
-            sum += value(size_t(j - i));
-            i = j;
-          }
-        }
-        return sum;
-      },
-      std::plus<size_t>());
-}
-
-// Every undirected edge, as a pair of lattice points, used an even number of
-// times: the surface is a mod-2 cycle, so ray parity is the same along any
-// direction and one ray axis is enough.
-bool isClosed(const std::vector<LatticeTriangle>& tris) {
-  Buckets<Edge> edges = bucketKeys<3, Edge>(tris, edgeOf);
-  return sumOverRuns(edges, [](size_t run) { return run % 2; }) == 0;
-}
-
-// Triangles that repeat another one's corners (any order, any orientation).
-size_t countDuplicates(const std::vector<LatticeTriangle>& tris) {
-  Buckets<Corners> corners = bucketKeys<1, Corners>(tris, cornersOf);
-  return sumOverRuns(corners, [](size_t run) { return run - 1; });
-}
-
-// `count` value-initialised elements; the pages are faulted in in parallel
-// first, so the zeroing runs at memory speed.
-template <class T> std::vector<T> sizedVector(size_t count) {
-  std::vector<T> v;
+// `count` unwritten triangles, their pages faulted in in parallel.
+LatticeTriangles sizedTriangles(size_t count) {
+  LatticeTriangles v;
   v.reserve(count);
-  prefaultParallel(v.data(), count * sizeof(T));
+  prefaultParallel(v.data(), count * sizeof(LatticeTriangle));
   v.resize(count);
   return v;
 }
@@ -258,24 +126,30 @@ LatticeTriangle snappedTriangle(const TriangleMesh& mesh, const Scratch<int32_t>
   return tri;
 }
 
-// The non-degenerate triangles, in input order: per fixed block a count, then
-// each block writes its own range.
-std::vector<LatticeTriangle> keptTriangles(const TriangleMesh& mesh, const Scratch<int32_t>& snapped) {
-  const size_t n = mesh.triangleCount(), block = 1 << 14, blocks = (n + block - 1) / block;
-  Scratch<uint8_t> keep(n);
+// The non-degenerate triangles, in input order (keep: which ones). One pass
+// where none is degenerate: each fixed block of triangles writes its kept
+// ones from its own first slot on; where some are dropped, the blocks' kept
+// triangles are then moved together into an array of their size.
+LatticeTriangles keptTriangles(const TriangleMesh& mesh, const Scratch<int32_t>& snapped, Scratch<uint8_t>& keep) {
+  const size_t n = mesh.triangleCount(), block = 1 << 12, blocks = (n + block - 1) / block;
+  keep = Scratch<uint8_t>(n);
+  LatticeTriangles all = sizedTriangles(n);
   std::vector<size_t> start(blocks + 1, 0);
   tbb::parallel_for(size_t(0), blocks, [&](size_t k) {
-    size_t c = 0;
-    for (size_t t = k * block; t < std::min(n, (k + 1) * block); ++t)
-      c += keep[t] = !isDegenerate(snappedTriangle(mesh, snapped, t));
-    start[k + 1] = c;
+    size_t o = k * block;
+    for (size_t t = k * block; t < std::min(n, (k + 1) * block); ++t) {
+      const LatticeTriangle tri = snappedTriangle(mesh, snapped, t);
+      keep[t] = !isDegenerate(tri);
+      if (keep[t]) all[o++] = tri;
+    }
+    start[k + 1] = o - k * block;
   });
   for (size_t k = 0; k < blocks; ++k) start[k + 1] += start[k];
-  std::vector<LatticeTriangle> out = sizedVector<LatticeTriangle>(start[blocks]);
+  if (start[blocks] == n) return all;
+  LatticeTriangles out = sizedTriangles(start[blocks]);
   tbb::parallel_for(size_t(0), blocks, [&](size_t k) {
-    size_t o = start[k];
-    for (size_t t = k * block; t < std::min(n, (k + 1) * block); ++t)
-      if (keep[t]) out[o++] = snappedTriangle(mesh, snapped, t);
+    std::copy(all.begin() + ptrdiff_t(k * block), all.begin() + ptrdiff_t(k * block + start[k + 1] - start[k]),
+              out.begin() + ptrdiff_t(start[k]));
   });
   return out;
 }
@@ -340,7 +214,14 @@ PreparedMesh prepareMesh(const TriangleMesh& mesh, const BuildConfig& config, Pr
   });
 
   lap(&PrepareTimes::snap);
-  out.triangles = keptTriangles(mesh, snapped);
+  // Numbers for the lattice points (triangles refer to the first 2^32 points
+  // at most): edges and corners compared as numbers, not coordinates.
+  const size_t pointRange = std::min(mesh.pointCount(), size_t(1) << 32);
+  Scratch<uint32_t> numbers(pointRange);
+  numberLatticePoints(snapped.data(), pointRange, numbers.data());
+  lap(&PrepareTimes::numbers);
+  Scratch<uint8_t> keep;
+  out.triangles = keptTriangles(mesh, snapped, keep);
   lap(&PrepareTimes::kept);
   out.degenerateTriangles = mesh.triangleCount() - out.triangles.size();
   if (out.triangles.empty()) {
@@ -350,9 +231,12 @@ PreparedMesh prepareMesh(const TriangleMesh& mesh, const BuildConfig& config, Pr
   if (out.triangles.size() > (size_t(1) << 32) - 1) {
     throw Error(ErrorKind::OutOfResources, "more than 2^32 - 1 triangles are not supported");
   }
-  // Two independent passes over the kept triangles, each parallel inside.
-  tbb::parallel_invoke([&] { out.closed = isClosed(out.triangles); },
-                       [&] { out.duplicateTriangles = countDuplicates(out.triangles); });
+  // Kept triangles have three distinct lattice points, so three distinct numbers.
+  const bool all = out.triangles.size() == mesh.triangleCount();
+  const SurfaceTopology topology = surfaceTopology(mesh.triangles.data(), all ? nullptr : keep.data(),
+                                                   mesh.triangleCount(), numbers.data(), pointRange);
+  out.closed = topology.closed;
+  out.duplicateTriangles = topology.duplicateTriangles;
   lap(&PrepareTimes::closedAndDuplicates);
   out.requestedInsideTest = config.insideTest;
   out.insideTest = resolveInsideTest(config.insideTest, out.closed);

@@ -59,7 +59,7 @@ void halfCross(const WindingTriangle& w, double out[3]) {
 }
 
 struct TreeBuilder {
-  const std::vector<LatticeTriangle>& tris;
+  const LatticeTriangles& tris;
   std::vector<uint32_t> order;             // triangle indices, partitioned in place
   std::vector<std::array<int64_t, 3>> key; // 3 x centroid, exact
   WindingTree& tree;
@@ -129,7 +129,7 @@ struct TreeBuilder {
 
 } // namespace
 
-WindingTree buildWindingTree(const std::vector<LatticeTriangle>& triangles) {
+WindingTree buildWindingTree(const LatticeTriangles& triangles) {
   WindingTree tree;
   if (triangles.empty()) return tree;
   TreeBuilder b{triangles, std::vector<uint32_t>(triangles.size()), std::vector<std::array<int64_t, 3>>(triangles.size()),

@@ -9,6 +9,8 @@
 #include <cstdlib>
 #include <memory>
 #include <new>
+#include <type_traits>
+#include <utility>
 
 #include <tbb/parallel_for.h>
 
@@ -85,5 +87,22 @@ template <class T, class U>
 bool operator==(const HugePageAllocator<T>&, const HugePageAllocator<U>&) noexcept { return true; }
 template <class T, class U>
 bool operator!=(const HugePageAllocator<T>&, const HugePageAllocator<U>&) noexcept { return false; }
+
+// HugePageAllocator whose resize(n) leaves new elements default-initialised
+// (unwritten for plain data): for arrays written in parallel right after they
+// are sized, which a value-initialising resize would first zero in one thread.
+template <class T> struct HugePageScratchAllocator : HugePageAllocator<T> {
+  template <class U> struct rebind {
+    using other = HugePageScratchAllocator<U>;
+  };
+  HugePageScratchAllocator() noexcept = default;
+  template <class U> HugePageScratchAllocator(const HugePageScratchAllocator<U>&) noexcept {}
+  template <class U> void construct(U* p) noexcept(std::is_nothrow_default_constructible<U>::value) {
+    ::new (static_cast<void*>(p)) U;
+  }
+  template <class U, class... A> void construct(U* p, A&&... a) {
+    ::new (static_cast<void*>(p)) U(std::forward<A>(a)...);
+  }
+};
 
 } // namespace hdt

@@ -2,6 +2,7 @@
 #pragma once
 
 #include "hdt/config.hpp"
+#include "hdt/huge_pages.hpp"
 #include "hdt/label_field.hpp"
 #include "hdt/lattice.hpp"
 
@@ -28,10 +29,15 @@ struct TriangleMesh {
   size_t triangleCount() const { return triangles.size() / 3; }
 };
 
+// Lattice triangles; resize leaves new ones unwritten and large arrays get
+// 2 MiB pages: prepareMesh writes them in parallel right after sizing, where
+// a value-initialising resize would zero MBs in one thread first.
+using LatticeTriangles = std::vector<LatticeTriangle, HugePageScratchAllocator<LatticeTriangle>>;
+
 // The mesh snapped to the lattice of a placed grid, ready for either driver.
 struct PreparedMesh {
   GridSpec grid;
-  std::vector<LatticeTriangle> triangles; // non-degenerate ones only, input order
+  LatticeTriangles triangles;             // non-degenerate ones only, input order
   size_t inputTriangles = 0;
   size_t degenerateTriangles = 0;         // zero area after snapping: dropped
   // Kept triangles with the same three lattice corners (in any order) as
@@ -70,8 +76,9 @@ PreparedMesh prepareMesh(const TriangleMesh& mesh, const BuildConfig& config);
 struct PrepareTimes {
   double bounds = 0;              // configuration and mesh checks, bounds, grid placement
   double snap = 0;                // points to the lattice
+  double numbers = 0;             // numbers for the distinct lattice points
   double kept = 0;                // the non-degenerate triangles, in order
-  double closedAndDuplicates = 0; // edge and corner buckets
+  double closedAndDuplicates = 0; // edges and corners as point numbers, bucketed
 };
 PreparedMesh prepareMesh(const TriangleMesh& mesh, const BuildConfig& config, PrepareTimes* times);
 

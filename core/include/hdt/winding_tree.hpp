@@ -5,6 +5,7 @@
 
 #include "hdt/config.hpp"
 #include "hdt/lattice.hpp"
+#include "hdt/mesh.hpp" // LatticeTriangles
 #include "hdt/winding.hpp"
 
 #include <cstdint>
@@ -31,7 +32,7 @@ struct WindingTree {
   }
 };
 
-WindingTree buildWindingTree(const std::vector<LatticeTriangle>& triangles);
+WindingTree buildWindingTree(const LatticeTriangles& triangles);
 
 constexpr uint32_t kWindingEdgeGroup = 16;
 

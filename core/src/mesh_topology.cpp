@@ -1,0 +1,283 @@
+#include "hdt/mesh_topology.hpp"
+
+#include "scratch.hpp"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
+
+#include <algorithm>
+#include <utility>
+#include <vector>
+
+namespace hdt {
+
+namespace {
+
+// Values of items [0, n) scattered into buckets: emit(i, put) calls
+// put(bucket, value) for each value of item i. Counted per fixed block of
+// items, then each block writes its own slots, so a bucket holds its values
+// in item order whatever the thread count. Two passes over the items; the
+// count table is blocks x buckets (at most 64 x 4096), its sums run in
+// parallel over the buckets. Count holds a bucket's size.
+template <class Value> struct Buckets {
+  Scratch<Value> values;
+  std::vector<size_t> start; // bucket b: values[start[b], start[b + 1])
+  size_t size(size_t b) const { return start[b + 1] - start[b]; }
+  Value* begin(size_t b) { return values.data() + start[b]; }
+};
+
+template <class Value, class Count, class Emit> Buckets<Value> scatterCounted(size_t n, size_t buckets, Emit emit) {
+  const size_t blocks = std::clamp<size_t>(n >> 12, 1, 64), block = (n + blocks - 1) / blocks;
+  // Per block and bucket: count, then first slot in the bucket. Rows padded:
+  // a power-of-two stride would put a bucket's counts in one cache set.
+  const size_t row = buckets + 16;
+  std::vector<Count> offset(blocks * row, 0);
+  tbb::parallel_for(size_t(0), blocks, [&](size_t k) {
+    Count* count = offset.data() + k * row;
+    auto put = [count](size_t b, const Value&) { ++count[b]; };
+    for (size_t i = k * block; i < std::min(n, (k + 1) * block); ++i) emit(i, put);
+  });
+  Buckets<Value> out;
+  out.start.assign(buckets + 1, 0);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, buckets), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t b = r.begin(); b != r.end(); ++b) {
+      Count slot = 0;
+      for (size_t k = 0; k < blocks; ++k) slot += std::exchange(offset[k * row + b], slot);
+      out.start[b + 1] = slot;
+    }
+  });
+  for (size_t b = 0; b < buckets; ++b) out.start[b + 1] += out.start[b];
+  out.values = Scratch<Value>(out.start[buckets]);
+  tbb::parallel_for(size_t(0), blocks, [&](size_t k) {
+    std::vector<Value*> next(buckets); // this block's next slot in each bucket
+    for (size_t b = 0; b < buckets; ++b) next[b] = out.values.data() + out.start[b] + offset[k * row + b];
+    auto put = [&next](size_t b, const Value& v) { *next[b]++ = v; };
+    for (size_t i = k * block; i < std::min(n, (k + 1) * block); ++i) emit(i, put);
+  });
+  return out;
+}
+
+// At most valuesPerItem values an item.
+template <class Value, class Emit> Buckets<Value> scatter(size_t n, size_t valuesPerItem, size_t buckets, Emit emit) {
+  if (n * valuesPerItem <= UINT32_MAX) return scatterCounted<Value, uint32_t>(n, buckets, emit);
+  return scatterCounted<Value, size_t>(n, buckets, emit);
+}
+
+int bitWidth(uint64_t x) { return x ? 64 - __builtin_clzll(x) : 0; }
+
+// ---- point numbers ----------------------------------------------------------------------
+
+struct Point {
+  int32_t x, y, z;
+  uint32_t index;
+};
+
+uint64_t hashOf(int32_t x, int32_t y, int32_t z) {
+  uint64_t h = uint64_t(uint32_t(x)) * 0x9E3779B97F4A7C15ull ^ uint64_t(uint32_t(y)) * 0xC2B2AE3D27D4EB4Full ^
+               uint64_t(uint32_t(z)) * 0x165667B19E3779F9ull;
+  h ^= h >> 31;
+  h *= 0xD6E8FEB86659FD93ull;
+  return h ^ (h >> 32);
+}
+
+// One bucket's points, in index order: the first of equal ones numbers them
+// all (an open-addressing table of positions, in cache).
+void numberBucket(const Point* points, size_t n, uint32_t* numbers, std::vector<uint32_t>& table) {
+  size_t size = 16;
+  while (size < 2 * n) size *= 2;
+  table.assign(size, 0); // position + 1; 0 is free
+  for (size_t i = 0; i < n; ++i) {
+    const Point& p = points[i];
+    size_t slot = hashOf(p.x, p.y, p.z) & (size - 1);
+    uint32_t number = p.index;
+    for (; table[slot] != 0; slot = (slot + 1) & (size - 1)) {
+      const Point& q = points[table[slot] - 1];
+      if (q.x == p.x && q.y == p.y && q.z == p.z) {
+        number = q.index;
+        break;
+      }
+    }
+    if (number == p.index) table[slot] = uint32_t(i + 1);
+    numbers[p.index] = number;
+  }
+}
+
+// ---- edges and corners ------------------------------------------------------------------
+//
+// A triangle with point numbers a < b < c gives two entries, each filed under
+// its smallest point: the corner entry (a | b, c), which stands for edges
+// (a, b) and (a, c), and the edge entry (b | c, none). An entry is one integer
+//   (p mod 2^shift) << 2 idBits | q << idBits | r,  none = 2^idBits - 1,
+// 64 bits where they fit (up to 2^25 points), else 128. A point's entries
+// give the other ends of its edges to higher points (each must come an even
+// number of times), and two triangles with the same corners give equal
+// corner entries.
+
+struct Tally {
+  size_t oddPoints = 0, duplicates = 0;
+  Tally operator+(const Tally& o) const { return {oddPoints + o.oddPoints, duplicates + o.duplicates}; }
+};
+
+template <class Entry> struct EntryCode {
+  int idBits, shift;
+  Entry none; // also the mask of q and r
+  Entry of(uint32_t p, uint32_t q, Entry r) const {
+    return (Entry(p & ((uint32_t(1) << shift) - 1)) << (2 * idBits)) | (Entry(q) << idBits) | r;
+  }
+  size_t localPoint(Entry e) const { return size_t(e >> (2 * idBits)); }
+  uint32_t q(Entry e) const { return uint32_t((e >> idBits) & none); }
+  Entry r(Entry e) const { return e & none; }
+};
+
+template <class T> void sortSmall(T* first, T* last) {
+  if (last - first > 16) {
+    std::sort(first, last);
+    return;
+  }
+  for (T* i = first + 1; i < last; ++i) {
+    const T v = *i;
+    T* j = i;
+    for (; j != first && v < *(j - 1); --j) *j = *(j - 1);
+    *j = v;
+  }
+}
+
+// Values that equal an earlier one in [first, last): a run of m equal values
+// gives m - 1. Pairwise for the few values of a point, else sorted.
+template <class T> size_t repeats(T* first, T* last) {
+  size_t n = size_t(last - first), count = 0;
+  if (n <= 16) {
+    for (size_t i = 1; i < n; ++i) {
+      bool seen = false;
+      for (size_t j = 0; j < i; ++j) seen |= first[j] == first[i];
+      count += seen;
+    }
+    return count;
+  }
+  std::sort(first, last);
+  for (size_t i = 1; i < n; ++i) count += first[i] == first[i - 1];
+  return count;
+}
+
+// Whether some value comes an odd number of times in [first, last).
+bool someOddCount(uint32_t* first, uint32_t* last) {
+  const size_t n = size_t(last - first);
+  if (n <= 16) {
+    unsigned odd = 0;
+    for (size_t i = 0; i < n; ++i) {
+      unsigned c = 0;
+      for (size_t j = 0; j < n; ++j) c += first[j] == first[i];
+      odd |= c;
+    }
+    return odd & 1;
+  }
+  std::sort(first, last);
+  for (size_t i = 0; i < n;) {
+    size_t j = i + 1;
+    while (j < n && first[j] == first[i]) ++j;
+    if ((j - i) & 1) return true;
+    i = j;
+  }
+  return false;
+}
+
+// One bucket: ordered by point (a counting sort over the bucket's 2^shift
+// points, or a plain sort where it has fewer entries than points), then each
+// point's entries on their own: repeated corner entries, and the other ends
+// of its edges, each of which must come an even number of times.
+template <class Entry> struct BucketTally {
+  const EntryCode<Entry>& code;
+  std::vector<Entry> sorted, corners;
+  std::vector<uint32_t> count, ends;
+
+  void point(const Entry* first, const Entry* last, Tally& t) {
+    const size_t n = size_t(last - first);
+    if (ends.size() < 2 * n) ends.resize(2 * n), corners.resize(n);
+    size_t e = 0, c = 0;
+    for (const Entry* i = first; i != last; ++i) {
+      ends[e++] = code.q(*i);
+      if (code.r(*i) != code.none) ends[e++] = uint32_t(code.r(*i)), corners[c++] = *i;
+    }
+    t.duplicates += repeats(corners.data(), corners.data() + c);
+    t.oddPoints += someOddCount(ends.data(), ends.data() + e);
+  }
+
+  void operator()(Entry* entries, size_t n, Tally& t) {
+    const size_t points = size_t(1) << code.shift;
+    if (n < points) {
+      std::sort(entries, entries + n);
+      for (size_t i = 0; i < n;) {
+        size_t j = i + 1;
+        while (j < n && code.localPoint(entries[j]) == code.localPoint(entries[i])) ++j;
+        point(entries + i, entries + j, t);
+        i = j;
+      }
+      return;
+    }
+    count.assign(points + 1, 0);
+    for (size_t i = 0; i < n; ++i) ++count[code.localPoint(entries[i]) + 1];
+    for (size_t p = 0; p < points; ++p) count[p + 1] += count[p];
+    sorted.resize(n);
+    for (size_t i = 0; i < n; ++i) sorted[count[code.localPoint(entries[i])]++] = entries[i];
+    // count[p] is now where point p + 1 starts
+    for (size_t p = 0, begin = 0; p < points; begin = count[p++]) point(sorted.data() + begin, sorted.data() + count[p], t);
+  }
+};
+
+template <class Entry>
+SurfaceTopology tally(const uint32_t* indices, const uint8_t* keep, size_t triangles, const uint32_t* numbers,
+                      uint64_t pointRange, int shift) {
+  EntryCode<Entry> code;
+  code.idBits = bitWidth(pointRange);
+  code.none = (Entry(1) << code.idBits) - 1;
+  code.shift = shift;
+  const size_t buckets = size_t(((pointRange - 1) >> shift) + 1);
+  Buckets<Entry> b = scatter<Entry>(triangles, 2, buckets, [&](size_t t, auto&& put) {
+    if (keep && !keep[t]) return;
+    uint32_t v[3];
+    for (int j = 0; j < 3; ++j) v[j] = numbers ? numbers[indices[3 * t + j]] : indices[3 * t + j];
+    if (v[1] < v[0]) std::swap(v[0], v[1]);
+    if (v[2] < v[1]) std::swap(v[1], v[2]);
+    if (v[1] < v[0]) std::swap(v[0], v[1]);
+    put(v[0] >> shift, code.of(v[0], v[1], v[2]));
+    put(v[1] >> shift, code.of(v[1], v[2], code.none));
+  });
+  const Tally t = tbb::parallel_reduce(
+      tbb::blocked_range<size_t>(0, buckets), Tally{},
+      [&](const tbb::blocked_range<size_t>& r, Tally sum) {
+        BucketTally<Entry> bucket{code, {}, {}, {}, {}};
+        for (size_t k = r.begin(); k != r.end(); ++k) bucket(b.begin(k), b.size(k), sum);
+        return sum;
+      },
+      [](const Tally& x, const Tally& y) { return x + y; });
+  return SurfaceTopology{t.oddPoints == 0, t.duplicates};
+}
+
+} // namespace
+
+void numberLatticePoints(const int32_t* xyz, size_t count, uint32_t* numbers) {
+  if (count == 0) return;
+  int bits = 0; // about 64 points a bucket, at most 4096 buckets
+  while (bits < 12 && (count >> (bits + 6)) > 0) ++bits;
+  Buckets<Point> b = scatter<Point>(count, 1, size_t(1) << bits, [&](size_t i, auto&& put) {
+    const int32_t* p = xyz + 3 * i;
+    const uint64_t h = hashOf(p[0], p[1], p[2]);
+    put(bits ? size_t(h >> (64 - bits)) : 0, Point{p[0], p[1], p[2], uint32_t(i)});
+  });
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, b.start.size() - 1), [&](const tbb::blocked_range<size_t>& r) {
+    std::vector<uint32_t> table;
+    for (size_t k = r.begin(); k != r.end(); ++k) numberBucket(b.begin(k), b.size(k), numbers, table);
+  });
+}
+
+SurfaceTopology surfaceTopology(const uint32_t* indices, const uint8_t* keep, size_t triangles,
+                                const uint32_t* numbers, uint64_t pointRange) {
+  if (triangles == 0 || pointRange == 0) return SurfaceTopology{};
+  int shift = 0; // about 4096 buckets of 2^shift points
+  while ((pointRange >> shift) > 4096) ++shift;
+  if (shift + 2 * bitWidth(pointRange) <= 64) return tally<uint64_t>(indices, keep, triangles, numbers, pointRange, shift);
+  return tally<unsigned __int128>(indices, keep, triangles, numbers, pointRange, shift);
+}
+
+} // namespace hdt
