@@ -159,7 +159,7 @@ uint64_t mortonKey(uint64_t x, uint64_t y, uint64_t z) {
 
 } // namespace
 
-void buildWindingEdges(const std::vector<LatticeTriangle>& triangles, WindingTree& tree) {
+void buildWindingEdges(const LatticeTriangles& triangles, WindingTree& tree) {
   using Corner = std::array<int32_t, 3>;
   struct Directed {
     Corner lo, hi; // the corners in lexicographic order

@@ -39,7 +39,7 @@ constexpr uint32_t kWindingEdgeGroup = 16;
 // The boundary 1-chain of the triangles (WindingEdge), sorted by the Morton
 // key of the edges' midpoints (ties by corners) and cut into groups: a
 // function of the triangles only.
-void buildWindingEdges(const std::vector<LatticeTriangle>& triangles, WindingTree& tree);
+void buildWindingEdges(const LatticeTriangles& triangles, WindingTree& tree);
 
 // The test a build runs: Auto is Parity for closed meshes, WindingNumber for
 // open ones; Parity and WindingNumber are taken as asked.
