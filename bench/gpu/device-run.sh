@@ -13,6 +13,7 @@
 #     sanitize  compute-sanitizer memcheck on every test, initcheck and synccheck on a reduced set
 #     memcheck  memcheck on a subset (MEMCHECK_FILTER, MEMCHECK_TIMEOUT)
 #     racecheck racecheck on the generated shapes, dense clusters, driver tests and meshes at 1024
+#               (RACECHECK_FILTER: another gtest filter)
 #     vtktests  the VTK filter's tests (hdt_vtk_tests, CUDA path included) from the carried
 #               tarball .devdeps/vtk-tests.tar.xz (bin/ and lib/: see bench/gpu/README.md)
 #     bench     hdt_gpu_bench over all meshes, 1K..32K, surface and solid,
@@ -214,7 +215,7 @@ step_racecheck() { # shared-memory hazards; every shared access tracked (~100x s
   # H100); the chunked tests and the larger meshes do not fit one 10-minute call
   local t0=$SECONDS
   timeout 540 compute-sanitizer --tool racecheck --racecheck-report hazard --error-exitcode 9 "$TESTS" \
-    --gtest_filter='*CudaShapes*:*CudaDense*:CudaDriver.*:*CudaSharedMeshes*N1024*' > "$OUT/racecheck.log" 2>&1
+    --gtest_filter="${RACECHECK_FILTER:-*CudaShapes*:*CudaDense*:CudaDriver.*:*CudaSharedMeshes*N1024*}" > "$OUT/racecheck.log" 2>&1
   say "racecheck: rc=$? in $((SECONDS - t0)) s: $(grep -E 'SUMMARY|^\[  (PASSED|FAILED) ' "$OUT/racecheck.log" | tr '\n' ' ')"
 }
 
