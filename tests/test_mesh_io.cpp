@@ -5,6 +5,7 @@
 #include "hdt/error.hpp"
 #include "hdt/mesh.hpp"
 #include "hdt/mesh_io.hpp"
+#include "support/mesh_files.hpp"
 #include "support/shapes.hpp"
 
 #include <gtest/gtest.h>
@@ -391,11 +392,7 @@ TEST(BuiltinMeshes, UnknownNameListsTheKnownOnes) {
 // ---- the shared real meshes (optional) --------------------------------------------------
 
 TEST(SharedMeshes, TriangleCountsMatchTheManifest) {
-#if defined(HDT_SHARED_MESHES_DIR)
-  const fs::path dir = HDT_SHARED_MESHES_DIR;
-#else
-  const fs::path dir;
-#endif
+  const fs::path dir = sharedMeshesDir();
   if (dir.empty() || !fs::is_directory(dir)) GTEST_SKIP() << "no shared meshes at '" << dir.string() << "'";
   // MANIFEST.md: triangles after splitting polygons into fans.
   const std::pair<const char*, size_t> manifest[] = {

@@ -16,10 +16,6 @@
 #include <string>
 #include <vector>
 
-#ifndef HDT_SHARED_MESHES_DIR
-#define HDT_SHARED_MESHES_DIR ""
-#endif
-
 namespace hdt {
 namespace test {
 namespace {
@@ -33,7 +29,7 @@ struct SharedCase {
 
 std::vector<SharedCase> sharedCases() {
   std::vector<SharedCase> out;
-  for (const std::string& f : meshFilesIn(HDT_SHARED_MESHES_DIR)) {
+  for (const std::string& f : meshFilesIn(sharedMeshesDir())) {
     out.push_back({f, 64, 2, 8});  // height 2
     if (!f.empty()) out.push_back({f, 128, 4, 8}); // height 2, more roots
   }
@@ -49,9 +45,8 @@ class SharedMesh : public ::testing::TestWithParam<SharedCase> {};
 TEST_P(SharedMesh, CpuBuildMatchesReference) {
   const SharedCase& c = GetParam();
   if (c.file.empty())
-    GTEST_SKIP() << "no meshes in HDT_SHARED_MESHES_DIR = \"" << HDT_SHARED_MESHES_DIR
-                 << "\" (the shared folder beside the checkout is optional)";
-  const std::string path = std::string(HDT_SHARED_MESHES_DIR) + "/" + c.file;
+    GTEST_SKIP() << "no meshes in \"" << sharedMeshesDir() << "\" (the shared folder beside the checkout is optional)";
+  const std::string path = sharedMeshesDir() + "/" + c.file;
   const std::string ext = fs::path(path).extension().string();
   TriangleMesh mesh;
   try {

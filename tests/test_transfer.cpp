@@ -12,6 +12,7 @@
 #include "hdt/mesh_io.hpp"
 #include "hdt/transfer.hpp"
 #include "hdt/error.hpp"
+#include "support/mesh_files.hpp"
 #include "support/shapes.hpp"
 
 #include <gtest/gtest.h>
@@ -22,10 +23,6 @@
 #include <cmath>
 #include <filesystem>
 #include <limits>
-
-#ifndef HDT_SHARED_MESHES_DIR
-#define HDT_SHARED_MESHES_DIR ""
-#endif
 
 namespace hdt {
 namespace test {
@@ -354,8 +351,9 @@ TEST(Transfer, PlyPropertiesBecomeArrays) {
 
 // A cell array on a real scan (the triangle index): skips without the shared meshes.
 TEST(Transfer, OgreTriangleIndexMatchesReference) {
-  const std::string path = std::string(HDT_SHARED_MESHES_DIR) + "/ogre.obj";
-  if (!std::filesystem::exists(path)) GTEST_SKIP() << path << " is absent";
+  std::string why;
+  const std::string path = sharedMeshPath("ogre.obj", &why);
+  if (path.empty()) GTEST_SKIP() << why;
   const TriangleMesh m = readMesh(path);
   const Volume v = transferred(m, config(64));
   expectMatchesReference(m, v);

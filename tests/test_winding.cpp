@@ -7,6 +7,7 @@
 #include "hdt/root_ranges.hpp"
 #include "hdt/winding_tree.hpp"
 #include "support/format_volumes.hpp"
+#include "support/mesh_files.hpp"
 #include "support/shapes.hpp"
 #include "support/winding_reference.hpp"
 
@@ -16,10 +17,6 @@
 #include <cstring>
 #include <fstream>
 #include <stdexcept>
-
-#ifndef HDT_SHARED_MESHES_DIR
-#define HDT_SHARED_MESHES_DIR ""
-#endif
 
 namespace hdt {
 namespace test {
@@ -198,16 +195,12 @@ TEST(WindingBuild, BadInputStaysClean) {
 
 // ---- shared meshes ------------------------------------------------------------------
 
-std::string sharedMesh(const std::string& name) {
-  const std::string path = std::string(HDT_SHARED_MESHES_DIR) + "/" + name;
-  return std::ifstream(path).good() ? path : std::string();
-}
-
 class WindingSharedMesh : public ::testing::TestWithParam<const char*> {};
 
 TEST_P(WindingSharedMesh, SampledVoxelsMatchBruteForce) {
-  const std::string path = sharedMesh(GetParam());
-  if (path.empty()) GTEST_SKIP() << GetParam() << " not in HDT_SHARED_MESHES_DIR = \"" << HDT_SHARED_MESHES_DIR << "\"";
+  std::string why;
+  const std::string path = sharedMeshPath(GetParam(), &why);
+  if (path.empty()) GTEST_SKIP() << why;
   const PreparedMesh m = prepareMesh(readMesh(path), windingConfig(64, InsideTest::Auto));
   ASSERT_FALSE(m.closed);
   ASSERT_EQ(m.insideTest, InsideTest::WindingNumber);

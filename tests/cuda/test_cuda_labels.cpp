@@ -9,6 +9,7 @@
 #include "hdt/labels.hpp"
 #include "hdt/mesh.hpp"
 #include "hdt/mesh_io.hpp"
+#include "support/mesh_files.hpp"
 #include "support/shapes.hpp"
 
 #include <gtest/gtest.h>
@@ -162,8 +163,7 @@ TEST(CudaLabels, PartWithoutTrianglesFallsBack) {
 
 TEST(CudaLabels, SharedMeshesByComponents) {
   HDT_REQUIRE_CUDA();
-  const char* env = std::getenv("HDT_MESHES_DIR"); // as test_cuda_shared_meshes.cpp
-  const std::string dir = env && *env ? env : HDT_SHARED_MESHES_DIR;
+  const std::string dir = sharedMeshesDir();
   int done = 0;
   for (const char* name : {"cycloidal-drive.ply", "ogre.obj", "bracket.stl"}) {
     const std::string path = dir + "/" + name;

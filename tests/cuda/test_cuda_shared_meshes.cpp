@@ -1,6 +1,6 @@
 // Optional: the CUDA driver against the CPU driver on the real meshes of
-// HDT_SHARED_MESHES_DIR (or $HDT_MESHES_DIR, which the GPU machine's script
-// sets) at 1024^3, 2048^3 and 4096^3, R = 16, L = 16, solid and surface-only.
+// sharedMeshesDir() ($HDT_MESHES_DIR, which the GPU machine's script sets, or
+// the shared folder beside the checkout) at 1024^3, 2048^3 and 4096^3, R = 16, L = 16, solid and surface-only.
 // Skips, saying why, when no meshes are there.
 #include "cuda_compare.hpp"
 #include "support/mesh_files.hpp"
@@ -20,20 +20,11 @@
 #include <tuple>
 #include <vector>
 
-#ifndef HDT_SHARED_MESHES_DIR
-#define HDT_SHARED_MESHES_DIR ""
-#endif
-
 namespace hdt {
 namespace test {
 namespace {
 
 namespace fs = std::filesystem;
-
-std::string meshesDir() {
-  const char* env = std::getenv("HDT_MESHES_DIR");
-  return env && *env ? env : HDT_SHARED_MESHES_DIR;
-}
 
 using Param = std::tuple<std::string, int, bool>;
 
@@ -49,9 +40,9 @@ const TriangleMesh& cachedMesh(const std::string& path) {
 
 TEST_P(CudaSharedMeshes, SameBytesAsCpu) {
   const std::string& file = std::get<0>(GetParam());
-  if (file.empty()) GTEST_SKIP() << "no meshes in \"" << meshesDir() << "\" (HDT_MESHES_DIR / HDT_SHARED_MESHES_DIR)";
+  if (file.empty()) GTEST_SKIP() << "no meshes in \"" << sharedMeshesDir() << "\" (HDT_MESHES_DIR, or the shared folder beside the checkout)";
   HDT_REQUIRE_CUDA();
-  const std::string path = meshesDir() + "/" + file;
+  const std::string path = sharedMeshesDir() + "/" + file;
   TriangleMesh mesh;
   try {
     mesh = cachedMesh(path);
@@ -70,7 +61,7 @@ TEST_P(CudaSharedMeshes, SameBytesAsCpu) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Files, CudaSharedMeshes,
-                         ::testing::Combine(::testing::ValuesIn(meshFilesIn(meshesDir())), ::testing::Values(1024, 2048, 4096),
+                         ::testing::Combine(::testing::ValuesIn(meshFilesIn(sharedMeshesDir())), ::testing::Values(1024, 2048, 4096),
                                             ::testing::Bool()),
                          [](const ::testing::TestParamInfo<Param>& info) {
                            return meshCaseName(std::get<0>(info.param)) + "_N" + std::to_string(std::get<1>(info.param)) +

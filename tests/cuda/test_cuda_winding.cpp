@@ -7,6 +7,7 @@
 #include "hdt/builder.hpp"
 #include "hdt/mesh.hpp"
 #include "hdt/mesh_io.hpp"
+#include "support/mesh_files.hpp"
 #include "support/winding_reference.hpp"
 
 #include <gtest/gtest.h>
@@ -14,10 +15,6 @@
 #include <cstdlib>
 #include <fstream>
 #include <string>
-
-#ifndef HDT_SHARED_MESHES_DIR
-#define HDT_SHARED_MESHES_DIR ""
-#endif
 
 namespace hdt {
 namespace test {
@@ -56,9 +53,7 @@ class CudaWindingShared : public ::testing::TestWithParam<const char*> {};
 
 TEST_P(CudaWindingShared, SameBytesAsCpu) {
   HDT_REQUIRE_CUDA();
-  // HDT_MESHES_DIR (the GPU machine's binary PLY copies) or the shared folder.
-  const char* env = std::getenv("HDT_MESHES_DIR");
-  const std::string dir = env && *env ? env : HDT_SHARED_MESHES_DIR;
+  const std::string dir = sharedMeshesDir(); // the GPU machine's binary PLY copies, or the shared folder
   std::string path;
   for (const char* ext : {".obj", ".ply", ".stl"}) {
     const std::string p = dir + "/" + GetParam() + ext;

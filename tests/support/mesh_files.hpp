@@ -17,5 +17,15 @@ std::vector<std::string> meshFilesIn(const std::string& dir);
 // every character that is not a letter or digit becomes '_'.
 std::string meshCaseName(const std::string& file);
 
+// The folder of the shared meshes: $HDT_MESHES_DIR when set (the GPU machine's
+// binary PLY copies), else the folder beside the checkout that the build
+// names (HDT_SHARED_MESHES_DIR), else "".
+std::string sharedMeshesDir();
+
+// The path of `name` in sharedMeshesDir(), or "" when a test must skip, with
+// the reason in `why`: the file is absent, or this build cannot read its
+// format (OBJ and ASCII STL need assimp: hdt::readsAllMeshFormats()).
+std::string sharedMeshPath(const std::string& name, std::string* why);
+
 } // namespace test
 } // namespace hdt
