@@ -7,12 +7,9 @@
 
 #if defined(HDT_WITH_MPI)
 #include "hdt/host_memory.hpp"
-#include "hdt/huge_pages.hpp"
 #include "hdt/range_exchange.hpp"
 
 #include <mpi.h>
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
 #include <algorithm>
@@ -91,24 +88,22 @@ void receiveInto(T* out, uint64_t count, int from) {
 
 // A rank's piece to rank 0: its tree's levels, then its leaf words.
 void sendPiece(const RangeTree& piece) {
-  for (const std::vector<ElementWord>& level : piece.levels) sendArray(level.data(), level.size(), 0);
+  const std::vector<uint8_t> levels = packRangeLevels(piece);
+  sendArray(levels.data(), levels.size(), 0);
   sendArray(piece.leafWords.data(), piece.leafWords.size(), 0);
 }
 
-// Rank 0 receives a piece: the levels into the tree, the leaf words straight
-// into their place in the joined volume's leaves (no copy after the receive).
-RangeTree receivePiece(RootRange cells, int levels, uint32_t* leafWords, uint64_t wordCount, int from) {
-  RangeTree piece;
-  piece.cells = cells;
-  piece.levels.resize(size_t(levels));
-  for (std::vector<ElementWord>& level : piece.levels) {
-    level.resize(receiveLength(uint64_t(1) << 30, from)); // the tree's element limit
-    receiveInto(level.data(), level.size(), from);
-  }
-  if (receiveLength(wordCount, from) != wordCount)
+// Rank 0 receives a piece: the levels into the gather, the leaf words
+// straight into their place in the joined volume's leaves.
+void receivePiece(PlacedGather& gather, int from, const GridSpec& g) {
+  // At most the tree's 2^30 elements (4 bytes each) and the buffer's headers.
+  std::vector<uint8_t> levels(receiveLength((uint64_t(1) << 32) + 4096, from));
+  receiveInto(levels.data(), levels.size(), from);
+  gather.addLevels(size_t(from), unpackRangeLevels(levels.data(), levels.size(), g));
+  const uint64_t words = gather.wordCountOf(size_t(from));
+  if (receiveLength(words, from) != words)
     throw Error(ErrorKind::BadInput, "rank " + std::to_string(from) + " sent fewer leaf words than it announced");
-  receiveInto(leafWords, wordCount, from);
-  return piece;
+  receiveInto(gather.wordsOf(size_t(from)), words, from);
 }
 
 // What a rank measured of its own part, gathered to rank 0 for the report.
@@ -223,7 +218,6 @@ Volume buildAcrossRanks(const MpiSession& session, const PreparedMesh& mesh, con
   const uint64_t myWords = own.leafWords.size();
   std::vector<uint64_t> words(static_cast<size_t>(K));
   MPI_Gather(&myWords, 1, MPI_UINT64_T, words.data(), 1, MPI_UINT64_T, 0, MPI_COMM_WORLD);
-  const int levels = g.height + 1;
   RankFigures figures;
   figures.phases = times;
   figures.exchangeMs = exchangeMs;
@@ -243,28 +237,14 @@ Volume buildAcrossRanks(const MpiSession& session, const PreparedMesh& mesh, con
     return grid;
   }
   const auto s0 = Clock::now();
-  uint64_t total = 0;
-  for (uint64_t w : words) total += w;
-  LeafWordVector leafWords(total); // not zeroed: every word is received or copied
-  // Faulted in by all cores first: the receives then run at memory speed.
-  adviseHugePages(leafWords.data(), total * sizeof(uint32_t));
-  arena.execute([&] { prefaultParallel(leafWords.data(), total * sizeof(uint32_t)); });
+  std::unique_ptr<PlacedGather> gather;
   arena.execute([&] {
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, own.leafWords.size(), size_t(1) << 22),
-                      [&](const tbb::blocked_range<size_t>& r) {
-                        std::copy(own.leafWords.begin() + r.begin(), own.leafWords.begin() + r.end(),
-                                  leafWords.begin() + r.begin());
-                      });
+    gather = std::make_unique<PlacedGather>(g, words);
+    gather->addOwn(0, std::move(own));
   });
-  own.leafWords = LeafWordVector();
-  std::vector<RangeTree> pieces(static_cast<size_t>(K));
-  pieces[0] = std::move(own);
-  uint64_t at = words[0];
-  for (int r = 1; r < K; ++r) {
-    pieces[size_t(r)] = receivePiece(ranges[size_t(r)], levels, leafWords.data() + at, words[size_t(r)], r);
-    at += words[size_t(r)];
-  }
-  Volume v = joinRanges(g, std::move(pieces), std::move(leafWords));
+  for (int r = 1; r < K; ++r) receivePiece(*gather, r, g);
+  Volume v = gather->join();
+  gather.reset();
   figures.sendMs = msSince(s0);
   figures.peakHostBytes = peakResidentBytes(); // rank 0 holds the joined volume now
   std::vector<RankReport> all = gatherFigures(figures, &ranges, K);

@@ -23,6 +23,7 @@
 #include <chrono>
 #include <cstring>
 #include <functional>
+#include <memory>
 
 namespace
 {
@@ -57,6 +58,26 @@ std::vector<uint8_t> receiveBytes(vtkMultiProcessController* c, int from, int ta
     c->Receive(bytes.data() + at, std::min<vtkIdType>(kPiece, vtkIdType(n) - at), from, tag);
   }
   return bytes;
+}
+
+// Leaf words sent as they lie, in pieces (MPI counts are int); the receiver
+// knows the count already.
+constexpr vtkIdType kWordPiece = vtkIdType(1) << 28;
+
+void sendWords(vtkMultiProcessController* c, const uint32_t* words, uint64_t count, int to, int tag)
+{
+  for (uint64_t at = 0; at < count; at += uint64_t(kWordPiece))
+  {
+    c->Send(words + at, vtkIdType(std::min<uint64_t>(uint64_t(kWordPiece), count - at)), to, tag);
+  }
+}
+
+void receiveWords(vtkMultiProcessController* c, uint32_t* words, uint64_t count, int from, int tag)
+{
+  for (uint64_t at = 0; at < count; at += uint64_t(kWordPiece))
+  {
+    c->Receive(words + at, vtkIdType(std::min<uint64_t>(uint64_t(kWordPiece), count - at)), from, tag);
+  }
 }
 
 // Every rank's buffer, in rank order (collective; small buffers only).
@@ -488,23 +509,36 @@ std::shared_ptr<hdt::Volume> vtkHDTDistributed::Gather(vtkMultiProcessController
     }
     own = hdt::sliceVolume(pieceVolume, ranges[size_t(me)]);
   });
+  // Every rank's leaf-word count: the root places each rank's words where the
+  // joined volume keeps them, as they arrive (no pass over them afterwards).
+  const unsigned long long mine = own.leafWords.size();
+  std::vector<unsigned long long> counts(static_cast<size_t>(K));
+  c->Gather(&mine, counts.data(), 1, root);
+  std::unique_ptr<hdt::PlacedGather> gather;
+  collectively(c, [&] {
+    if (me == root)
+    {
+      gather = std::make_unique<hdt::PlacedGather>(g, std::vector<uint64_t>(counts.begin(), counts.end()));
+      gather->addOwn(size_t(me), std::move(own));
+    }
+  });
   if (me != root)
   {
-    sendBytes(c, hdt::packRangeTree(own), root, kGatherTag);
+    sendBytes(c, hdt::packRangeLevels(own), root, kGatherTag);
+    sendWords(c, own.leafWords.data(), own.leafWords.size(), root, kGatherTag);
     return nullptr;
   }
-  std::vector<hdt::RangeTree> trees(static_cast<size_t>(K));
   for (int r = 0; r < K; ++r)
   {
     if (r == me)
     {
-      trees[size_t(r)] = std::move(own);
       continue;
     }
-    const std::vector<uint8_t> bytes = receiveBytes(c, r, kGatherTag);
-    trees[size_t(r)] = hdt::unpackRangeTree(bytes.data(), bytes.size(), g);
+    const std::vector<uint8_t> levels = receiveBytes(c, r, kGatherTag);
+    gather->addLevels(size_t(r), hdt::unpackRangeLevels(levels.data(), levels.size(), g));
+    receiveWords(c, gather->wordsOf(size_t(r)), gather->wordCountOf(size_t(r)), r, kGatherTag);
   }
-  auto whole = std::make_shared<hdt::Volume>(hdt::joinRanges(g, std::move(trees)));
+  auto whole = std::make_shared<hdt::Volume>(gather->join());
   whole->surfaceOnly = pieceVolume.surfaceOnly;
   whole->closedMesh = pieceVolume.closedMesh;
   whole->insideTest = pieceVolume.insideTest;

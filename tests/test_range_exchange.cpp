@@ -104,18 +104,21 @@ TEST_P(RangeExchange, ProcessesGiveTheSerialVolume) {
     EXPECT_DOUBLE_EQ(sum.paperBitsPerActiveVoxel, whole.stats.paperBitsPerActiveVoxel);
     EXPECT_EQ(quadKeys(pieceQuads), quadKeys(extractSurfaceQuads(whole)));
 
-    // As a distributed join receives them: the leaves already in place, the
-    // ranges with neither leaf words nor coordinates (counted from the tree).
-    std::vector<RangeTree> bare = trees;
-    LeafWordVector placed;
-    for (RangeTree& t : bare) {
-      placed.insert(placed.end(), t.leafWords.begin(), t.leafWords.end());
-      t.leafWords = LeafWordVector();
-      t.leafCoord.clear();
+    // As a distributed gather joins them: range 0 is the gathering process's
+    // own, the others send their levels and then their leaf words into place.
+    std::vector<uint64_t> counts;
+    for (const RangeTree& t : trees) counts.push_back(t.leafWords.size());
+    PlacedGather gather(mesh.grid, counts);
+    for (size_t r = 1; r < trees.size(); ++r) {
+      const std::vector<uint8_t> levels = packRangeLevels(trees[r]);
+      gather.addLevels(r, unpackRangeLevels(levels.data(), levels.size(), mesh.grid));
+      ASSERT_EQ(gather.wordCountOf(r), trees[r].leafWords.size());
+      std::copy(trees[r].leafWords.begin(), trees[r].leafWords.end(), gather.wordsOf(r));
     }
+    gather.addOwn(0, RangeTree(trees[0]));
     Volume joined = joinRanges(mesh.grid, std::move(trees));
-    Volume joinedPlaced = joinRanges(mesh.grid, std::move(bare), std::move(placed));
-    for (Volume* v : {&joined, &joinedPlaced}) {
+    Volume gathered = gather.join();
+    for (Volume* v : {&joined, &gathered}) {
       v->surfaceOnly = whole.surfaceOnly;
       v->closedMesh = whole.closedMesh;
       computeStructureStatistics(*v);
@@ -140,6 +143,53 @@ TEST(RangeExchange, DamagedBuffersAreRefused) {
   bytes[0] ^= 1;
   EXPECT_THROW(unpackRangeTree(bytes.data(), bytes.size(), mesh.grid), Error);
   EXPECT_THROW(sliceVolume(whole, RootRange{0, 65}), Error);
+
+  // The levels alone: damaged, or from another grid.
+  const RangeTree half = sliceVolume(whole, RootRange{0, 32});
+  std::vector<uint8_t> levels = packRangeLevels(half);
+  EXPECT_THROW(unpackRangeLevels(levels.data(), levels.size() - 1, mesh.grid), Error);
+  GridSpec taller = mesh.grid;
+  taller.height += 1;
+  EXPECT_THROW(unpackRangeLevels(levels.data(), levels.size(), taller), Error);
+  levels[0] ^= 1;
+  EXPECT_THROW(unpackRangeLevels(levels.data(), levels.size(), mesh.grid), Error);
+}
+
+TEST(RangeExchange, PlacedGatherRefusesMismatchedCounts) {
+  const PreparedMesh mesh = prepareShapeCase(ShapeCase{"sphere", 64, 4, 8, false});
+  BuildOptions options;
+  options.backend = Backend::Cpu;
+  const Volume whole = buildCpu(mesh, options);
+  const RangeTree a = sliceVolume(whole, RootRange{0, 32}), b = sliceVolume(whole, RootRange{32, 64});
+  ASSERT_FALSE(a.leafWords.empty());
+  ASSERT_FALSE(b.leafWords.empty());
+  // Not whole leaves.
+  EXPECT_THROW(PlacedGather(mesh.grid, {a.leafWords.size() + 1, b.leafWords.size()}), Error);
+  // A range never added.
+  {
+    PlacedGather g(mesh.grid, {a.leafWords.size(), b.leafWords.size()});
+    g.addOwn(0, RangeTree(a));
+    EXPECT_THROW(g.join(), Error);
+  }
+  // A range that announced one leaf more than its tree has.
+  {
+    const uint64_t perLeaf = leafWordCount(mesh.grid.leafSize);
+    PlacedGather g(mesh.grid, {a.leafWords.size(), b.leafWords.size() + perLeaf});
+    g.addOwn(0, RangeTree(a));
+    RangeTree bLevels = b;
+    bLevels.leafWords = LeafWordVector();
+    bLevels.leafCoord.clear();
+    std::fill(g.wordsOf(1), g.wordsOf(1) + g.wordCountOf(1), 0u);
+    g.addLevels(1, std::move(bLevels));
+    EXPECT_THROW(g.join(), Error);
+  }
+  // The own range's words must be what it announced; levels come without words.
+  {
+    const uint64_t perLeaf = leafWordCount(mesh.grid.leafSize);
+    PlacedGather g(mesh.grid, {a.leafWords.size() + perLeaf, b.leafWords.size()});
+    EXPECT_THROW(g.addOwn(0, RangeTree(a)), Error);
+    EXPECT_THROW(g.addLevels(1, RangeTree(b)), Error);
+  }
 }
 
 } // namespace

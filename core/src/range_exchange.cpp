@@ -3,7 +3,11 @@
 #include "hdt/range_exchange.hpp"
 
 #include "hdt/error.hpp"
+#include "hdt/huge_pages.hpp"
 #include "hdt/mesh.hpp"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <cstring>
@@ -61,6 +65,7 @@ private:
 
 constexpr uint32_t kTreeTag = 0x48445452u;     // "HDTR"
 constexpr uint32_t kBoundaryTag = 0x48445442u; // "HDTB"
+constexpr uint32_t kLevelsTag = 0x4844544Cu;   // "HDTL"
 
 // ---- slices ------------------------------------------------------------------------------
 // A source tree seen level by level, starting at root cell `first`.
@@ -194,6 +199,88 @@ RangeTree unpackRangeTree(const uint8_t* data, size_t size, const GridSpec& g) {
   r.bytes(t.leafWords.data(), words * sizeof(uint32_t));
   r.end();
   return t;
+}
+
+namespace {
+// A range's leaves as its Boundary elements count them.
+uint64_t boundaryElements(const RangeTree& t) {
+  uint64_t n = 0;
+  for (const std::vector<ElementWord>& level : t.levels)
+    for (const ElementWord w : level) n += elementState(w) == ElementState::Boundary ? 1 : 0;
+  return n;
+}
+} // namespace
+
+std::vector<uint8_t> packRangeLevels(const RangeTree& t) {
+  Writer w;
+  w.value(kLevelsTag);
+  w.value(t.cells.first);
+  w.value(t.cells.end);
+  w.value<uint64_t>(t.levels.size());
+  for (const std::vector<ElementWord>& level : t.levels) w.array(level);
+  return std::move(w.out);
+}
+
+RangeTree unpackRangeLevels(const uint8_t* data, size_t size, const GridSpec& g) {
+  Reader r(data, size);
+  RangeTree t;
+  if (r.value<uint32_t>() != kLevelsTag) throw Error(ErrorKind::BadInput, "a levels buffer from another process is damaged");
+  t.cells.first = r.value<uint64_t>();
+  t.cells.end = r.value<uint64_t>();
+  if (r.value<uint64_t>() != uint64_t(g.height) + 1 || t.cells.first > t.cells.end)
+    throw Error(ErrorKind::BadInput, "a levels buffer from another process does not match the grid");
+  t.levels.resize(size_t(g.height) + 1);
+  for (std::vector<ElementWord>& level : t.levels) r.array(level);
+  r.end();
+  return t;
+}
+
+PlacedGather::PlacedGather(const GridSpec& g, const std::vector<uint64_t>& counts)
+    : grid_(g), start_(counts.size() + 1, 0), ranges_(counts.size()), added_(counts.size(), false) {
+  const uint64_t perLeaf = hdt::leafWordCount(g.leafSize);
+  for (size_t r = 0; r < counts.size(); ++r) {
+    if (counts[r] % perLeaf || counts[r] > UINT64_MAX / 4 - start_[r])
+      throw Error(ErrorKind::BadInput, "range " + std::to_string(r) + " announced a leaf-word count that is not whole leaves");
+    start_[r + 1] = start_[r] + counts[r];
+  }
+  const uint64_t total = start_.back();
+  if (total > uint64_t(SIZE_MAX) / sizeof(uint32_t))
+    throw Error(ErrorKind::OutOfResources, "the gathered leaf words exceed this machine's address space");
+  words_.resize(size_t(total)); // unwritten: every word is received or copied
+  adviseHugePages(words_.data(), words_.size() * sizeof(uint32_t));
+  prefaultParallel(words_.data(), words_.size() * sizeof(uint32_t));
+}
+
+uint32_t* PlacedGather::wordsOf(size_t r) { return words_.data() + start_.at(r); }
+
+void PlacedGather::addLevels(size_t r, RangeTree&& levels) {
+  if (!levels.leafWords.empty() || !levels.leafCoord.empty())
+    throw Error(ErrorKind::InvalidArgument, "PlacedGather::addLevels: the leaf words go to wordsOf()");
+  ranges_.at(r) = std::move(levels);
+  added_[r] = true;
+}
+
+void PlacedGather::addOwn(size_t r, RangeTree&& own) {
+  if (own.leafWords.size() != wordCountOf(r))
+    throw Error(ErrorKind::InvalidArgument, "PlacedGather::addOwn: the range's leaf words differ from its announced count");
+  uint32_t* to = wordsOf(r);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, own.leafWords.size(), size_t(1) << 22),
+                    [&](const tbb::blocked_range<size_t>& b) {
+                      std::copy(own.leafWords.begin() + b.begin(), own.leafWords.begin() + b.end(), to + b.begin());
+                    });
+  own.leafWords = LeafWordVector();
+  own.leafCoord.clear();
+  addLevels(r, std::move(own));
+}
+
+Volume PlacedGather::join() {
+  const uint64_t perLeaf = hdt::leafWordCount(grid_.leafSize);
+  for (size_t r = 0; r < added_.size(); ++r) {
+    if (!added_[r]) throw Error(ErrorKind::InvalidArgument, "PlacedGather::join: range " + std::to_string(r) + " is missing");
+    if (boundaryElements(ranges_[r]) * perLeaf != wordCountOf(r))
+      throw Error(ErrorKind::BadInput, "range " + std::to_string(r) + "'s leaf words do not match its leaves");
+  }
+  return joinRanges(grid_, std::move(ranges_), std::move(words_));
 }
 
 RangeTree sliceVolume(const Volume& v, RootRange cells) {
