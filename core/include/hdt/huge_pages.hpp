@@ -4,6 +4,8 @@
 // THP mode is "madvise" (Debian's default) only advised ranges get them.
 #pragma once
 
+#include "hdt/default_init_allocator.hpp"
+
 #include <cstddef>
 #include <cstdint>
 #include <cstdlib>
@@ -88,21 +90,8 @@ bool operator==(const HugePageAllocator<T>&, const HugePageAllocator<U>&) noexce
 template <class T, class U>
 bool operator!=(const HugePageAllocator<T>&, const HugePageAllocator<U>&) noexcept { return false; }
 
-// HugePageAllocator whose resize(n) leaves new elements default-initialised
-// (unwritten for plain data): for arrays written in parallel right after they
-// are sized, which a value-initialising resize would first zero in one thread.
-template <class T> struct HugePageScratchAllocator : HugePageAllocator<T> {
-  template <class U> struct rebind {
-    using other = HugePageScratchAllocator<U>;
-  };
-  HugePageScratchAllocator() noexcept = default;
-  template <class U> HugePageScratchAllocator(const HugePageScratchAllocator<U>&) noexcept {}
-  template <class U> void construct(U* p) noexcept(std::is_nothrow_default_constructible<U>::value) {
-    ::new (static_cast<void*>(p)) U;
-  }
-  template <class U, class... A> void construct(U* p, A&&... a) {
-    ::new (static_cast<void*>(p)) U(std::forward<A>(a)...);
-  }
-};
+// HugePageAllocator whose resize(n) leaves new elements unwritten: for
+// arrays written in parallel right after they are sized.
+template <class T> using HugePageScratchAllocator = DefaultInit<HugePageAllocator<T>>;
 
 } // namespace hdt
