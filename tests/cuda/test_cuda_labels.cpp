@@ -143,6 +143,7 @@ TEST(CudaLabels, OpenNestedAndThreeWayOverlaps) {
 // Thin touching slabs, labels out of order: leaves of 2 to 4 labels (palette
 // leaves, the palette sorted) and of 5 or more (wide leaves), on both drivers.
 TEST(CudaLabels, ManySlabsGivePaletteAndWideLeaves) {
+  HDT_REQUIRE_CUDA();
   const Label labels[] = {9, 3, 12, 1, 40, 7, 2, 65535, 5};
   TriangleMesh slabs;
   for (int k = 0; k < 9; ++k) {
