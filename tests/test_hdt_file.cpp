@@ -1206,7 +1206,7 @@ TEST(HdtFileV2, CorruptionOfOptionalSectionsIsCaught) {
 }
 
 
-// ---- part labels (optional sections 16, 17, 18) ----------------------------------------
+// ---- part labels (optional sections 16, 17, 18, 21) -------------------------------------
 
 Volume labelledVolume(uint32_t seed = 7) {
   Volume v = smallVolume();
@@ -1220,39 +1220,107 @@ Volume tinyLabelledVolume() {
   return v;
 }
 
+// Little-endian u16s, as sections 16 and 17 store labels.
+std::vector<uint8_t> labelBytes(const std::vector<Label>& labels) {
+  std::vector<uint8_t> b;
+  for (Label l : labels) b.insert(b.end(), {uint8_t(l), uint8_t(l >> 8)});
+  return b;
+}
+
+// Section 21 as the spec lays it out: u32 layout, palettes, indices, wide labels.
+std::vector<uint8_t> compactVoxelSection(const LabelField& f, uint32_t layout = 2) {
+  std::vector<uint8_t> b(4);
+  putLe32(b, 0, layout);
+  for (const LeafPalette& p : f.palettes)
+    for (Label l : p.labels) b.insert(b.end(), {uint8_t(l), uint8_t(l >> 8)});
+  for (uint32_t w : f.paletteIndices) b.insert(b.end(), {uint8_t(w), uint8_t(w >> 8), uint8_t(w >> 16), uint8_t(w >> 24)});
+  for (Label l : f.wideLabels) b.insert(b.end(), {uint8_t(l), uint8_t(l >> 8)});
+  return b;
+}
+
+size_t sectionIndex(const HdtImage& im, uint32_t id) {
+  for (size_t i = 0; i < im.sections.size(); ++i)
+    if (im.sections[i].id == id) return i;
+  ADD_FAILURE() << "no section " << id;
+  return 0;
+}
+
+// The file an older writer made: section 17 (16 bits a voxel, `voxels`: L^3
+// labels per mixed leaf) right after 16, instead of section 21.
+std::vector<uint8_t> withSixteenBitLabels(const std::vector<uint8_t>& valid, const std::vector<Label>& voxels,
+                                          bool keepCompact = false) {
+  return forge(valid, [&](HdtImage& im) {
+    if (!keepCompact) im.sections.erase(im.sections.begin() + long(sectionIndex(im, 21)));
+    HdtSectionImage old;
+    old.id = 17;
+    old.payload = labelBytes(voxels);
+    im.sections.insert(im.sections.begin() + long(sectionIndex(im, 16)) + 1, old);
+  });
+}
+
 TEST(HdtFileLabels, RoundTripBitExact) {
   for (const HdtWriteOptions& o : allEncodings()) {
+    size_t paletteWords = 0, wideLabels = 0;
     for (uint32_t seed : {1u, 2u, 3u}) {
       Volume v = randomVolume(seed, RandomVolumeSpec{3, 8, 2, false, 0.5, 0.7, 0.3});
-      labelRandomly(v, seed);
-      ASSERT_FALSE(v.labels.voxelLabels.empty());
+      const std::vector<Label> chosen = labelRandomly(v, seed, 3 + int(seed) * 3);
+      paletteWords += v.labels.paletteIndices.size();
+      wideLabels += v.labels.wideLabels.size();
+      ASSERT_TRUE(unpackVoxelLabels(v) == chosen);
       const std::vector<uint8_t> b = bytesOf(v, o);
-      expectSameVolume(v, deserializeHdt(b.data(), b.size()), "labelled seed " + std::to_string(seed));
+      const Volume back = deserializeHdt(b.data(), b.size());
+      expectSameVolume(v, back, "labelled seed " + std::to_string(seed));
+      EXPECT_TRUE(unpackVoxelLabels(back) == chosen);
     }
+    EXPECT_GT(paletteWords, 0u) << "no palette leaf";
+    EXPECT_GT(wideLabels, 0u) << "no wide leaf";
     Volume noNames = labelledVolume();
     noNames.labels.names.clear();
     const std::vector<uint8_t> b = bytesOf(noNames, o);
-    EXPECT_EQ(parseHdtImage(b).sections.size(), 8u); // 5 required, labels 16 and 17, end
+    EXPECT_EQ(parseHdtImage(b).sections.size(), 8u); // 5 required, labels 16 and 21, end
     expectSameVolume(noNames, deserializeHdt(b.data(), b.size()), "no names");
   }
 }
 
+// Files of the older writer (section 17, 16 bits a voxel) still read, and
+// give the compact form of the same labels.
+TEST(HdtFileLabels, SixteenBitSectionOfOlderFilesIsConverted) {
+  for (uint32_t seed : {1u, 2u}) {
+    Volume v = randomVolume(seed, RandomVolumeSpec{3, 8, 2, false, 0.5, 0.7, 0.3});
+    const std::vector<Label> chosen = labelRandomly(v, seed);
+    const std::vector<uint8_t> old = withSixteenBitLabels(bytesOf(v, raw()), chosen);
+    EXPECT_EQ(parseHdtImage(old).sections[6].id, 17u);
+    const Volume back = deserializeHdt(old.data(), old.size());
+    expectSameVolume(v, back, "from section 17, seed " + std::to_string(seed));
+    EXPECT_EQ(bytesOf(back, raw()), bytesOf(v, raw())) << "rewritten in the compact form";
+  }
+  const Volume v = labelledVolume();
+  const std::vector<uint8_t> valid = bytesOf(v);
+  std::vector<Label> voxels = unpackVoxelLabels(v);
+  EXPECT_REFUSED(withSixteenBitLabels(valid, voxels, true), "both label voxels sections");
+  voxels.pop_back();
+  EXPECT_REFUSED(withSixteenBitLabels(valid, voxels), "label voxels section");
+  voxels = unpackVoxelLabels(v);
+  for (Label& l : voxels) l = l ? 1 : 0;
+  EXPECT_REFUSED(withSixteenBitLabels(valid, voxels), "only one label");
+}
+
 TEST(HdtFileLabels, LayoutFollowsTheSpec) {
   const Volume v = labelledVolume();
-  const HdtImage im = parseHdtImage(bytesOf(v));
+  const HdtImage im = parseHdtImage(bytesOf(v, raw()));
   ASSERT_EQ(im.sections.size(), 9u);
   EXPECT_EQ(im.sections[5].id, 16u);
-  EXPECT_EQ(im.sections[6].id, 17u);
-  EXPECT_EQ(im.sections[7].id, 18u);
+  EXPECT_EQ(im.sections[6].id, 18u);
+  EXPECT_EQ(im.sections[7].id, 21u);
   EXPECT_EQ(im.sections[8].id, 6u);
   const std::vector<uint8_t>& elements = im.sections[5].payload;
   ASSERT_EQ(elements.size(), 2 * v.elements.size());
   for (size_t i = 0; i < v.elements.size(); ++i)
     ASSERT_EQ(uint32_t(elements[2 * i] | elements[2 * i + 1] << 8), v.labels.elementLabels[i]);
-  const std::vector<uint8_t>& voxels = im.sections[6].payload;
-  ASSERT_EQ(voxels.size(), 2 * v.labels.voxelLabels.size());
-  EXPECT_EQ(uint32_t(voxels[0] | voxels[1] << 8), v.labels.voxelLabels[0]);
-  const std::vector<uint8_t>& names = im.sections[7].payload;
+  const std::vector<uint8_t>& voxels = im.sections[7].payload;
+  EXPECT_EQ(voxels, compactVoxelSection(v.labels));
+  EXPECT_EQ(getLe32(voxels, 0), 2u); // the layout
+  const std::vector<uint8_t>& names = im.sections[6].payload;
   EXPECT_EQ(getLe32(names, 0), 3u);
   EXPECT_EQ(getLe32(names, 4), 1u | (10u << 16));
   EXPECT_EQ(std::string(names.begin() + 8, names.begin() + 18), "first part");
@@ -1267,7 +1335,7 @@ TEST(HdtFileLabels, LayoutFollowsTheSpec) {
 TEST(HdtFileLabels, EveryByteFlippedAndTruncated) {
   for (const HdtWriteOptions& o : allEncodings()) {
     const Volume v = tinyLabelledVolume();
-    ASSERT_FALSE(v.labels.voxelLabels.empty());
+    ASSERT_FALSE(v.labels.palettes.empty());
     const std::vector<uint8_t> valid = bytesOf(v, o);
     ASSERT_EQ(refusal(valid), "ACCEPTED");
     std::vector<uint8_t> b = valid;
@@ -1285,18 +1353,14 @@ TEST(HdtFileLabels, EveryByteFlippedAndTruncated) {
 
 TEST(HdtFileLabels, InconsistentLabelsAreRefused) {
   const Volume v = labelledVolume();
-  const std::vector<uint8_t> valid = bytesOf(v);
+  const std::vector<uint8_t> valid = bytesOf(v, raw());
   // Edit the volume, write its label sections unchecked into the valid file.
-  auto withLabels = [&](const std::function<void(LabelField&)>& edit) {
+  auto withLabels = [&](const std::function<void(LabelField&)>& edit, uint32_t layout = 2) {
     Volume bad = v;
     edit(bad.labels);
-    LabelField& f = bad.labels;
     return forge(valid, [&](HdtImage& im) {
-      std::vector<uint8_t> e, x;
-      for (Label l : f.elementLabels) e.insert(e.end(), {uint8_t(l), uint8_t(l >> 8)});
-      for (Label l : f.voxelLabels) x.insert(x.end(), {uint8_t(l), uint8_t(l >> 8)});
-      im.sections[5].payload = e;
-      im.sections[6].payload = x;
+      im.sections[5].payload = labelBytes(bad.labels.elementLabels);
+      im.sections[7].payload = compactVoxelSection(bad.labels, layout);
     });
   };
   const uint64_t full = findElement(v, ElementState::Full, -1);
@@ -1306,32 +1370,64 @@ TEST(HdtFileLabels, InconsistentLabelsAreRefused) {
   EXPECT_REFUSED(withLabels([&](LabelField& f) { f.elementLabels[empty] = 3; }), "is Empty or Branch");
   EXPECT_REFUSED(withLabels([&](LabelField& f) { f.elementLabels[branch] = 3; }), "is Empty or Branch");
   EXPECT_REFUSED(withLabels([&](LabelField& f) { f.elementLabels.pop_back(); }), "label elements section");
-  EXPECT_REFUSED(withLabels([&](LabelField& f) { f.voxelLabels.pop_back(); }), "label voxels section");
-  // A mixed leaf: a label on an Outside voxel, or just one label.
-  const int L = v.grid.leafSize;
+  EXPECT_REFUSED(withLabels([](LabelField&) {}, 3), "layout 3");
+  EXPECT_REFUSED(withLabels([&](LabelField& f) { f.paletteIndices.pop_back(); }), "compact label voxels section");
+  EXPECT_REFUSED(withLabels([&](LabelField& f) { f.wideLabels.push_back(1); }), "compact label voxels section");
+  EXPECT_REFUSED(withLabels([&](LabelField& f) { f.palettes.pop_back(); }), "compact label voxels section");
+  // The first palette leaf and the first wide leaf.
+  // A palette leaf with a free entry (2 or 3 labels); the first wide leaf.
+  const auto firstOf = [&](bool wide) {
+    for (size_t k = 0; k < v.labels.palettes.size(); ++k)
+      if (v.labels.palettes[k].isWide() == wide && (wide || v.labels.palettes[k].labels[3] == 0)) return k;
+    ADD_FAILURE() << "no " << (wide ? "wide" : "palette") << " leaf";
+    return size_t(0);
+  };
+  const size_t p = firstOf(false), w = firstOf(true);
+  const size_t W = leafWordCount(v.grid.leafSize), V = v.grid.leafVoxels();
+  ASSERT_EQ(v.labels.mixedBlock[w], 0u); // the wide edits below change block 0
+  EXPECT_REFUSED(withLabels([&](LabelField& f) { std::swap(f.palettes[p].labels[0], f.palettes[p].labels[1]); }),
+                 "not ascending");
+  EXPECT_REFUSED(withLabels([&](LabelField& f) { f.palettes[p].labels[3] = 65535; }), // no voxel has it
+                 "label voxels: mixed leaf");
   EXPECT_REFUSED(withLabels([&](LabelField& f) {
-                   for (Label& l : f.voxelLabels) l = l ? 1 : 0;
-                 }),
-                 "only one label");
-  EXPECT_REFUSED(withLabels([&](LabelField& f) {
-                   for (size_t j = 0; j < size_t(L * L * L); ++j) f.voxelLabels[j] = Label(1 + j % 2);
+                   f.palettes[p].labels[1] = 0; // one label left, and indices naming the emptied slot
+                   f.palettes[p].labels[2] = 0;
+                   f.palettes[p].labels[3] = 0;
                  }),
                  "label voxels: mixed leaf");
+  EXPECT_REFUSED(withLabels([&](LabelField& f) {
+                   for (size_t j = 0; j < W; ++j) f.paletteIndices[j] = 0xFFFFFFFFu; // index 3 on Outside voxels too
+                 }),
+                 "label voxels: mixed leaf");
+  EXPECT_REFUSED(withLabels([&](LabelField& f) {
+                   for (size_t j = 0; j < V; ++j) f.wideLabels[j] = f.wideLabels[j] ? Label(1 + j % 2) : 0;
+                 }),
+                 "4 labels or fewer");
+  EXPECT_REFUSED(withLabels([&](LabelField& f) {
+                   for (size_t j = 0; j < V; ++j) f.wideLabels[j] = Label(1 + j % 7); // labels on Outside voxels
+                 }),
+                 "(wide) has a label 0");
 
-  // Sections: 17 and 18 need 16; 16 needs 17.
+  // Sections: 18 and 21 need 16; 16 needs 17 or 21.
   EXPECT_REFUSED(forge(valid, [](HdtImage& im) { im.sections.erase(im.sections.begin() + 5); }),
                  "without the label elements section");
-  EXPECT_REFUSED(forge(valid, [](HdtImage& im) { im.sections.erase(im.sections.begin() + 6); }),
+  EXPECT_REFUSED(forge(valid, [](HdtImage& im) { im.sections.erase(im.sections.begin() + 7); }),
                  "without the label voxels section");
-  EXPECT_REFUSED(forge(valid, [](HdtImage& im) { std::swap(im.sections[5], im.sections[6]); }),
-                 "label voxels section without the label elements section");
   EXPECT_REFUSED(forge(valid, [](HdtImage& im) { std::swap(im.sections[6], im.sections[7]); }),
                  "increasing id order");
   EXPECT_REFUSED(forge(valid, [](HdtImage& im) { im.sections[5].encoding = 1; }),
                  "label elements section: invalid encoding 1");
+  // Bounded before decoding: a stated length beyond 16 bits a voxel.
+  EXPECT_REFUSED(forge(valid,
+                       [](HdtImage& im) {
+                         im.sections[7].keepHeader = true;
+                         im.sections[7].encoding = 1;
+                         im.sections[7].raw = uint64_t(1) << 40;
+                       }),
+                 "compact label voxels section: 1099511627776 bytes, expected");
   // Names.
   auto names = [&](const std::function<void(std::vector<uint8_t>&)>& edit) {
-    return forge(valid, [&](HdtImage& im) { edit(im.sections[7].payload); });
+    return forge(valid, [&](HdtImage& im) { edit(im.sections[6].payload); });
   };
   EXPECT_REFUSED(names([](std::vector<uint8_t>& p) { p.push_back(0); }), "bytes after the last name");
   EXPECT_REFUSED(names([](std::vector<uint8_t>& p) { putLe32(p, 0, 4); }), "ends inside");

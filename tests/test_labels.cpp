@@ -170,7 +170,7 @@ TEST(Labels, TouchingCubesShareTheFaceByThePolicy) {
   const Volume labelled = buildLabelled(parts, unitFrame(), {});
   const Volume plain = voxelize(labelledMesh(parts), unitFrame(), cpu());
   EXPECT_EQ(firstDifference(plain, labelled), "");
-  EXPECT_GT(labelled.labels.voxelLabels.size(), 0u) << "the shared face's leaves hold two labels";
+  EXPECT_GT(labelled.labels.palettes.size(), 0u) << "the shared face's leaves hold two labels";
 }
 
 // The split into parts renumbers each part's points: a mesh whose labels
@@ -203,7 +203,8 @@ TEST(Labels, PartsSharingPointsAndInterleavedSplitCleanly) {
   const Volume b = voxelizeLabelled(shared, unitFrame(), cpu());
   EXPECT_EQ(firstDifference(a, b), "");
   EXPECT_EQ(a.labels.elementLabels, b.labels.elementLabels);
-  EXPECT_TRUE(a.labels.voxelLabels == b.labels.voxelLabels);
+  EXPECT_TRUE(unpackVoxelLabels(a) == unpackVoxelLabels(b));
+  EXPECT_TRUE(a.labels.palettes == b.labels.palettes && a.labels.paletteIndices == b.labels.paletteIndices);
   EXPECT_TRUE(matchesReference(b, referenceLabels(parts, unitFrame(), {})));
 }
 
@@ -288,8 +289,9 @@ TEST(Labels, StatisticsAndNames) {
   EXPECT_GE(occupied, 16.0 * 20 * 20);
   EXPECT_LE(occupied, 18.0 * 22 * 22);
   EXPECT_DOUBLE_EQ(table[0].volume, occupied); // voxel size 1
-  EXPECT_EQ(labelFieldBytes(v), v.labels.elementLabels.size() * 2 + v.labels.voxelLabels.size() * 2 +
-                                    v.labels.mixedBlock.size() * 4);
+  const LabelField& f = v.labels;
+  EXPECT_EQ(labelFieldBytes(v), f.elementLabels.size() * 2 + f.palettes.size() * 8 + f.paletteIndices.size() * 4 +
+                                    f.wideLabels.size() * 2 + (f.mixedIndex.size() + f.mixedBlock.size()) * 4);
 }
 
 TEST(Labels, SurfaceAreaEstimateOfASphere) {

@@ -266,6 +266,7 @@ Volume randomLabelledVolume(unsigned seed, int R, int L, int height) {
   std::mt19937 rng(seed + 100);
   const size_t voxels = size_t(L) * L * L;
   v.labels.elementLabels.assign(v.elements.size(), kOutsideLabel);
+  std::vector<Label> mixedVoxels; // L^3 per mixed leaf, in leaf order
   for (size_t i = 0; i < v.elements.size(); ++i) {
     const ElementState s = elementState(v.elements[i]);
     if (s == ElementState::Full) v.labels.elementLabels[i] = Label(1 + rng() % 3);
@@ -280,17 +281,17 @@ Volume randomLabelledVolume(unsigned seed, int R, int L, int height) {
     for (size_t k = 0; k < voxels; ++k) {
       const bool occupied = (words[k / kVoxelsPerWord] >> (2 * (k % kVoxelsPerWord))) & 3u;
       const Label label = blocky ? Label(int(k % size_t(L)) < split ? 1 : 2) : Label(1 + rng() % 3);
-      v.labels.voxelLabels.push_back(occupied ? label : kOutsideLabel);
+      mixedVoxels.push_back(occupied ? label : kOutsideLabel);
     }
   }
-  indexMixedLeaves(v);
+  packVoxelLabels(v, mixedVoxels.data());
   return v;
 }
 
 TEST(VoxelSurface, LabelledRandomTreesMatchDenseLabelsAtEveryDepth) {
   for (unsigned seed : {1u, 2u, 3u}) {
     const Volume v = randomLabelledVolume(seed, 2, 8, 2);
-    ASSERT_FALSE(v.labels.voxelLabels.empty()) << "no mixed leaf: the test would not check them";
+    ASSERT_FALSE(v.labels.palettes.empty()) << "no mixed leaf: the test would not check them";
     for (int depth = -1; depth <= fullDepth(v.grid); ++depth)
       expectSurfaceMatchesDense(v, depth, "labelled random tree seed " + std::to_string(seed));
   }

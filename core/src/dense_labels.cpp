@@ -32,17 +32,10 @@ std::vector<uint16_t> denseLabels(const Volume& v) {
       return;
     }
     if (e.state() != ElementState::Boundary) return;
-    const uint32_t* words = v.leaf(e.payload());
-    const Label* mixed = label == kOutsideLabel
-                             ? f.voxelLabels.data() + size_t(f.mixedBlock[e.payload()]) * L * L * L
-                             : nullptr;
+    const LeafLabels labels = leafLabels(v, e.index);
     for (size_t k = 0; k < L; ++k)
       for (size_t j = 0; j < L; ++j)
-        for (size_t i = 0; i < L; ++i) {
-          const size_t voxel = i + L * (j + L * k);
-          const bool occupied = ((words[voxel / kVoxelsPerWord] >> (2 * (voxel % kVoxelsPerWord))) & 3u) != 0;
-          out[x + i + n * (y + j + n * (z + k))] = mixed ? mixed[voxel] : (occupied ? label : kOutsideLabel);
-        }
+        for (size_t i = 0; i < L; ++i) out[x + i + n * (y + j + n * (z + k))] = labels[uint32_t(i + L * (j + L * k))];
   });
   return out;
 }

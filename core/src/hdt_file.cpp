@@ -76,8 +76,12 @@ enum class Section : uint32_t {
   // Optional (version 2)
   LabelElements = 16, LabelVoxels = 17, LabelNames = 18,
   ArrayDirectory = 19, ArrayValues = 20, // transferred mesh data (hdt/transfer.hpp)
+  CompactLabelVoxels = 21, // replaces 17 (read only, converted): palettes of mixed leaves
 };
 constexpr size_t kMaxLabelNameLength = 255;
+// Section 21's first field: the layout of mixed leaves' labels (1 was
+// section 17's: 16 bits a voxel; 2: label_field.hpp's palettes).
+constexpr uint32_t kCompactLabelLayout = 2;
 // ZstdBlocks (version 3, leaf data only): a table of frame lengths, then one
 // zstd frame per block of 2^b raw bytes (zstd_blocks.hpp).
 enum class Encoding : uint32_t { Raw = 0, Zstd = 1, ZstdBlocks = 2 };
@@ -94,6 +98,7 @@ const char* sectionName(Section s) {
   case Section::LabelElements: return "label elements";
   case Section::LabelVoxels: return "label voxels";
   case Section::LabelNames: return "label names";
+  case Section::CompactLabelVoxels: return "compact label voxels";
   case Section::ArrayDirectory: return "array directory";
   case Section::ArrayValues: return "array values";
   }
@@ -146,6 +151,7 @@ uint32_t crc32Of(const void* data, size_t size) {
 // On little-endian hosts that is the array itself, in one call and no copy.
 inline uint32_t byteSwap(uint32_t v) { return __builtin_bswap32(v); }
 inline uint16_t byteSwap(uint16_t v) { return __builtin_bswap16(v); }
+inline uint8_t byteSwap(uint8_t v) { return v; }
 inline float byteSwap(float v) {
   uint32_t b;
   std::memcpy(&b, &v, 4);
@@ -447,33 +453,91 @@ std::vector<uint64_t> checkLabelElements(const std::vector<Label>& labels, const
   return mixed;
 }
 
-// A mixed leaf's voxel labels: 0 exactly on Outside voxels, two labels or more.
-bool mixedLeafIsValid(const uint32_t* words, const Label* labels, int leafSize) {
-  const size_t voxels = size_t(leafSize) * leafSize * leafSize;
-  Label first = kOutsideLabel;
-  bool twoLabels = false;
-  for (size_t j = 0; j < voxels; ++j) {
+// Labels of a leaf, one a voxel: 0 exactly on Outside voxels, at least
+// `minDistinct` (<= kPaletteSize + 1) different labels.
+bool voxelLabelsFitLeaf(const uint32_t* words, const Label* labels, int leafSize, uint32_t minDistinct) {
+  const uint32_t voxels = uint32_t(leafSize) * leafSize * leafSize;
+  for (uint32_t j = 0; j < voxels; ++j) {
     const bool outside = ((words[j / kVoxelsPerWord] >> (2 * (j % kVoxelsPerWord))) & 3u) == 0;
     if (outside != (labels[j] == kOutsideLabel)) return false;
-    if (labels[j] == kOutsideLabel) continue;
-    if (first == kOutsideLabel) first = labels[j];
-    twoLabels = twoLabels || labels[j] != first;
   }
-  return twoLabels;
+  uint32_t distinct = 0;
+  paletteOfLeaf(labels, voxels, distinct);
+  return distinct >= minDistinct;
 }
 
-void checkLabelVoxels(const Volume& v, const std::vector<uint64_t>& mixed) {
-  const size_t voxels = size_t(v.grid.leafSize) * v.grid.leafSize * v.grid.leafSize;
-  if (v.labels.voxelLabels.size() != mixed.size() * voxels) {
-    invalid("label voxels: " + str(v.labels.voxelLabels.size()) + " labels for " + str(mixed.size()) +
-            " mixed leaves of " + str(voxels) + " voxels");
+// A palette leaf: the palette ascending from 1, two labels at least, unused
+// entries 0; index 0 on Outside voxels; every other voxel's index names a
+// used entry, and every used entry has a voxel.
+bool paletteLeafIsValid(const uint32_t* words, const LeafPalette& palette, const uint32_t* indices, int leafSize) {
+  uint32_t used = 0;
+  while (used < uint32_t(kPaletteSize) && palette.labels[used] != kOutsideLabel) ++used;
+  if (used < 2) return false;
+  for (uint32_t s = 1; s < uint32_t(kPaletteSize); ++s) {
+    if (s < used && palette.labels[s] <= palette.labels[s - 1]) return false;
+    if (s >= used && palette.labels[s] != kOutsideLabel) return false;
   }
+  uint32_t seen = 0; // bit s: slot s has a voxel
+  for (uint32_t j = 0; j < leafWordCount(leafSize); ++j) {
+    const uint32_t occupied = planeOf(words[j], kInsidePlane) | planeOf(words[j], kSurfacePlane);
+    if (indices[j] & ~(occupied | (occupied << 1))) return false; // an Outside voxel with index != 0
+    for (uint32_t s = 0; s < uint32_t(kPaletteSize); ++s) {
+      const uint32_t mine = paletteSlotVoxels(indices[j], s) & occupied;
+      if (mine && s >= used) return false;
+      seen |= mine ? 1u << s : 0u;
+    }
+  }
+  return seen == (1u << used) - 1;
+}
+
+bool mixedLeafIsValid(const Volume& v, uint32_t leaf, size_t k) {
+  const LabelField& f = v.labels;
+  const size_t block = f.mixedBlock[k];
+  if (f.palettes[k].isWide())
+    return voxelLabelsFitLeaf(v.leaf(leaf), f.wideLabels.data() + block * v.grid.leafVoxels(), v.grid.leafSize,
+                              kPaletteSize + 1);
+  return paletteLeafIsValid(v.leaf(leaf), f.palettes[k], f.paletteIndices.data() + block * leafWordCount(v.grid.leafSize),
+                            v.grid.leafSize);
+}
+
+// The mixed leaves' storage (label_field.hpp): one palette each, then the
+// blocks their palettes imply, each canonical for its leaf.
+void checkLabelVoxels(const Volume& v, const std::vector<uint64_t>& mixed) {
+  const LabelField& f = v.labels;
+  if (f.palettes.size() != mixed.size())
+    invalid("label voxels: " + str(f.palettes.size()) + " palettes for " + str(mixed.size()) + " mixed leaves");
+  uint64_t wide = 0;
+  for (const LeafPalette& p : f.palettes) wide += p.isWide();
+  if (f.paletteIndices.size() != (mixed.size() - wide) * leafWordCount(v.grid.leafSize) ||
+      f.wideLabels.size() != wide * v.grid.leafVoxels())
+    invalid("label voxels: " + str(f.paletteIndices.size()) + " palette index words and " + str(f.wideLabels.size()) +
+            " wide labels for " + str(mixed.size() - wide) + " palette leaves and " + str(wide) + " wide leaves");
+  if (f.mixedBlock.size() != mixed.size()) invalid("label voxels: the mixed leaves are not indexed");
+  const size_t firstBad = tbb::parallel_reduce(
+      tbb::blocked_range<size_t>(0, mixed.size(), 64), mixed.size(),
+      [&](const tbb::blocked_range<size_t>& r, size_t bad) {
+        for (size_t k = r.begin(); k != r.end() && k < bad; ++k)
+          if (!mixedLeafIsValid(v, uint32_t(mixed[k]), k)) return k;
+        return bad;
+      },
+      [](size_t a, size_t b) { return std::min(a, b); });
+  if (firstBad != mixed.size()) {
+    invalid("label voxels: mixed leaf " + str(mixed[firstBad]) +
+            (f.palettes[firstBad].isWide()
+                 ? " (wide) has a label 0 on a voxel that is not Outside (or a label on an Outside voxel), or 4 labels or fewer"
+                 : " has a palette that is not ascending from 1 with 2 to 4 labels, or indices that do not match its voxels"));
+  }
+}
+
+// Section 17 (read only): L^3 labels per mixed leaf, each 0 exactly on
+// Outside voxels with two labels or more.
+void checkSixteenBitVoxelLabels(const Volume& v, const std::vector<uint64_t>& mixed, const std::vector<Label>& labels) {
+  const size_t voxels = v.grid.leafVoxels();
   const size_t firstBad = tbb::parallel_reduce(
       tbb::blocked_range<size_t>(0, mixed.size(), 64), mixed.size(),
       [&](const tbb::blocked_range<size_t>& r, size_t bad) {
         for (size_t b = r.begin(); b != r.end() && b < bad; ++b)
-          if (!mixedLeafIsValid(v.leaf(mixed[b]), v.labels.voxelLabels.data() + b * voxels, v.grid.leafSize))
-            return b;
+          if (!voxelLabelsFitLeaf(v.leaf(mixed[b]), labels.data() + b * voxels, v.grid.leafSize, 2)) return b;
         return bad;
       },
       [](size_t a, size_t b) { return std::min(a, b); });
@@ -495,7 +559,7 @@ void checkLabelNames(const std::map<Label, std::string>& names) {
 
 void checkLabels(const Volume& v) {
   if (v.labels.empty()) {
-    if (!v.labels.voxelLabels.empty() || !v.labels.names.empty())
+    if (!v.labels.palettes.empty() || !v.labels.names.empty())
       invalid("voxel labels or label names in a volume without element labels");
     return;
   }
@@ -688,6 +752,7 @@ struct EncodedVolume {
   bool labelled = false;
   uint32_t labelElementsCrc = 0;
   Encoding labelVoxelEncoding = Encoding::Raw;
+  std::vector<uint8_t, DefaultInitAllocator<uint8_t>> labelVoxelBytes; // section 21 decoded (freed once compressed)
   uint64_t labelVoxelRawBytes = 0;
 #if defined(HDT_HAVE_ZSTD)
   Compressed labelVoxelsCompressed;
@@ -732,6 +797,28 @@ std::vector<uint8_t> encodeLabelNames(const std::map<Label, std::string>& names)
   return w.bytes();
 }
 
+// Appends the little-endian bytes of `words` at `at`; returns the end.
+template <class T> uint8_t* putLittleEndian(uint8_t* at, const T* words, size_t count) {
+  forEachLittleEndianChunk(words, count, [&](const uint8_t* p, size_t n) {
+    std::memcpy(at, p, n);
+    at += n;
+  });
+  return at;
+}
+
+// Section 21 decoded: u32 layout, the palettes, the palette indices, the wide labels.
+std::vector<uint8_t, DefaultInitAllocator<uint8_t>> compactLabelVoxelBytes(const LabelField& f) {
+  std::vector<uint8_t, DefaultInitAllocator<uint8_t>> bytes(4 + f.palettes.size() * sizeof(LeafPalette) +
+                                                            f.paletteIndices.size() * 4 + f.wideLabels.size() * 2);
+  const uint32_t layout = kCompactLabelLayout;
+  uint8_t* at = putLittleEndian(bytes.data(), &layout, 1);
+  static_assert(sizeof(LeafPalette) == kPaletteSize * sizeof(Label), "palettes are plain label arrays");
+  at = putLittleEndian(at, reinterpret_cast<const Label*>(f.palettes.data()), f.palettes.size() * kPaletteSize);
+  at = putLittleEndian(at, f.paletteIndices.data(), f.paletteIndices.size());
+  putLittleEndian(at, f.wideLabels.data(), f.wideLabels.size());
+  return bytes;
+}
+
 void encodeLabels(const Volume& v, const HdtWriteOptions& options, EncodedVolume& e) {
   const LabelField& f = v.labels;
   if (f.empty()) return;
@@ -739,21 +826,23 @@ void encodeLabels(const Volume& v, const HdtWriteOptions& options, EncodedVolume
   const uint64_t elementBytes = f.elementLabels.size() * sizeof(Label);
   e.labelElementsCrc = optionalSectionCrc(Section::LabelElements, Encoding::Raw, elementBytes, elementBytes,
                                           crcOfWords(f.elementLabels));
-  e.labelVoxelRawBytes = f.voxelLabels.size() * sizeof(Label);
+  e.labelVoxelBytes = compactLabelVoxelBytes(f);
+  e.labelVoxelRawBytes = e.labelVoxelBytes.size();
 #if defined(HDT_HAVE_ZSTD)
-  if (options.compressLeaves && !f.voxelLabels.empty()) {
+  if (options.compressLeaves) {
     e.labelVoxelEncoding = Encoding::Zstd;
-    e.labelVoxelsCompressed = compressWords(f.voxelLabels, options.zstdLevel);
+    e.labelVoxelsCompressed = compressWords(e.labelVoxelBytes, options.zstdLevel);
+    e.labelVoxelBytes = {};
     const Compressed& c = e.labelVoxelsCompressed;
-    e.labelVoxelsCrc = optionalSectionCrc(Section::LabelVoxels, Encoding::Zstd, c.size, e.labelVoxelRawBytes,
+    e.labelVoxelsCrc = optionalSectionCrc(Section::CompactLabelVoxels, Encoding::Zstd, c.size, e.labelVoxelRawBytes,
                                           crc32Of(c.data.get(), c.size));
   }
 #else
   (void)options;
 #endif
   if (e.labelVoxelEncoding == Encoding::Raw) {
-    e.labelVoxelsCrc = optionalSectionCrc(Section::LabelVoxels, Encoding::Raw, e.labelVoxelRawBytes,
-                                          e.labelVoxelRawBytes, crcOfWords(f.voxelLabels));
+    e.labelVoxelsCrc = optionalSectionCrc(Section::CompactLabelVoxels, Encoding::Raw, e.labelVoxelRawBytes,
+                                          e.labelVoxelRawBytes, crc32Of(e.labelVoxelBytes.data(), e.labelVoxelRawBytes));
   }
   if (!f.names.empty()) e.labelNames = encodeLabelNames(f.names);
 }
@@ -893,21 +982,23 @@ void emitLabels(const EncodedVolume& e, const Volume& v, Sink& out) {
   writeSectionHeader(out, Section::LabelElements, Encoding::Raw, elementBytes, elementBytes, e.labelElementsCrc);
   forEachLittleEndianChunk(f.elementLabels.data(), f.elementLabels.size(),
                            [&](const uint8_t* p, size_t n) { out.write(p, n); });
-  writeSectionHeader(out, Section::LabelVoxels, e.labelVoxelEncoding, e.labelVoxelStoredBytes(),
-                     e.labelVoxelRawBytes, e.labelVoxelsCrc);
-#if defined(HDT_HAVE_ZSTD)
-  if (e.labelVoxelEncoding == Encoding::Zstd) out.write(e.labelVoxelsCompressed.data.get(), e.labelVoxelsCompressed.size);
-#endif
-  if (e.labelVoxelEncoding == Encoding::Raw) {
-    forEachLittleEndianChunk(f.voxelLabels.data(), f.voxelLabels.size(),
-                             [&](const uint8_t* p, size_t n) { out.write(p, n); });
-  }
   if (!e.labelNames.empty()) {
     const uint64_t n = e.labelNames.size();
     writeSectionHeader(out, Section::LabelNames, Encoding::Raw, n, n,
                        optionalSectionCrc(Section::LabelNames, Encoding::Raw, n, n, crc32Of(e.labelNames.data(), n)));
     out.write(e.labelNames.data(), n);
   }
+}
+
+// After the transferred arrays (19, 20): optional sections go in id order.
+void emitCompactLabelVoxels(const EncodedVolume& e, Sink& out) {
+  if (!e.labelled) return;
+  writeSectionHeader(out, Section::CompactLabelVoxels, e.labelVoxelEncoding, e.labelVoxelStoredBytes(),
+                     e.labelVoxelRawBytes, e.labelVoxelsCrc);
+#if defined(HDT_HAVE_ZSTD)
+  if (e.labelVoxelEncoding == Encoding::Zstd) out.write(e.labelVoxelsCompressed.data.get(), e.labelVoxelsCompressed.size);
+#endif
+  if (e.labelVoxelEncoding == Encoding::Raw) out.write(e.labelVoxelBytes.data(), e.labelVoxelBytes.size());
 }
 
 void emitArrays(const EncodedVolume& e, const Volume& v, Sink& out) {
@@ -957,6 +1048,7 @@ void emit(const EncodedVolume& e, const Volume& v, Sink& out) {
 
   emitLabels(e, v, out);
   emitArrays(e, v, out);
+  emitCompactLabelVoxels(e, out);
   writeSectionHeader(out, Section::End, Encoding::Raw, 0, 0, 0);
 }
 
@@ -1240,24 +1332,65 @@ std::map<Label, std::string> decodeLabelNames(const uint8_t* bytes, size_t size)
   return names;
 }
 
-// The part-label sections (16, 17, 18); `mixed` receives the mixed leaves.
+// Section 21's payload (compactLabelVoxelBytes), decoded: the palettes
+// first, which say how many index words and wide labels must follow.
+void decodeCompactLabelVoxels(const uint8_t* bytes, size_t size, Volume& v, size_t mixed) {
+  LabelField& f = v.labels;
+  ByteReader r(bytes, size);
+  const uint32_t layout = r.u32();
+  if (layout != kCompactLabelLayout)
+    invalid("compact label voxels section: layout " + str(layout) + ", this reader knows layout 2");
+  f.palettes.resize(mixed);
+  std::memcpy(f.palettes.data(), bytes + 4, mixed * sizeof(LeafPalette));
+  littleEndianToHost(reinterpret_cast<Label*>(f.palettes.data()), mixed * kPaletteSize);
+  size_t wide = 0;
+  for (const LeafPalette& p : f.palettes) wide += p.isWide();
+  const size_t words = (mixed - wide) * leafWordCount(v.grid.leafSize), wideLabels = wide * v.grid.leafVoxels();
+  const size_t head = 4 + mixed * sizeof(LeafPalette);
+  if (size != head + words * 4 + wideLabels * 2)
+    invalid("compact label voxels section: " + str(size) + " bytes, but its palettes call for " +
+            str(head + words * 4 + wideLabels * 2));
+  f.paletteIndices.resize(words);
+  std::memcpy(f.paletteIndices.data(), bytes + head, words * 4);
+  littleEndianToHost(f.paletteIndices.data(), words);
+  f.wideLabels.resize(wideLabels);
+  std::memcpy(f.wideLabels.data(), bytes + head + words * 4, wideLabels * 2);
+  littleEndianToHost(f.wideLabels.data(), wideLabels);
+}
+
+// The part-label sections (16, 17, 18, 21); `mixed` receives the mixed leaves.
 void readLabelSection(Source& in, const RawSectionHeader& raw, Volume& v, std::vector<uint64_t>& mixed) {
   const Section id = Section(raw.id);
-  const SectionHeader h = checkSectionHeader(raw, id, sectionName(id),
-                                             id == Section::LabelVoxels ? Encoding::Zstd : Encoding::Raw, in);
+  const bool voxels = id == Section::LabelVoxels || id == Section::CompactLabelVoxels;
+  const SectionHeader h = checkSectionHeader(raw, id, sectionName(id), voxels ? Encoding::Zstd : Encoding::Raw, in);
   LabelField& f = v.labels;
   if (id != Section::LabelElements && f.empty())
     invalid(std::string(sectionName(id)) + " section without the label elements section");
+  const uint64_t V = v.grid.leafVoxels();
   switch (id) {
   case Section::LabelElements:
     expectRawBytes(h, uint64_t(v.elements.size()) * sizeof(Label));
     readOptionalArray(in, h, f.elementLabels);
     mixed = checkLabelElements(f.elementLabels, v.elements);
     break;
-  case Section::LabelVoxels: {
-    const uint64_t L = uint64_t(v.grid.leafSize);
-    expectRawBytes(h, mixed.size() * L * L * L * sizeof(Label)); // at most 8x the leaf data
-    readOptionalArray(in, h, f.voxelLabels);
+  case Section::LabelVoxels: { // the 16-bit layout of older files: checked, then converted
+    expectRawBytes(h, mixed.size() * V * sizeof(Label)); // at most 8x the leaf data
+    std::vector<Label> labels;
+    readOptionalArray(in, h, labels);
+    checkSixteenBitVoxelLabels(v, mixed, labels);
+    packVoxelLabels(v, labels.data());
+    break;
+  }
+  case Section::CompactLabelVoxels: {
+    // Bounded before decoding: the palettes, and at most 16 bits a voxel.
+    const uint64_t least = 4 + mixed.size() * sizeof(LeafPalette), most = least + mixed.size() * V * sizeof(Label);
+    if (h.raw < least || h.raw > most)
+      invalid("compact label voxels section: " + str(h.raw) + " bytes, expected " + str(least) + " to " + str(most));
+    std::vector<uint8_t> bytes;
+    readOptionalArray(in, h, bytes);
+    decodeCompactLabelVoxels(bytes.data(), bytes.size(), v, mixed.size());
+    bytes = {};
+    indexMixedLeaves(v);
     checkLabelVoxels(v, mixed);
     break;
   }
@@ -1359,9 +1492,11 @@ void readOptionalSections(Source& in, Volume& v) {
               str(previous) + ": optional sections appear once each, in increasing id order");
     }
     previous = raw.id;
-    if (raw.id >= uint32_t(Section::LabelElements) && raw.id <= uint32_t(Section::LabelNames)) {
+    const bool voxelSection = raw.id == uint32_t(Section::LabelVoxels) || raw.id == uint32_t(Section::CompactLabelVoxels);
+    if ((raw.id >= uint32_t(Section::LabelElements) && raw.id <= uint32_t(Section::LabelNames)) || voxelSection) {
+      if (voxelSection && labelVoxels) invalid("both label voxels sections (17 and 21)");
       readLabelSection(in, raw, v, mixed);
-      labelVoxels = labelVoxels || raw.id == uint32_t(Section::LabelVoxels);
+      labelVoxels = labelVoxels || voxelSection;
       continue;
     }
     if (raw.id == uint32_t(Section::ArrayDirectory) || raw.id == uint32_t(Section::ArrayValues)) {
@@ -1376,7 +1511,8 @@ void readOptionalSections(Source& in, Volume& v) {
     skipSection(in, raw);
   }
   if (in.remaining() != 0) invalid(str(in.remaining()) + " bytes after the end section");
-  if (!v.labels.empty() && !labelVoxels) invalid("label elements section without the label voxels section");
+  if (!v.labels.empty() && !labelVoxels)
+    invalid("label elements section without the label voxels section (17 or 21)");
   if (!v.arrays.empty() && !arrayValues) invalid("array directory section without the array values section");
   indexMixedLeaves(v);
 }

@@ -211,34 +211,46 @@ Volume combineLabelledParts(const std::vector<Volume>& parts, const std::vector<
   }
   out.levelStart.push_back(out.elements.size());
 
-  // The leaves, in parallel, each writing its own words and label; the voxel
-  // labels of mixed leaves are computed again straight into their place once
-  // the mixed leaves are counted (cheaper than holding them all twice).
+  // The leaves, in parallel, each writing its own words, label and (mixed)
+  // palette; the voxel labels of mixed leaves are computed again straight
+  // into their compact place once the blocks are counted.
   const uint32_t words = leafWordCount(g.leafSize);
-  const size_t voxels = size_t(g.leafSize) * g.leafSize * g.leafSize;
+  const uint32_t voxels = uint32_t(g.leafSize) * g.leafSize * g.leafSize;
   const size_t leafCount = leafElement.size();
   out.leafWords.resize(leafCount * words);
   std::vector<Label> leafLabels(leafCount);
+  std::vector<LeafPalette> leafPalettes(leafCount);
   auto claimsOf = [&](size_t i) { return leafClaims.claims.data() + leafClaims.start[i]; };
   auto countOf = [&](size_t i) { return size_t(leafClaims.start[i + 1] - leafClaims.start[i]); };
   tbb::enumerable_thread_specific<std::vector<Label>> scratch([&] { return std::vector<Label>(voxels); });
   tbb::parallel_for(size_t(0), leafCount, [&](size_t i) {
     uint32_t* w = out.leafWords.data() + i * words;
     combineLeafWords(parts, claimsOf(i), countOf(i), w);
-    leafLabels[i] = combineLeafLabels(parts, partLabels, ranking, claimsOf(i), countOf(i), w, scratch.local().data());
+    Label* labels = scratch.local().data();
+    leafLabels[i] = combineLeafLabels(parts, partLabels, ranking, claimsOf(i), countOf(i), w, labels);
+    uint32_t distinct = 0;
+    if (leafLabels[i] == kOutsideLabel) leafPalettes[i] = paletteOfLeaf(labels, voxels, distinct);
   });
-  std::vector<size_t> mixedLeaves;
+  LabelField& f = out.labels;
   for (size_t i = 0; i < leafCount; ++i) {
     elementLabels[leafElement[i]] = leafLabels[i];
-    if (leafLabels[i] == kOutsideLabel) mixedLeaves.push_back(i);
+    if (leafLabels[i] == kOutsideLabel) f.palettes.push_back(leafPalettes[i]);
   }
-  out.labels.voxelLabels.resize(mixedLeaves.size() * voxels);
-  tbb::parallel_for(size_t(0), mixedLeaves.size(), [&](size_t k) {
-    const size_t i = mixedLeaves[k];
-    combineLeafLabels(parts, partLabels, ranking, claimsOf(i), countOf(i), out.leafWords.data() + i * words,
-                      out.labels.voxelLabels.data() + k * voxels);
-  });
   indexMixedLeaves(out);
+  std::vector<size_t> mixedLeaves;
+  for (size_t i = 0; i < leafCount; ++i)
+    if (leafLabels[i] == kOutsideLabel) mixedLeaves.push_back(i);
+  size_t wide = 0;
+  for (const LeafPalette& p : f.palettes) wide += p.isWide();
+  f.paletteIndices.resize((f.palettes.size() - wide) * words);
+  f.wideLabels.resize(wide * voxels);
+  tbb::parallel_for(size_t(0), mixedLeaves.size(), [&](size_t k) {
+    const size_t i = mixedLeaves[k], block = f.mixedBlock[k];
+    const bool isWide = f.palettes[k].isWide();
+    Label* labels = isWide ? f.wideLabels.data() + block * voxels : scratch.local().data();
+    combineLeafLabels(parts, partLabels, ranking, claimsOf(i), countOf(i), out.leafWords.data() + i * words, labels);
+    if (!isWide) packPaletteIndices(labels, voxels, f.palettes[k], f.paletteIndices.data() + block * words);
+  });
 
   computeStructureStatistics(out);
   Statistics& s = out.stats;
@@ -263,15 +275,100 @@ Volume combineLabelledParts(const std::vector<Volume>& parts, const std::vector<
 
 void indexMixedLeaves(Volume& v) {
   LabelField& f = v.labels;
+  f.mixedIndex.clear();
   f.mixedBlock.clear();
   if (f.empty()) return;
-  f.mixedBlock.assign(v.leafCount(), kNotMixed);
-  uint32_t block = 0;
+  f.mixedIndex.assign(v.leafCount(), kNotMixed);
+  uint32_t mixed = 0, paletteBlocks = 0, wideBlocks = 0;
   for (uint64_t i = v.levelStart[size_t(v.grid.height)]; i < v.elements.size(); ++i) {
     const ElementWord w = v.elements[i];
-    if (elementState(w) == ElementState::Boundary && f.elementLabels[i] == kOutsideLabel)
-      f.mixedBlock[elementPayload(w)] = block++;
+    if (elementState(w) != ElementState::Boundary || f.elementLabels[i] != kOutsideLabel) continue;
+    if (mixed == f.palettes.size())
+      throw Error(ErrorKind::InvalidArgument, "labels: more mixed leaves than palettes");
+    f.mixedIndex[elementPayload(w)] = mixed;
+    f.mixedBlock.push_back(f.palettes[mixed++].isWide() ? wideBlocks++ : paletteBlocks++);
   }
+  if (mixed != f.palettes.size())
+    throw Error(ErrorKind::InvalidArgument, "labels: " + std::to_string(f.palettes.size()) + " palettes for " +
+                                                std::to_string(mixed) + " mixed leaves");
+}
+
+LeafLabels leafLabels(const Volume& v, uint64_t element) {
+  const LabelField& f = v.labels;
+  const uint32_t leaf = elementPayload(v.elements[element]);
+  const uint32_t* words = v.leaf(leaf);
+  const Label single = f.elementLabels[element];
+  if (single != kOutsideLabel) return LeafLabels(words, single, nullptr, nullptr, nullptr);
+  const uint32_t k = f.mixedIndex[leaf];
+  const size_t block = f.mixedBlock[k];
+  if (f.palettes[k].isWide())
+    return LeafLabels(words, kOutsideLabel, nullptr, nullptr, f.wideLabels.data() + block * v.grid.leafVoxels());
+  return LeafLabels(words, kOutsideLabel, f.palettes[k].labels,
+                    f.paletteIndices.data() + block * leafWordCount(v.grid.leafSize), nullptr);
+}
+
+LeafPalette paletteOfLeaf(const Label* voxels, uint32_t voxelCount, uint32_t& distinct) {
+  Label seen[kPaletteSize + 1] = {};
+  distinct = 0;
+  for (uint32_t j = 0; j < voxelCount && distinct <= uint32_t(kPaletteSize); ++j) {
+    const Label l = voxels[j];
+    if (l == kOutsideLabel || std::find(seen, seen + distinct, l) != seen + distinct) continue;
+    seen[distinct++] = l;
+  }
+  LeafPalette p{};
+  if (distinct > uint32_t(kPaletteSize)) return p; // wide
+  std::sort(seen, seen + distinct);
+  std::copy(seen, seen + distinct, p.labels);
+  return p;
+}
+
+void packPaletteIndices(const Label* voxels, uint32_t voxelCount, const LeafPalette& palette, uint32_t* indexWords) {
+  for (uint32_t w = 0; w < voxelCount / kVoxelsPerWord; ++w) {
+    uint32_t word = 0;
+    for (uint32_t b = 0; b < uint32_t(kVoxelsPerWord); ++b)
+      word |= paletteSlotOf(palette.labels, voxels[w * kVoxelsPerWord + b]) << (kPaletteIndexBits * b);
+    indexWords[w] = word;
+  }
+}
+
+void packVoxelLabels(Volume& v, const Label* mixedLeafVoxels) {
+  LabelField& f = v.labels;
+  const uint32_t voxels = uint32_t(v.grid.leafVoxels()), words = leafWordCount(v.grid.leafSize);
+  size_t mixed = 0;
+  for (uint64_t i = v.levelStart[size_t(v.grid.height)]; i < v.elements.size(); ++i)
+    mixed += elementState(v.elements[i]) == ElementState::Boundary && f.elementLabels[i] == kOutsideLabel;
+  f.palettes.resize(mixed);
+  size_t wide = 0;
+  tbb::parallel_for(size_t(0), mixed, [&](size_t k) {
+    uint32_t distinct = 0;
+    f.palettes[k] = paletteOfLeaf(mixedLeafVoxels + k * voxels, voxels, distinct);
+  });
+  for (const LeafPalette& p : f.palettes) wide += p.isWide();
+  indexMixedLeaves(v);
+  f.paletteIndices.resize((mixed - wide) * words);
+  f.wideLabels.resize(wide * voxels);
+  tbb::parallel_for(size_t(0), mixed, [&](size_t k) {
+    const Label* labels = mixedLeafVoxels + k * voxels;
+    const size_t block = f.mixedBlock[k];
+    if (f.palettes[k].isWide())
+      std::copy(labels, labels + voxels, f.wideLabels.data() + block * voxels);
+    else
+      packPaletteIndices(labels, voxels, f.palettes[k], f.paletteIndices.data() + block * words);
+  });
+}
+
+std::vector<Label> unpackVoxelLabels(const Volume& v) {
+  const LabelField& f = v.labels;
+  const uint32_t voxels = uint32_t(v.grid.leafVoxels());
+  std::vector<Label> out(f.palettes.size() * voxels);
+  for (uint64_t i = v.levelStart[size_t(v.grid.height)]; i < v.elements.size(); ++i) {
+    const ElementWord w = v.elements[i];
+    if (elementState(w) != ElementState::Boundary || f.elementLabels[i] != kOutsideLabel) continue;
+    const LeafLabels labels = leafLabels(v, i);
+    Label* block = out.data() + size_t(f.mixedIndex[elementPayload(w)]) * voxels;
+    for (uint32_t j = 0; j < voxels; ++j) block[j] = labels[j];
+  }
+  return out;
 }
 
 Label labelAt(const Volume& v, int x, int y, int z) {
@@ -280,13 +377,9 @@ Label labelAt(const Volume& v, int x, int y, int z) {
       z >= g.resolution)
     return kOutsideLabel;
   const WalkedElement e = locateElement(v, x, y, z, g.height);
-  const Label label = v.labels.elementLabels[e.index];
-  if (e.state() != ElementState::Boundary) return label;
+  if (e.state() != ElementState::Boundary) return v.labels.elementLabels[e.index];
   const int L = g.leafSize, lx = x - e.origin[0], ly = y - e.origin[1], lz = z - e.origin[2];
-  if (label != kOutsideLabel)
-    return leafVoxel(v.leaf(e.payload()), L, lx, ly, lz) == VoxelState::Outside ? kOutsideLabel : label;
-  const size_t block = v.labels.mixedBlock.at(e.payload());
-  return v.labels.voxelLabels[block * size_t(L) * L * L + size_t(lx + L * (ly + L * lz))];
+  return leafLabels(v, e.index)[uint32_t(lx + L * (ly + L * lz))];
 }
 
 void addToHistogram(LabelHistogram& h, Label label, uint64_t count) {
@@ -315,28 +408,29 @@ namespace {
 // The labels of the voxels of the box [o, o + edge)^3 that lie in Boundary element e.
 void addLeafVoxels(const Volume& v, const WalkedElement& e, const std::array<int, 3>& o, int edge,
                    LabelHistogram& h) {
-  const LabelField& f = v.labels;
   const int L = v.grid.leafSize;
-  const uint32_t* words = v.leaf(e.payload());
-  const Label label = f.elementLabels[e.index];
-  const Label* mixed =
-      label == kOutsideLabel ? f.voxelLabels.data() + size_t(f.mixedBlock[e.payload()]) * size_t(L) * L * L : nullptr;
+  const LeafLabels labels = leafLabels(v, e.index);
   std::array<int, 3> lo, hi;
   for (int a = 0; a < 3; ++a) {
     lo[size_t(a)] = std::max(o[size_t(a)], e.origin[a]) - e.origin[a];
     hi[size_t(a)] = std::min(o[size_t(a)] + edge, e.origin[a] + L) - e.origin[a];
   }
-  uint64_t occupied = 0;
+  // Counted per label first: the histogram's sorted insert is the slow part.
+  Label last = kOutsideLabel;
+  uint64_t run = 0;
   for (int z = lo[2]; z < hi[2]; ++z)
     for (int y = lo[1]; y < hi[1]; ++y)
       for (int x = lo[0]; x < hi[0]; ++x) {
-        const int voxel = x + L * (y + L * z);
-        if (mixed)
-          addToHistogram(h, mixed[voxel], 1);
-        else
-          occupied += ((words[voxel / kVoxelsPerWord] >> (2 * (voxel % kVoxelsPerWord))) & 3u) != 0;
+        const Label l = labels[uint32_t(x + L * (y + L * z))];
+        if (l == last) {
+          ++run;
+          continue;
+        }
+        addToHistogram(h, last, run);
+        last = l;
+        run = 1;
       }
-  addToHistogram(h, label, occupied);
+  addToHistogram(h, last, run);
 }
 
 } // namespace
@@ -361,34 +455,51 @@ LabelHistogram cellLabelHistogram(const Volume& v, int x, int y, int z, int edge
   return h;
 }
 
+namespace {
+
+// Surface and inside voxels of Boundary element `element`, per label.
+void countLeafVoxels(const Volume& v, uint64_t element, std::vector<uint64_t>& surface, std::vector<uint64_t>& inside) {
+  const uint32_t words = leafWordCount(v.grid.leafSize);
+  const uint32_t* leaf = v.leaf(elementPayload(v.elements[element]));
+  const LeafLabels labels = leafLabels(v, element);
+  if (!labels.mixed()) {
+    for (uint32_t j = 0; j < words; ++j) {
+      surface[labels.single()] += planeCount(leaf[j], kSurfacePlane);
+      inside[labels.single()] += planeCount(leaf[j], kInsidePlane);
+    }
+    return;
+  }
+  if (const Label* palette = labels.palette()) {
+    for (uint32_t j = 0; j < words; ++j)
+      for (uint32_t slot = 0; slot < uint32_t(kPaletteSize) && palette[slot] != kOutsideLabel; ++slot) {
+        const uint32_t mine = paletteSlotVoxels(labels.paletteIndices()[j], slot);
+        surface[palette[slot]] += popcount32(planeOf(leaf[j], kSurfacePlane) & mine);
+        inside[palette[slot]] += popcount32(planeOf(leaf[j], kInsidePlane) & mine);
+      }
+    return;
+  }
+  for (uint32_t j = 0; j < words * kVoxelsPerWord; ++j) {
+    const VoxelState s = VoxelState((leaf[j / kVoxelsPerWord] >> (2 * (j % kVoxelsPerWord))) & 3u);
+    if (s == VoxelState::Surface) ++surface[labels[j]];
+    if (s == VoxelState::Inside) ++inside[labels[j]];
+  }
+}
+
+} // namespace
+
 std::vector<LabelStatistics> labelStatistics(const Volume& v) {
   std::vector<LabelStatistics> table;
   if (v.labels.empty()) return table;
   const LabelField& f = v.labels;
   const GridSpec& g = v.grid;
   std::vector<uint64_t> surface(65536, 0), inside(65536, 0);
-  const uint32_t words = leafWordCount(g.leafSize);
-  const size_t voxels = size_t(g.leafSize) * g.leafSize * g.leafSize;
   for (int k = 0; k <= g.height; ++k) {
     const uint64_t edge = uint64_t(g.elementVoxels(k));
     for (uint64_t i = v.levelStart[size_t(k)]; i < v.levelStart[size_t(k) + 1]; ++i) {
       const ElementWord w = v.elements[i];
       if (elementState(w) == ElementState::Full) inside[f.elementLabels[i]] += edge * edge * edge;
       if (elementState(w) != ElementState::Boundary) continue;
-      const uint32_t* leaf = v.leaf(elementPayload(w));
-      if (f.elementLabels[i] != kOutsideLabel) {
-        for (uint32_t j = 0; j < words; ++j) {
-          surface[f.elementLabels[i]] += planeCount(leaf[j], kSurfacePlane);
-          inside[f.elementLabels[i]] += planeCount(leaf[j], kInsidePlane);
-        }
-        continue;
-      }
-      const Label* labels = f.voxelLabels.data() + size_t(f.mixedBlock[elementPayload(w)]) * voxels;
-      for (size_t j = 0; j < voxels; ++j) {
-        const VoxelState s = VoxelState((leaf[j / kVoxelsPerWord] >> (2 * (j % kVoxelsPerWord))) & 3u);
-        if (s == VoxelState::Surface) ++surface[labels[j]];
-        if (s == VoxelState::Inside) ++inside[labels[j]];
-      }
+      countLeafVoxels(v, i, surface, inside);
     }
   }
   const double s = g.voxelSize;
@@ -409,8 +520,9 @@ std::vector<LabelStatistics> labelStatistics(const Volume& v) {
 
 uint64_t labelFieldBytes(const Volume& v) {
   const LabelField& f = v.labels;
-  return f.elementLabels.size() * sizeof(Label) + f.voxelLabels.size() * sizeof(Label) +
-         f.mixedBlock.size() * sizeof(uint32_t);
+  return f.elementLabels.size() * sizeof(Label) + f.palettes.size() * sizeof(LeafPalette) +
+         f.paletteIndices.size() * sizeof(uint32_t) + f.wideLabels.size() * sizeof(Label) +
+         (f.mixedIndex.size() + f.mixedBlock.size()) * sizeof(uint32_t);
 }
 
 } // namespace hdt

@@ -5,6 +5,7 @@
 #include "hdt/build_steps.hpp"
 #include "hdt/error.hpp"
 #include "hdt/geometry.hpp"
+#include "hdt/labels.hpp"
 #include "hdt/volume_walk.hpp"
 
 #include <tbb/enumerable_thread_specific.h>
@@ -134,10 +135,7 @@ double squaredDistanceToTriangle(const TriangleMesh& mesh, size_t t, const Vec3&
 
 // The label of voxel `voxel` of leaf `leaf` (labelled volumes).
 Label leafVoxelLabel(const Volume& v, const LeafIndex& leaves, uint64_t leaf, uint32_t voxel) {
-  const Label l = v.labels.elementLabels[leaves.element[leaf]];
-  if (l != kOutsideLabel) return l;
-  const size_t L = size_t(v.grid.leafSize);
-  return v.labels.voxelLabels[size_t(v.labels.mixedBlock[leaf]) * L * L * L + voxel];
+  return leafLabels(v, leaves.element[leaf])[voxel];
 }
 
 std::vector<uint32_t> chooseTriangles(const TriangleMesh& mesh, const Volume& v, const LeafIndex& leaves,

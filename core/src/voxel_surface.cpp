@@ -273,8 +273,7 @@ private:
   // coarser cell's the majority of its voxels (the hyper tree grid's rule).
   void computeCellLabels(const WalkedElement& e) {
     const int L = ctx_.L, n = ctx_.n, c = ctx_.c;
-    const Label* voxels = ctx_.v.labels.voxelLabels.data() +
-                          size_t(ctx_.v.labels.mixedBlock[e.payload()]) * size_t(L) * L * L;
+    const LeafLabels voxels = leafLabels(ctx_.v, e.index);
     cellLabels_.resize(size_t(n) * n * n);
     LabelHistogram histogram;
     for (int z = 0; z < n; ++z)
@@ -283,7 +282,7 @@ private:
           histogram.clear();
           for (int vz = z * c; vz < (z + 1) * c; ++vz)
             for (int vy = y * c; vy < (y + 1) * c; ++vy)
-              for (int vx = x * c; vx < (x + 1) * c; ++vx) addToHistogram(histogram, voxels[vx + L * (vy + L * vz)], 1);
+              for (int vx = x * c; vx < (x + 1) * c; ++vx) addToHistogram(histogram, voxels[uint32_t(vx + L * (vy + L * vz))], 1);
           cellLabels_[size_t(x + n * (y + n * z))] = majorityLabel(histogram);
         }
   }

@@ -4,6 +4,8 @@
 #include "check.hpp"
 #include "device_common.cuh"
 
+#include "hdt/label_field.hpp"
+
 #include <cub/device/device_scan.cuh>
 
 namespace hdt {
@@ -149,10 +151,17 @@ __global__ void inheritedVoxelRanksKernel(uint64_t total, uint32_t wordsPerLeaf,
               voxelRanks + (uint64_t(multiIndex[ul]) * wordsPerLeaf + w) * kVoxelsPerWord, rank);
 }
 
-// One warp a leaf.
-__global__ void leafLabelsKernel(uint32_t leaves, uint32_t voxelsPerLeaf, const uint32_t* claimCount,
-                                 const uint16_t* claimRank, const uint32_t* multiIndex, const uint16_t* voxelRanks,
-                                 const uint16_t* labelOfRank, uint16_t* leafLabel, CombineError e) {
+// The label of a voxel rank (kNoRank: outside, 0).
+__device__ __forceinline__ uint32_t labelOfVoxel(uint16_t rank, const uint16_t* labelOfRank) {
+  return rank == kNoRank ? 0u : labelOfRank[rank];
+}
+
+// One warp a leaf. Multi-claim leaves: their distinct labels, ascending, one
+// warp minimum a label (at most kPaletteSize + 1 rounds), as paletteOfLeaf.
+__global__ void leafPalettesKernel(uint32_t leaves, uint32_t voxelsPerLeaf, const uint32_t* claimCount,
+                                   const uint16_t* claimRank, const uint32_t* multiIndex, const uint16_t* voxelRanks,
+                                   const uint16_t* labelOfRank, uint16_t* leafLabel, LeafPalette* multiPalette,
+                                   CombineError e) {
   const uint64_t leaf = threadIndex() / 32;
   const unsigned lane = threadIdx.x % 32;
   if (leaf >= leaves) return; // whole warps leave together (blockDim is a multiple of 32)
@@ -166,20 +175,26 @@ __global__ void leafLabelsKernel(uint32_t leaves, uint32_t voxelsPerLeaf, const 
     return;
   }
   const uint16_t* ranks = voxelRanks + uint64_t(multiIndex[leaf]) * voxelsPerLeaf;
-  uint32_t lo = 0xFFFF, hi = 0; // over the voxels' labels >= 1
-  for (uint32_t v = lane; v < voxelsPerLeaf; v += 32) {
-    const uint16_t r = ranks[v];
-    if (r == kNoRank) continue;
-    const uint32_t label = labelOfRank[r];
-    lo = label < lo ? label : lo;
-    hi = label > hi ? label : hi;
+  LeafPalette palette = {};
+  uint32_t distinct = 0, previous = 0;
+  while (distinct <= uint32_t(kPaletteSize)) {
+    uint32_t next = 0x10000; // the least label above `previous`
+    for (uint32_t v = lane; v < voxelsPerLeaf; v += 32) {
+      const uint32_t label = labelOfVoxel(ranks[v], labelOfRank);
+      next = label > previous && label < next ? label : next;
+    }
+    for (int o = 16; o > 0; o >>= 1) {
+      const uint32_t n = __shfl_xor_sync(kFullMask, next, o);
+      next = n < next ? n : next;
+    }
+    if (next == 0x10000) break;
+    if (distinct < uint32_t(kPaletteSize)) palette.labels[distinct] = uint16_t(next);
+    ++distinct;
+    previous = next;
   }
-  for (int o = 16; o > 0; o >>= 1) {
-    const uint32_t l = __shfl_xor_sync(kFullMask, lo, o), h = __shfl_xor_sync(kFullMask, hi, o);
-    lo = l < lo ? l : lo;
-    hi = h > hi ? h : hi;
-  }
-  if (lane == 0) leafLabel[leaf] = (hi != 0 && lo == hi) ? uint16_t(lo) : uint16_t(0);
+  if (lane != 0) return;
+  leafLabel[leaf] = distinct == 1 ? palette.labels[0] : uint16_t(0);
+  multiPalette[multiIndex[leaf]] = distinct > uint32_t(kPaletteSize) ? LeafPalette{} : palette;
 }
 
 __global__ void markMixedKernel(uint32_t leaves, const uint32_t* claimCount, const uint16_t* leafLabel,
@@ -194,16 +209,52 @@ __global__ void multiLeavesKernel(uint32_t leaves, const uint32_t* claimCount, c
   if (i < leaves && claimCount[i] >= 2) multiLeaf[multiIndex[i]] = uint32_t(i);
 }
 
-__global__ void mixedVoxelLabelsKernel(uint64_t total, uint32_t voxelsPerLeaf, const uint32_t* multiLeaf,
-                                       const uint16_t* leafLabel, const uint32_t* mixedIndex,
-                                       const uint16_t* voxelRanks, const uint16_t* labelOfRank, uint16_t* out) {
+// Per leaf: 1 for a mixed leaf stored with a palette (paletteFlag) or wide (wideFlag).
+__global__ void markMixedFormsKernel(uint32_t multiCount, const uint32_t* multiLeaf, const uint16_t* leafLabel,
+                                     const LeafPalette* multiPalette, uint32_t* paletteFlag, uint32_t* wideFlag) {
+  const uint64_t m = threadIndex();
+  if (m >= multiCount) return;
+  const uint32_t leaf = multiLeaf[m];
+  const bool mixed = leafLabel[leaf] == 0, wide = multiPalette[m].labels[0] == 0;
+  paletteFlag[leaf] = mixed && !wide ? 1u : 0u;
+  wideFlag[leaf] = mixed && wide ? 1u : 0u;
+}
+
+__global__ void gatherPalettesKernel(uint32_t multiCount, const uint32_t* multiLeaf, const uint16_t* leafLabel,
+                                     const uint32_t* mixedIndex, const LeafPalette* multiPalette, LeafPalette* out) {
+  const uint64_t m = threadIndex();
+  if (m >= multiCount) return;
+  const uint32_t leaf = multiLeaf[m];
+  if (leafLabel[leaf] == 0) out[mixedIndex[leaf]] = multiPalette[m];
+}
+
+// One thread a word of palette indices (16 voxels), as packPaletteIndices.
+__global__ void paletteIndicesKernel(uint64_t total, uint32_t wordsPerLeaf, const uint32_t* multiLeaf,
+                                     const uint32_t* paletteFlag, const uint32_t* paletteBlock,
+                                     const LeafPalette* multiPalette, const uint16_t* voxelRanks,
+                                     const uint16_t* labelOfRank, uint32_t* out) {
+  const uint64_t j = threadIndex();
+  if (j >= total) return;
+  const uint64_t m = j / wordsPerLeaf, w = j % wordsPerLeaf;
+  const uint32_t leaf = multiLeaf[m];
+  if (!paletteFlag[leaf]) return;
+  const LeafPalette palette = multiPalette[m];
+  const uint16_t* ranks = voxelRanks + j * kVoxelsPerWord;
+  uint32_t word = 0;
+  for (uint32_t b = 0; b < uint32_t(kVoxelsPerWord); ++b)
+    word |= paletteSlotOf(palette.labels, uint16_t(labelOfVoxel(ranks[b], labelOfRank))) << (kPaletteIndexBits * b);
+  out[uint64_t(paletteBlock[leaf]) * wordsPerLeaf + w] = word;
+}
+
+__global__ void wideLabelsKernel(uint64_t total, uint32_t voxelsPerLeaf, const uint32_t* multiLeaf,
+                                 const uint32_t* wideFlag, const uint32_t* wideBlock, const uint16_t* voxelRanks,
+                                 const uint16_t* labelOfRank, uint16_t* out) {
   const uint64_t j = threadIndex();
   if (j >= total) return;
   const uint64_t m = j / voxelsPerLeaf, v = j % voxelsPerLeaf;
   const uint32_t leaf = multiLeaf[m];
-  if (leafLabel[leaf] != 0) return;
-  const uint16_t r = voxelRanks[j];
-  out[uint64_t(mixedIndex[leaf]) * voxelsPerLeaf + v] = r == kNoRank ? uint16_t(0) : labelOfRank[r];
+  if (!wideFlag[leaf]) return;
+  out[uint64_t(wideBlock[leaf]) * voxelsPerLeaf + v] = uint16_t(labelOfVoxel(voxelRanks[j], labelOfRank));
 }
 
 __global__ void finalizeElementsKernel(ElementWord* words, uint32_t count, uint64_t start, const uint16_t* fullRank,
@@ -284,11 +335,11 @@ void inheritedVoxelRanks(cudaStream_t s, uint32_t leaves, uint32_t wordsPerLeaf,
          leafInherited, combined, voxelRanks);
 }
 
-void leafLabels(cudaStream_t s, uint32_t leaves, uint32_t voxelsPerLeaf, const uint32_t* claimCount,
-                const uint16_t* claimRank, const uint32_t* multiIndex, const uint16_t* voxelRanks,
-                const uint16_t* labelOfRank, uint16_t* leafLabel, CombineError e) {
-  launch("leafLabels", s, uint64_t(leaves) * 32, leafLabelsKernel, leaves, voxelsPerLeaf, claimCount, claimRank,
-         multiIndex, voxelRanks, labelOfRank, leafLabel, e);
+void leafPalettes(cudaStream_t s, uint32_t leaves, uint32_t voxelsPerLeaf, const uint32_t* claimCount,
+                  const uint16_t* claimRank, const uint32_t* multiIndex, const uint16_t* voxelRanks,
+                  const uint16_t* labelOfRank, uint16_t* leafLabel, LeafPalette* multiPalette, CombineError e) {
+  launch("leafPalettes", s, uint64_t(leaves) * 32, leafPalettesKernel, leaves, voxelsPerLeaf, claimCount, claimRank,
+         multiIndex, voxelRanks, labelOfRank, leafLabel, multiPalette, e);
 }
 
 void markMixed(cudaStream_t s, uint32_t leaves, const uint32_t* claimCount, const uint16_t* leafLabel,
@@ -301,12 +352,32 @@ void multiLeaves(cudaStream_t s, uint32_t leaves, const uint32_t* claimCount, co
   launch("multiLeaves", s, leaves, multiLeavesKernel, leaves, claimCount, multiIndex, multiLeaf);
 }
 
-void mixedVoxelLabels(cudaStream_t s, uint32_t multiCount, uint32_t voxelsPerLeaf, const uint32_t* multiLeaf,
-                      const uint16_t* leafLabel, const uint32_t* mixedIndex, const uint16_t* voxelRanks,
-                      const uint16_t* labelOfRank, uint16_t* out) {
+void markMixedForms(cudaStream_t s, uint32_t multiCount, const uint32_t* multiLeaf, const uint16_t* leafLabel,
+                    const LeafPalette* multiPalette, uint32_t* paletteFlag, uint32_t* wideFlag) {
+  launch("markMixedForms", s, multiCount, markMixedFormsKernel, multiCount, multiLeaf, leafLabel, multiPalette,
+         paletteFlag, wideFlag);
+}
+
+void gatherPalettes(cudaStream_t s, uint32_t multiCount, const uint32_t* multiLeaf, const uint16_t* leafLabel,
+                    const uint32_t* mixedIndex, const LeafPalette* multiPalette, LeafPalette* out) {
+  launch("gatherPalettes", s, multiCount, gatherPalettesKernel, multiCount, multiLeaf, leafLabel, mixedIndex,
+         multiPalette, out);
+}
+
+void paletteIndices(cudaStream_t s, uint32_t multiCount, uint32_t wordsPerLeaf, const uint32_t* multiLeaf,
+                    const uint32_t* paletteFlag, const uint32_t* paletteBlock, const LeafPalette* multiPalette,
+                    const uint16_t* voxelRanks, const uint16_t* labelOfRank, uint32_t* out) {
+  const uint64_t total = uint64_t(multiCount) * wordsPerLeaf;
+  launch("paletteIndices", s, total, paletteIndicesKernel, total, wordsPerLeaf, multiLeaf, paletteFlag, paletteBlock,
+         multiPalette, voxelRanks, labelOfRank, out);
+}
+
+void wideLabels(cudaStream_t s, uint32_t multiCount, uint32_t voxelsPerLeaf, const uint32_t* multiLeaf,
+                const uint32_t* wideFlag, const uint32_t* wideBlock, const uint16_t* voxelRanks,
+                const uint16_t* labelOfRank, uint16_t* out) {
   const uint64_t total = uint64_t(multiCount) * voxelsPerLeaf;
-  launch("mixedVoxelLabels", s, total, mixedVoxelLabelsKernel, total, voxelsPerLeaf, multiLeaf, leafLabel, mixedIndex,
-         voxelRanks, labelOfRank, out);
+  launch("wideLabels", s, total, wideLabelsKernel, total, voxelsPerLeaf, multiLeaf, wideFlag, wideBlock, voxelRanks,
+         labelOfRank, out);
 }
 
 void finalizeElements(cudaStream_t s, ElementWord* words, uint32_t count, uint64_t start, const uint16_t* fullRank,

@@ -12,6 +12,7 @@
 
 #include "device_memory.hpp"
 
+#include "hdt/label_field.hpp"
 #include "hdt/types.hpp"
 
 #include <cuda_runtime.h>
@@ -69,11 +70,11 @@ void inheritedVoxelRanks(cudaStream_t s, uint32_t leaves, uint32_t wordsPerLeaf,
                          uint16_t* voxelRanks);
 
 // Per union leaf its label: the one claim's, or, for multi-claim leaves, the
-// one label of its voxels (0: mixed, as combineLeafLabels).
-void leafLabels(cudaStream_t s, uint32_t leaves, uint32_t voxelsPerLeaf, const uint32_t* claimCount,
-                const uint16_t* claimRank, const uint32_t* multiIndex, const uint16_t* voxelRanks,
-                const uint16_t* labelOfRank, uint16_t* leafLabel, CombineError e);
-
+// one label of its voxels (0: mixed, as combineLeafLabels); per multi-claim
+// leaf (multiIndex order) its palette, as paletteOfLeaf.
+void leafPalettes(cudaStream_t s, uint32_t leaves, uint32_t voxelsPerLeaf, const uint32_t* claimCount,
+                  const uint16_t* claimRank, const uint32_t* multiIndex, const uint16_t* voxelRanks,
+                  const uint16_t* labelOfRank, uint16_t* leafLabel, LeafPalette* multiPalette, CombineError e);
 // 1 for mixed leaves (multi-claim, label 0).
 void markMixed(cudaStream_t s, uint32_t leaves, const uint32_t* claimCount, const uint16_t* leafLabel,
                uint32_t* flag);
@@ -82,12 +83,22 @@ void markMixed(cudaStream_t s, uint32_t leaves, const uint32_t* claimCount, cons
 void multiLeaves(cudaStream_t s, uint32_t leaves, const uint32_t* claimCount, const uint32_t* multiIndex,
                  uint32_t* multiLeaf);
 
-// The voxel labels of mixed leaves, in leaf order (mixedIndex: exclusive
-// scan of markMixed), from the ranks of the multiCount multi-claim leaves.
-void mixedVoxelLabels(cudaStream_t s, uint32_t multiCount, uint32_t voxelsPerLeaf, const uint32_t* multiLeaf,
-                      const uint16_t* leafLabel, const uint32_t* mixedIndex, const uint16_t* voxelRanks,
-                      const uint16_t* labelOfRank, uint16_t* out);
-
+// Per leaf (indexed by union leaf, written for multi-claim ones): 1 for a
+// mixed palette leaf in paletteFlag, for a mixed wide leaf in wideFlag.
+void markMixedForms(cudaStream_t s, uint32_t multiCount, const uint32_t* multiLeaf, const uint16_t* leafLabel,
+                    const LeafPalette* multiPalette, uint32_t* paletteFlag, uint32_t* wideFlag);
+// The mixed leaves' palettes in leaf order (mixedIndex: exclusive scan of markMixed).
+void gatherPalettes(cudaStream_t s, uint32_t multiCount, const uint32_t* multiLeaf, const uint16_t* leafLabel,
+                    const uint32_t* mixedIndex, const LeafPalette* multiPalette, LeafPalette* out);
+// The palette leaves' 2-bit indices (block: exclusive scan of paletteFlag),
+// and the wide leaves' labels (block: exclusive scan of wideFlag), from the
+// ranks of the multiCount multi-claim leaves: LabelField's layout.
+void paletteIndices(cudaStream_t s, uint32_t multiCount, uint32_t wordsPerLeaf, const uint32_t* multiLeaf,
+                    const uint32_t* paletteFlag, const uint32_t* paletteBlock, const LeafPalette* multiPalette,
+                    const uint16_t* voxelRanks, const uint16_t* labelOfRank, uint32_t* out);
+void wideLabels(cudaStream_t s, uint32_t multiCount, uint32_t voxelsPerLeaf, const uint32_t* multiLeaf,
+                const uint32_t* wideFlag, const uint32_t* wideBlock, const uint16_t* voxelRanks,
+                const uint16_t* labelOfRank, uint16_t* out);
 // One union level's final words (uniform elements: Full where a part claims
 // them) and element labels, in place.
 void finalizeElements(cudaStream_t s, ElementWord* words, uint32_t count, uint64_t start, const uint16_t* fullRank,

@@ -136,6 +136,48 @@ PartOnDevice foldPart(Session& s, UnionState& u, const PreparedMesh& part, uint1
   return out;
 }
 
+// The mixed leaves' voxel labels in LabelField's layout, on the device.
+struct MixedOnDevice {
+  DeviceBuffer<LeafPalette> palettes;   // per mixed leaf, leaf order
+  DeviceBuffer<uint32_t> paletteIndices; // per palette leaf
+  DeviceBuffer<uint16_t> wideLabels;     // per wide leaf
+};
+
+// From the multi-claim leaves' voxel ranks and palettes (leafPalettes): the
+// mixed leaves (label 0), split into palette and wide leaves, each numbered
+// in leaf order by a scan.
+MixedOnDevice compactMixedLeaves(Session& s, uint32_t leaves, uint32_t multi, const DeviceBuffer<uint32_t>& claimCount,
+                                 const DeviceBuffer<uint32_t>& multiIndex, const DeviceBuffer<uint16_t>& leafLabel,
+                                 const DeviceBuffer<LeafPalette>& multiPalette, const DeviceBuffer<uint16_t>& voxelRanks,
+                                 const DeviceBuffer<uint16_t>& labelOfRank) {
+  const cudaStream_t st = s.stream.get();
+  const uint32_t W = leafWordCount(s.grid.leafSize), V = s.grid.leafVoxels();
+  DeviceBuffer<uint32_t> multiLeaf(s.memory, multi);
+  multiLeaves(st, leaves, claimCount.data(), multiIndex.data(), multiLeaf.data());
+  DeviceBuffer<uint32_t> flag(s.memory, leaves), mixedIndex(s.memory, leaves);
+  markMixed(st, leaves, claimCount.data(), leafLabel.data(), flag.data());
+  const uint32_t mixed = scanFlags(s.memory, flag.data(), mixedIndex.data(), leaves);
+  DeviceBuffer<uint32_t> paletteFlag(s.memory, leaves), wideFlag(s.memory, leaves);
+  DeviceBuffer<uint32_t> paletteBlock(s.memory, leaves), wideBlock(s.memory, leaves);
+  fill(s, paletteFlag, 0);
+  fill(s, wideFlag, 0);
+  markMixedForms(st, multi, multiLeaf.data(), leafLabel.data(), multiPalette.data(), paletteFlag.data(), wideFlag.data());
+  const uint32_t paletteLeaves = scanFlags(s.memory, paletteFlag.data(), paletteBlock.data(), leaves);
+  const uint32_t wideLeaves = scanFlags(s.memory, wideFlag.data(), wideBlock.data(), leaves);
+  MixedOnDevice out;
+  out.palettes = DeviceBuffer<LeafPalette>(s.memory, mixed);
+  gatherPalettes(st, multi, multiLeaf.data(), leafLabel.data(), mixedIndex.data(), multiPalette.data(),
+                 out.palettes.data());
+  out.paletteIndices = DeviceBuffer<uint32_t>(s.memory, size_t(paletteLeaves) * W);
+  paletteIndices(st, multi, W, multiLeaf.data(), paletteFlag.data(), paletteBlock.data(), multiPalette.data(),
+                 voxelRanks.data(), labelOfRank.data(), out.paletteIndices.data());
+  out.wideLabels = DeviceBuffer<uint16_t>(s.memory, size_t(wideLeaves) * V);
+  wideLabels(st, multi, V, multiLeaf.data(), wideFlag.data(), wideBlock.data(), voxelRanks.data(), labelOfRank.data(),
+             out.wideLabels.data());
+  s.sync(); // the scratch buffers go back to the pool
+  return out;
+}
+
 Volume combineOnDevice(Session& s, UnionState& u, std::vector<PartOnDevice>& parts,
                        const std::vector<uint16_t>& labelOfRankHost) {
   const GridSpec& g = s.grid;
@@ -170,16 +212,11 @@ Volume combineOnDevice(Session& s, UnionState& u, std::vector<PartOnDevice>& par
   parts.clear();
 
   DeviceBuffer<uint16_t> leafLabel(s.memory, leaves);
-  leafLabels(st, leaves, V, u.claimCount.data(), u.claimRank.data(), multiIndex.data(), voxelRanks.data(),
-             labelOfRank.data(), leafLabel.data(), e);
-  markMixed(st, leaves, u.claimCount.data(), leafLabel.data(), flags.data());
-  DeviceBuffer<uint32_t> mixedIndex(s.memory, leaves);
-  const uint32_t mixed = scanFlags(s.memory, flags.data(), mixedIndex.data(), leaves);
-  DeviceBuffer<uint32_t> multiLeaf(s.memory, multi);
-  multiLeaves(st, leaves, u.claimCount.data(), multiIndex.data(), multiLeaf.data());
-  DeviceBuffer<uint16_t> voxelLabels(s.memory, size_t(mixed) * V);
-  mixedVoxelLabels(st, multi, V, multiLeaf.data(), leafLabel.data(), mixedIndex.data(), voxelRanks.data(),
-                   labelOfRank.data(), voxelLabels.data());
+  DeviceBuffer<LeafPalette> multiPalette(s.memory, multi);
+  leafPalettes(st, leaves, V, u.claimCount.data(), u.claimRank.data(), multiIndex.data(), voxelRanks.data(),
+               labelOfRank.data(), leafLabel.data(), multiPalette.data(), e);
+  MixedOnDevice mixed = compactMixedLeaves(s, leaves, multi, u.claimCount, multiIndex, leafLabel, multiPalette, voxelRanks,
+                                           labelOfRank);
   DeviceBuffer<uint16_t> elementLabels(s.memory, u.start.back());
   for (size_t k = 0; k <= h; ++k)
     finalizeElements(st, levels[k].words.data(), levels[k].count, u.start[k], u.fullRank.data(), leafLabel.data(),
@@ -199,8 +236,13 @@ Volume combineOnDevice(Session& s, UnionState& u, std::vector<PartOnDevice>& par
   download(s, v.leafWords.data(), u.acc.data(), v.leafWords.size());
   v.labels.elementLabels.resize(u.start.back());
   download(s, v.labels.elementLabels.data(), elementLabels.data(), v.labels.elementLabels.size());
-  v.labels.voxelLabels.resize(voxelLabels.size());
-  download(s, v.labels.voxelLabels.data(), voxelLabels.data(), voxelLabels.size());
+  LabelField& f = v.labels;
+  f.palettes.resize(mixed.palettes.size());
+  download(s, f.palettes.data(), mixed.palettes.data(), f.palettes.size());
+  f.paletteIndices.resize(mixed.paletteIndices.size());
+  download(s, f.paletteIndices.data(), mixed.paletteIndices.data(), f.paletteIndices.size());
+  f.wideLabels.resize(mixed.wideLabels.size());
+  download(s, f.wideLabels.data(), mixed.wideLabels.data(), f.wideLabels.size());
   s.clock.mark(kDownload);
   return v;
 }

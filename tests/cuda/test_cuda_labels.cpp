@@ -49,7 +49,10 @@ BuildConfig grid(int n, int r, int l) {
   if (!states) return states;
   if (gpu.labels.elementLabels != cpu.labels.elementLabels)
     return ::testing::AssertionFailure() << "element labels differ";
-  if (gpu.labels.voxelLabels != cpu.labels.voxelLabels) return ::testing::AssertionFailure() << "voxel labels differ";
+  const LabelField &g = gpu.labels, &c = cpu.labels;
+  if (g.palettes != c.palettes || g.paletteIndices != c.paletteIndices || g.wideLabels != c.wideLabels)
+    return ::testing::AssertionFailure() << "voxel labels differ (palettes, palette indices or wide labels)";
+  if (unpackVoxelLabels(gpu) != unpackVoxelLabels(cpu)) return ::testing::AssertionFailure() << "voxel labels differ";
   return ::testing::AssertionSuccess();
 }
 
@@ -137,6 +140,28 @@ TEST(CudaLabels, OpenNestedAndThreeWayOverlaps) {
 
 // A part whose triangles are all degenerate (none left after snapping):
 // the device path steps aside, and the per-part path does what the CPU does.
+// Thin touching slabs, labels out of order: leaves of 2 to 4 labels (palette
+// leaves, the palette sorted) and of 5 or more (wide leaves), on both drivers.
+TEST(CudaLabels, ManySlabsGivePaletteAndWideLeaves) {
+  HDT_REQUIRE_CUDA();
+  const Label labels[] = {9, 3, 12, 1, 40, 7, 2, 65535, 5};
+  TriangleMesh slabs;
+  for (int k = 0; k < 9; ++k) {
+    const double x0 = -0.09 + 0.02 * k; // about 2.5 voxels: a 16^3 leaf meets 6 or 7 slabs
+    const TriangleMesh slab = withLabel(box({x0, -0.5, -0.5}, {x0 + 0.02, 0.5, 0.5}), labels[k]);
+    slabs = k == 0 ? slab : combined({slabs, slab});
+  }
+  size_t wide = 0, palette = 0;
+  for (int leafSize : {8, 16}) {
+    const BuildConfig config = grid(128, 2, leafSize);
+    const Volume cpu = voxelizeLabelled(slabs, config, cpuOptions());
+    for (const LeafPalette& p : cpu.labels.palettes) (p.isWide() ? wide : palette) += 1;
+    expectSameOnBoth(slabs, config);
+  }
+  EXPECT_GT(wide, 0u) << "no leaf of 5 labels or more";
+  EXPECT_GT(palette, 0u) << "no palette leaf";
+}
+
 TEST(CudaLabels, PartWithoutTrianglesFallsBack) {
   HDT_REQUIRE_CUDA();
   TriangleMesh flat;

@@ -113,7 +113,7 @@ int main(int argc, char** argv) {
     put(out + "/hdt_reader/random" + std::to_string(seed) + "-zstd.hdt", serializeHdt(v));
     put(out + "/hdt_reader/random" + std::to_string(seed) + "-zstd-frame.hdt", serializeHdt(v, oneFrame));
   }
-  // Labelled volumes: the optional label sections (16, 17, 18) to mutate too.
+  // Labelled volumes: the optional label sections (16, 18, 21) to mutate too.
   for (uint32_t seed = 5; seed <= 6; ++seed) {
     test::RandomVolumeSpec spec;
     spec.height = 1;

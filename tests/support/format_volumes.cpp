@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <cstring>
 #include <random>
@@ -71,12 +72,13 @@ Volume randomVolume(uint32_t seed, const RandomVolumeSpec& spec) {
   return v;
 }
 
-void labelRandomly(Volume& v, uint32_t seed, int labels) {
+std::vector<Label> labelRandomly(Volume& v, uint32_t seed, int labels) {
   std::mt19937 rng(seed);
   auto label = [&] { return Label(1 + rng() % uint32_t(labels)); };
   LabelField& f = v.labels;
   f = LabelField{};
   f.elementLabels.assign(v.elements.size(), 0);
+  std::vector<Label> mixedVoxels; // L^3 per mixed leaf, in leaf order
   const int L = v.grid.leafSize;
   const size_t voxels = size_t(L) * L * L;
   for (size_t i = 0; i < v.elements.size(); ++i) {
@@ -91,14 +93,20 @@ void labelRandomly(Volume& v, uint32_t seed, int labels) {
       f.elementLabels[i] = label();
       continue;
     }
+    // The leaf's labels: `span` (2 to `labels`) consecutive ones from base + 1,
+    // so that leaves of 2 to 4 labels (palette leaves) and of 5 or more
+    // (wide leaves, when labels > 4) both occur.
+    const uint32_t span = 2 + rng() % uint32_t(std::max(1, labels - 1));
+    const uint32_t base = rng() % (uint32_t(labels) - span + 1);
     std::vector<Label> block(voxels, 0);
-    for (size_t j : occupied) block[j] = label();
-    block[occupied[0]] = 1; // at least two labels
-    block[occupied[1]] = 2;
-    f.voxelLabels.insert(f.voxelLabels.end(), block.begin(), block.end());
+    for (size_t j : occupied) block[j] = Label(1 + base + rng() % span);
+    block[occupied[0]] = Label(1 + base); // at least two labels
+    block[occupied[1]] = Label(2 + base);
+    mixedVoxels.insert(mixedVoxels.end(), block.begin(), block.end());
   }
   f.names = {{1, "first part"}, {Label(labels), "last"}, {65535, "unused \xc3\xa9"}};
-  indexMixedLeaves(v);
+  packVoxelLabels(v, mixedVoxels.data());
+  return mixedVoxels;
 }
 
 Volume emptyVolume(int rootGrid, int leafSize, int height) {
@@ -137,8 +145,11 @@ void expectSameVolume(const Volume& e, const Volume& a, const std::string& conte
   EXPECT_TRUE(e.leafWords == a.leafWords) << "leaf words differ";
   EXPECT_EQ(e.insideTest, a.insideTest);
   EXPECT_TRUE(e.labels.elementLabels == a.labels.elementLabels) << "element labels differ";
-  EXPECT_TRUE(e.labels.voxelLabels == a.labels.voxelLabels) << "voxel labels differ";
-  EXPECT_TRUE(e.labels.mixedBlock == a.labels.mixedBlock) << "mixed-leaf index differs";
+  EXPECT_TRUE(e.labels.palettes == a.labels.palettes) << "palettes differ";
+  EXPECT_TRUE(e.labels.paletteIndices == a.labels.paletteIndices) << "palette indices differ";
+  EXPECT_TRUE(e.labels.wideLabels == a.labels.wideLabels) << "wide labels differ";
+  EXPECT_TRUE(e.labels.mixedIndex == a.labels.mixedIndex && e.labels.mixedBlock == a.labels.mixedBlock)
+      << "mixed-leaf index differs";
   EXPECT_EQ(e.labels.names, a.labels.names);
 
   const Statistics &x = e.stats, &y = a.stats;

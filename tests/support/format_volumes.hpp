@@ -30,7 +30,9 @@ Volume randomVolume(uint32_t seed, const RandomVolumeSpec& spec);
 // Gives a volume random part labels (hdt/label_field.hpp rules): Full
 // elements a label 1..labels, leaves one label or (when they have two
 // non-Outside voxels) per-voxel labels, a few names. Deterministic in `seed`.
-void labelRandomly(Volume& volume, uint32_t seed, int labels = 5);
+// Returns the mixed leaves' labels as chosen, L^3 per mixed leaf in leaf
+// order (the reference for the compact storage, and .hdt section 17's layout).
+std::vector<Label> labelRandomly(Volume& volume, uint32_t seed, int labels = 5);
 
 // An otherwise empty volume of the given shape: the R^3 root elements Empty.
 Volume emptyVolume(int rootGrid, int leafSize, int height);

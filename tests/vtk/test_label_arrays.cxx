@@ -224,7 +224,7 @@ TEST(LabelBy, MultiblockOfThreeNamedBlocks)
   const hdt::Volume expected = hdt::voxelizeLabelled(reference, c, o, highest);
   EXPECT_EQ(v->elements, expected.elements);
   EXPECT_EQ(v->labels.elementLabels, expected.labels.elementLabels);
-  EXPECT_EQ(v->labels.voxelLabels, expected.labels.voxelLabels);
+  EXPECT_EQ(hdt::unpackVoxelLabels(*v), hdt::unpackVoxelLabels(expected));
   EXPECT_EQ(labelAtPoint(*v, 0.45, 0.01, 0.01), 2); // in blocks 1 and 2: the highest
   EXPECT_EQ(labelAtPoint(*v, 0.0, 0.01, 0.01), 1);
   EXPECT_EQ(labelAtPoint(*v, 1.6, 0.01, 0.01), 3);
@@ -266,7 +266,7 @@ TEST(LabelBy, MultiblockOfThreeNamedBlocks)
   filter->Update();
   ASSERT_TRUE(filter->GetVolume());
   EXPECT_EQ(filter->GetVolume()->labels.elementLabels, expected.labels.elementLabels);
-  EXPECT_EQ(filter->GetVolume()->labels.voxelLabels, expected.labels.voxelLabels);
+  EXPECT_EQ(hdt::unpackVoxelLabels(*filter->GetVolume()), hdt::unpackVoxelLabels(expected));
   filter->SetLabelPriority("3, 1");
   filter->Update();
   EXPECT_EQ(labelAtPoint(*filter->GetVolume(), 0.45, 0.01, 0.01), 1); // 1 listed before 2

@@ -47,6 +47,7 @@ struct GridSpec {
   int rootCellVoxels() const { return resolution / rootGrid; }
   // Edge length in voxels of an element at octree level k (0 = root grid).
   int elementVoxels(int level) const { return rootCellVoxels() >> level; }
+  uint32_t leafVoxels() const { return uint32_t(leafSize) * uint32_t(leafSize) * uint32_t(leafSize); }
   int cellsPerAxis(int level) const { return rootGrid << level; }
 };
 

@@ -81,8 +81,28 @@ bool buildLabelledCuda(const PreparedMesh& whole, const std::vector<PreparedMesh
 Volume combineLabelledParts(const std::vector<Volume>& parts, const std::vector<Label>& partLabels,
                             const LabelOptions& options);
 
-// Rebuilds LabelField::mixedBlock from the element labels.
+// Rebuilds LabelField::mixedIndex and ::mixedBlock from the element labels
+// and the palettes (throws Error(InvalidArgument) when their counts disagree).
 void indexMixedLeaves(Volume& volume);
+
+// The labels of the voxels of Boundary element `element` (an indexed field).
+LeafLabels leafLabels(const Volume& volume, uint64_t element);
+
+// The compact form of one mixed leaf's voxel labels (`voxels`: L^3 labels, 0
+// exactly on Outside voxels): its palette (ascending labels, unused entries
+// 0; all 0 when the leaf has more than kPaletteSize labels: a wide leaf).
+// `distinct` receives the number of distinct labels >= 1, counted up to
+// kPaletteSize + 1.
+LeafPalette paletteOfLeaf(const Label* voxels, uint32_t voxelCount, uint32_t& distinct);
+// The 2-bit palette indices of a palette leaf: voxelCount / 16 words.
+void packPaletteIndices(const Label* voxels, uint32_t voxelCount, const LeafPalette& palette, uint32_t* indexWords);
+
+// Sets the mixed leaves' voxel labels (palettes, palette indices, wide
+// labels, the index) of a volume whose element labels are set, from L^3
+// labels per mixed leaf in leaf order (the layout of .hdt section 17, and of
+// tests that write labels voxel by voxel); unpackVoxelLabels is its inverse.
+void packVoxelLabels(Volume& volume, const Label* mixedLeafVoxels);
+std::vector<Label> unpackVoxelLabels(const Volume& volume);
 
 // Label of global voxel (x, y, z) (0 outside the grid or in an unlabelled
 // volume). Slow: for tests and spot checks.
@@ -114,7 +134,8 @@ struct LabelStatistics {
 };
 std::vector<LabelStatistics> labelStatistics(const Volume& volume);
 
-// Bytes the label field takes in memory (element and voxel labels).
+// Bytes the label field takes in memory (element labels, palettes, palette
+// indices, wide labels and the index).
 uint64_t labelFieldBytes(const Volume& volume);
 
 } // namespace hdt
