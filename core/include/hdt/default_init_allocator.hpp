@@ -2,6 +2,9 @@
 // sized.
 #pragma once
 
+#include "hdt/warm_pages.hpp"
+
+#include <cstdint>
 #include <memory>
 #include <new>
 #include <type_traits>
@@ -19,6 +22,16 @@ struct DefaultInitAllocator : std::allocator<T> {
   template <class U> struct rebind { using other = DefaultInitAllocator<U>; };
   DefaultInitAllocator() noexcept = default;
   template <class U> DefaultInitAllocator(const DefaultInitAllocator<U>&) noexcept {}
+  // Reserved warm pages where they fit (warm_pages.hpp): a leaf-word array
+  // reserved while the device got ready is copied into at memory speed.
+  T* allocate(size_t n) {
+    if (n <= SIZE_MAX / sizeof(T))
+      if (void* p = detail::takeWarmPages(n * sizeof(T))) return static_cast<T*>(p);
+    return std::allocator<T>::allocate(n);
+  }
+  void deallocate(T* p, size_t n) noexcept {
+    if (!detail::returnWarmPages(p, n * sizeof(T))) std::allocator<T>::deallocate(p, n);
+  }
   template <class U> void construct(U* p) noexcept(std::is_nothrow_default_constructible<U>::value) {
     ::new (static_cast<void*>(p)) U;
   }
