@@ -154,11 +154,21 @@ double msSince(Clock::time_point& t) {
 }
 
 // hdt::prepareCuda on a thread, for the CUDA and Auto backends.
+// hasDevice() says soon (before the context exists) whether a device is
+// there, so that work meant for device builds can start beside the set-up.
 class WarmUp {
 public:
-  explicit WarmUp(const Options& o) {
-    if (o.build.backend != Backend::Cpu) thread_ = std::thread([&o] { prepareCuda(o.config, o.build); });
+  explicit WarmUp(const Options& o) : hasDevice_(deviceSeen_.get_future().share()) {
+    if (o.build.backend == Backend::Cpu) {
+      deviceSeen_.set_value(false);
+      return;
+    }
+    thread_ = std::thread([this, &o] {
+      deviceSeen_.set_value(cudaDeviceCount() > 0);
+      prepareCuda(o.config, o.build);
+    });
   }
+  std::shared_future<bool> hasDevice() const { return hasDevice_; }
   ~WarmUp() { join(); }
   WarmUp(const WarmUp&) = delete;
   WarmUp& operator=(const WarmUp&) = delete;
@@ -167,6 +177,8 @@ public:
   }
 
 private:
+  std::promise<bool> deviceSeen_;
+  std::shared_future<bool> hasDevice_;
   std::thread thread_;
 };
 
@@ -266,17 +278,19 @@ int run(int argc, const char* const* argv, const MpiSession& session, Clock::tim
   // the write. For a device build in one process its leaf words are reserved
   // as warm pages meanwhile, and the build waits for them.
   const bool reserve = options.build.backend != Backend::Cpu && !labelled && session.size() == 1;
+  // Auto builds on the device only when there is one (the count comes before the context).
+  const bool deviceAsked = options.build.backend == Backend::Cuda;
   std::future<uint64_t> hostBytesEstimate; // rank 0 reports
   if (session.rank() == 0)
-    hostBytesEstimate = std::async(std::launch::async, [&prepared, reserve] {
+    hostBytesEstimate = std::async(std::launch::async, [&prepared, reserve, deviceAsked, hasDevice = warmUp.hasDevice()] {
       const HostMemoryEstimate e = estimateHostMemory(prepared);
-      if (reserve) reserveLeafWords(e, prepared.grid);
+      if (reserve && (deviceAsked || hasDevice.get())) reserveLeafWords(e, prepared.grid);
       return e.total;
     });
   t = Clock::now();
   warmUp.join();
   report.io.deviceWait = msSince(t);
-  if (reserve && hostBytesEstimate.valid()) hostBytesEstimate.wait();
+  if (reserve && hostBytesEstimate.valid() && (deviceAsked || warmUp.hasDevice().get())) hostBytesEstimate.wait();
   report.io.reserveWait = msSince(t);
 
   ProgressLine progress(!options.quiet && session.rank() == 0);
