@@ -145,7 +145,11 @@ void writeJson(std::ostream& out, const Report& r) {
       .add("device_wait", number(r.io.deviceWait, "%.3f"))
       .add("build", number(r.io.build, "%.3f"))
       .add("estimate_wait", number(r.io.estimateWait, "%.3f"))
-      .add("since_start", number(r.io.sinceStart, "%.3f"));
+      .add("since_start", number(r.io.sinceStart, "%.3f"))
+      .add("reserve_wait", number(r.io.reserveWait, "%.3f"))
+      .add("release_wait", number(r.io.releaseWait, "%.3f"))
+      .add("unix_at_main", number(r.io.unixAtMain, "%.3f"))
+      .add("unix_at_report", number(r.io.unixAtReport, "%.3f"));
 
   JsonObject o;
   o.add("mesh", quoted(r.mesh))

@@ -21,6 +21,13 @@ struct IoTimes {
   // back included), the wait for the memory estimate (beside the build), and
   // all of it from the start of main() to the report.
   double deviceWait = 0, build = 0, estimateWait = 0, sinceStart = 0;
+  // The wait for the leaf words' warm pages (reserved beside the device's
+  // set-up) before the build, and for the device's release (beside the write)
+  // after the write.
+  double reserveWait = 0, releaseWait = 0;
+  // Wall-clock times (ms since the Unix epoch) of main()'s start and of the
+  // report: with a launcher's own clock, the time before main() and after it.
+  double unixAtMain = 0, unixAtReport = 0;
 };
 
 // One rank of a distributed build (hdt-voxelize-mpi), as rank 0 gathers it.

@@ -17,7 +17,9 @@
 #include "hdt/error.hpp"
 #include "hdt/hdt_file.hpp"
 #include "hdt/labels.hpp"
+#include "hdt/host_memory.hpp"
 #include "hdt/mesh_io.hpp"
+#include "hdt/warm_pages.hpp"
 
 #include <signal.h>
 #include <unistd.h>
@@ -26,6 +28,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <future>
 #include <iostream>
 #include <memory>
@@ -151,11 +154,21 @@ double msSince(Clock::time_point& t) {
 }
 
 // hdt::prepareCuda on a thread, for the CUDA and Auto backends.
+// hasDevice() says soon (before the context exists) whether a device is
+// there, so that work meant for device builds can start beside the set-up.
 class WarmUp {
 public:
-  explicit WarmUp(const Options& o) {
-    if (o.build.backend != Backend::Cpu) thread_ = std::thread([&o] { prepareCuda(o.config, o.build); });
+  explicit WarmUp(const Options& o) : hasDevice_(deviceSeen_.get_future().share()) {
+    if (o.build.backend == Backend::Cpu) {
+      deviceSeen_.set_value(false);
+      return;
+    }
+    thread_ = std::thread([this, &o] {
+      deviceSeen_.set_value(cudaDeviceCount() > 0);
+      prepareCuda(o.config, o.build);
+    });
   }
+  std::shared_future<bool> hasDevice() const { return hasDevice_; }
   ~WarmUp() { join(); }
   WarmUp(const WarmUp&) = delete;
   WarmUp& operator=(const WarmUp&) = delete;
@@ -164,10 +177,70 @@ public:
   }
 
 private:
+  std::promise<bool> deviceSeen_;
+  std::shared_future<bool> hasDevice_;
   std::thread thread_;
 };
 
-int run(int argc, const char* const* argv, const MpiSession& session, Clock::time_point start) {
+// oneTBB's workers started and prepareMesh's memory faulted in on a thread
+// while the mesh is read, so that prepareMesh runs as a warm call. The size
+// comes from the file's: binary PLY takes at least 13 bytes a triangle and
+// prepareMesh about 70 (points included), so 4x the file covers it; text
+// formats take more bytes a triangle. Capped: a large file's slack is given
+// back after prepareMesh (trimWarmPages).
+class HostWarmUp {
+public:
+  explicit HostWarmUp(const std::string& meshPath) {
+    std::error_code error;
+    const uintmax_t fileBytes = meshPath.rfind("builtin:", 0) == 0 ? 0 : std::filesystem::file_size(meshPath, error);
+    const uint64_t cap = std::min<uint64_t>(uint64_t(1) << 30, availableHostBytes() / 8);
+    const uint64_t bytes = error ? 0 : std::min<uint64_t>(cap, 4 * uint64_t(fileBytes) + (uint64_t(8) << 20));
+    thread_ = std::thread([bytes] {
+      startHostThreads();
+      reserveWarmPages(bytes);
+    });
+  }
+  ~HostWarmUp() { join(); }
+  HostWarmUp(const HostWarmUp&) = delete;
+  HostWarmUp& operator=(const HostWarmUp&) = delete;
+  void join() {
+    if (thread_.joinable()) thread_.join();
+  }
+
+private:
+  std::thread thread_;
+};
+
+// The leaf words' bytes of the memory estimate, reserved as warm pages while
+// the device gets ready (the copy back then writes faulted-in memory), unless
+// they are more than a few GiB (faulting them in would outlast the device's
+// set-up) or an eighth of the memory left.
+void reserveLeafWords(const HostMemoryEstimate& e, const GridSpec& grid) {
+  const double bytes = e.leafGrids * leafWordCount(grid.leafSize) * sizeof(uint32_t);
+  const double cap = std::min(double(uint64_t(4) << 30), double(availableHostBytes()) / 8);
+  if (bytes > 0 && bytes <= cap) reserveWarmPages(size_t(bytes));
+}
+
+// hdt::releaseCuda on a thread once the build is done (beside the write).
+class CudaRelease {
+public:
+  void start(const BuildOptions& options) {
+    thread_ = std::thread([&options] { releaseCuda(options); });
+  }
+  ~CudaRelease() { join(); }
+  void join() {
+    if (thread_.joinable()) thread_.join();
+  }
+
+private:
+  std::thread thread_;
+};
+
+double unixMs() {
+  return std::chrono::duration<double, std::milli>(std::chrono::system_clock::now().time_since_epoch()).count();
+}
+
+int run(int argc, const char* const* argv, const MpiSession& session, Clock::time_point start, double unixAtStart) {
   const Options options = parseOptions(argc, argv);
   if (options.help) {
     std::cout << usageText();
@@ -188,23 +261,37 @@ int run(int argc, const char* const* argv, const MpiSession& session, Clock::tim
   // The device's context, kernels and memory pool get ready while the mesh
   // is read, so that the build is not a cold one.
   WarmUp warmUp(options);
+  HostWarmUp hostWarmUp(options.mesh);
   Clock::time_point t = Clock::now();
   std::vector<MeshArray> arrays;
   for (const std::string& name : options.transfer) arrays.push_back(MeshArray{name, ArraySource::Point, 0, {}});
   TriangleMesh mesh = about(options.mesh, [&] { return loadMesh(options.mesh, options.labels, arrays); });
   report.io.read = msSince(t);
+  hostWarmUp.join(); // long done: the read takes longer
   const PreparedMesh prepared = about(options.mesh, [&] { return prepareMesh(mesh, options.config); });
+  trimWarmPages(); // what prepareMesh did not use
   const bool labelled = options.labels.kind != MeshLabelSource::Kind::None;
   if (!labelled && arrays.empty()) mesh = TriangleMesh(); // the lattice copy is all the build needs; labelled builds split the mesh
   report.io.prepare = msSince(t);
-  // The report's memory estimate rasterises the mesh on one core (tens to
-  // hundreds of ms at 8192^3): it runs beside the build, not after the write.
+  // The report's memory estimate rasterises the mesh (tens to hundreds of ms
+  // at 8192^3): it runs beside the device's set-up and the build, not after
+  // the write. For a device build in one process its leaf words are reserved
+  // as warm pages meanwhile, and the build waits for them.
+  const bool reserve = options.build.backend != Backend::Cpu && !labelled && session.size() == 1;
+  // Auto builds on the device only when there is one (the count comes before the context).
+  const bool deviceAsked = options.build.backend == Backend::Cuda;
   std::future<uint64_t> hostBytesEstimate; // rank 0 reports
   if (session.rank() == 0)
-    hostBytesEstimate = std::async(std::launch::async, [&prepared] { return estimateHostBytes(prepared); });
+    hostBytesEstimate = std::async(std::launch::async, [&prepared, reserve, deviceAsked, hasDevice = warmUp.hasDevice()] {
+      const HostMemoryEstimate e = estimateHostMemory(prepared);
+      if (reserve && (deviceAsked || hasDevice.get())) reserveLeafWords(e, prepared.grid);
+      return e.total;
+    });
   t = Clock::now();
   warmUp.join();
   report.io.deviceWait = msSince(t);
+  if (reserve && hostBytesEstimate.valid() && (deviceAsked || warmUp.hasDevice().get())) hostBytesEstimate.wait();
+  report.io.reserveWait = msSince(t);
 
   ProgressLine progress(!options.quiet && session.rank() == 0);
   BuildOptions build = options.build;
@@ -226,6 +313,10 @@ int run(int argc, const char* const* argv, const MpiSession& session, Clock::tim
   } stopStreaming{streamedLeaves};
   progress.clear();
   report.io.build = msSince(t);
+  trimWarmPages(); // the estimate's excess
+  // The device's tear-down (tens of ms at the exit) beside the host's work.
+  CudaRelease release;
+  if (options.build.backend != Backend::Cpu && session.size() == 1) release.start(options.build);
   if (session.rank() != 0) return 0; // rank 0 has the joined volume and writes
   t = Clock::now();
   about(options.mesh, [&] { transferArrays(mesh, arrays, volume); }); // a host pass after the build
@@ -251,7 +342,11 @@ int run(int argc, const char* const* argv, const MpiSession& session, Clock::tim
   report.io.write = msSince(t);
   report.hostBytesEstimate = hostBytesEstimate.get();
   report.io.estimateWait = msSince(t);
+  release.join();
+  report.io.releaseWait = msSince(t);
   report.io.sinceStart = std::chrono::duration<double, std::milli>(t - start).count();
+  report.io.unixAtMain = unixAtStart;
+  report.io.unixAtReport = unixMs();
 
   report.volume = &volume;
   if (options.json) writeJson(std::cout, report);
@@ -277,6 +372,7 @@ int exitCode(ErrorKind kind) {
 int main(int argc, char** argv) {
   using namespace hdt::cli;
   const auto start = std::chrono::steady_clock::now();
+  const double unixAtStart = unixMs();
   // Past a file-size limit (ulimit -f) a write fails with EFBIG instead of
   // killing the process, so the error is reported and the temporary removed.
   ::signal(SIGXFSZ, SIG_IGN);
@@ -284,7 +380,7 @@ int main(int argc, char** argv) {
   // Across ranks an error on one rank ends them all (the others would wait forever).
   auto failed = [&](int code) { return session.size() > 1 ? (session.abort(code), code) : code; };
   try {
-    return run(argc, argv, session, start);
+    return run(argc, argv, session, start, unixAtStart);
   } catch (const UsageError& e) {
     std::fprintf(stderr, "hdt-voxelize: %s\nTry 'hdt-voxelize --help'.\n", e.what());
     return failed(2);

@@ -4,6 +4,7 @@
 
 #include "hdt/builder.hpp"
 #include "hdt/config.hpp"
+#include "hdt/warm_pages.hpp"
 
 #include <mutex>
 #include <thread>
@@ -42,9 +43,14 @@ void vtkHDTCudaWarmUp::Start()
     }
     WarmUpThread& s = State();
     std::lock_guard<std::mutex> lock(s.Mutex);
-    // The filter's defaults (root grid, leaf size, device 0): the kernels
-    // are the same for every configuration. prepareCuda never throws.
-    s.Thread = std::thread([] { hdt::prepareCuda(hdt::BuildConfig{}, hdt::BuildOptions{}); });
+    // oneTBB's workers first (the first Apply's prepareMesh then does not
+    // create them), then the device. The filter's defaults (root grid, leaf
+    // size, device 0): the kernels are the same for every configuration.
+    // prepareCuda never throws.
+    s.Thread = std::thread([] {
+      hdt::startHostThreads();
+      hdt::prepareCuda(hdt::BuildConfig{}, hdt::BuildOptions{});
+    });
   });
 }
 

@@ -1,5 +1,6 @@
 // The CUDA set-up a process does once (context, kernels, memory pool, pinned
-// copy-back staging: hdt::prepareCuda), started on a background thread when
+// copy-back staging: hdt::prepareCuda; before it oneTBB's worker threads:
+// hdt::startHostThreads), started on a background thread when
 // the first HDT Voxelizer is made, so that the first Apply builds as fast as
 // the tenth instead of paying it (issue 18). A no-op in builds without CUDA,
 // on machines without a device, and across MPI ranks (each rank's device is

@@ -13,6 +13,12 @@
 //                 this process (warm: threads up, memory reused): the best
 //   --no-stream   the leaf blocks compressed by the writer after the build,
 //                 not while the copy back brings them (HdtLeafEncoder)
+//   --no-warm-host  no startHostThreads + reserveWarmPages beside the read (as
+//                 hdt-voxelize does: 4x the file's bytes + 8 MiB, the file taken
+//                 4^K times larger for --subdivide K)
+//   --no-reserve  no warm pages for the leaf words (the memory estimate's,
+//                 beside prepareCuda; not with --cold)
+//   --no-release  no hdt::releaseCuda beside the write
 //   --write-breakdown  after the run, the writer's parts: the same encoding
 //                 into memory (checks + zstd blocks), the same as version 2's
 //                 one zstd frame, and a file without compression
@@ -21,6 +27,7 @@
 #include "hdt/hdt_file.hpp"
 #include "hdt/mesh.hpp"
 #include "hdt/mesh_io.hpp"
+#include "hdt/warm_pages.hpp"
 
 #include "subdivide.hpp"
 
@@ -29,6 +36,8 @@
 
 #include <chrono>
 #include <cstdio>
+#include <filesystem>
+#include <future>
 #include <ctime>
 #include <fstream>
 #include <iostream>
@@ -45,6 +54,7 @@ struct Args {
   std::string mesh, hdt = "/tmp/hdt_e2e.hdt", out = "e2e-runs.jsonl";
   int res = 1024, subdivide = 0, prepareRepeat = 0;
   bool surfaceOnly = false, cuda = true, cold = false, warmCheck = false, writeBreakdown = false, stream = true;
+  bool warmHost = true, reserve = true, release = true;
 };
 
 Args parse(int argc, char** argv) {
@@ -65,6 +75,9 @@ Args parse(int argc, char** argv) {
     else if (k == "--warm-check") a.warmCheck = true;
     else if (k == "--write-breakdown") a.writeBreakdown = true;
     else if (k == "--no-stream") a.stream = false;
+    else if (k == "--no-warm-host") a.warmHost = false;
+    else if (k == "--no-reserve") a.reserve = false;
+    else if (k == "--no-release") a.release = false;
     else if (k == "--prepare-repeat") a.prepareRepeat = std::stoi(value());
     else if (!k.empty() && k[0] != '-' && a.mesh.empty()) a.mesh = k;
     else throw std::runtime_error("unknown argument " + k);
@@ -122,6 +135,8 @@ int main(int argc, char** argv) {
   j << "{\"mesh\": \"" << name << "\", \"resolution\": " << a.res << ", \"surface_only\": "
     << (a.surfaceOnly ? "true" : "false") << ", \"backend\": \"" << (a.cuda ? "cuda" : "cpu")
     << "\", \"cold\": " << (a.cold ? "true" : "false") << ", \"streamed_write\": " << (a.stream ? "true" : "false")
+    << ", \"warm_host\": " << (a.warmHost ? "true" : "false") << ", \"reserve\": " << (a.reserve && a.cuda && !a.cold ? "true" : "false")
+    << ", \"release\": " << (a.release && a.cuda ? "true" : "false")
     << ", \"date\": \"" << today()
     << "\", \"host_threads\": " << std::thread::hardware_concurrency();
   try {
@@ -135,16 +150,44 @@ int main(int argc, char** argv) {
     Clock::time_point t = start;
     std::thread warmUp;
     if (a.cuda && !a.cold) warmUp = std::thread([&] { prepareCuda(config, options); });
+    std::thread hostWarmUp;
+    if (a.warmHost) {
+      std::error_code error;
+      const uint64_t fileBytes = uint64_t(std::filesystem::file_size(a.mesh, error)) << (2 * a.subdivide);
+      const uint64_t bytes = error ? 0 : std::min<uint64_t>(uint64_t(1) << 30, 4 * fileBytes + (uint64_t(8) << 20));
+      hostWarmUp = std::thread([bytes] {
+        startHostThreads();
+        reserveWarmPages(bytes);
+      });
+    }
     TriangleMesh mesh = readMesh(a.mesh);
     for (int k = 0; k < a.subdivide; ++k) mesh = subdivide(mesh);
     const double readMs = msSince(t);
+    if (hostWarmUp.joinable()) hostWarmUp.join();
+    const double hostWarmUpWaitMs = msSince(t);
+    const WarmPagesState warmBefore = warmPagesState();
     PrepareTimes prepareParts;
     const PreparedMesh prepared = prepareMesh(mesh, config, &prepareParts);
+    const double prepareOnlyMs = msSince(t);
+    trimWarmPages();
     TriangleMesh kept = a.prepareRepeat > 0 ? std::move(mesh) : TriangleMesh();
     mesh = TriangleMesh();
-    const double prepareMs = msSince(t);
+    const double prepareMs = prepareOnlyMs + msSince(t);
+    // As hdt-voxelize: the memory estimate beside the device's set-up, its
+    // leaf words reserved as warm pages; the build waits for them.
+    const bool reserve = a.reserve && a.cuda && !a.cold;
+    std::future<double> estimate;
+    if (reserve)
+      estimate = std::async(std::launch::async, [&prepared] {
+        const double bytes = estimateHostMemory(prepared).leafGrids * leafWordCount(prepared.grid.leafSize) * 4.0;
+        if (bytes > 0 && bytes <= double(uint64_t(4) << 30)) reserveWarmPages(size_t(bytes));
+        return bytes;
+      });
     if (warmUp.joinable()) warmUp.join();
     const double warmUpWaitMs = msSince(t);
+    const double leafEstimateBytes = reserve ? estimate.get() : 0;
+    const double reserveWaitMs = msSince(t);
+    const WarmPagesState warmAtBuild = warmPagesState();
     CudaBuildReport report;
     HdtLeafEncoder streamed;
     if (a.stream) options.leafSink = &streamed;
@@ -154,9 +197,14 @@ int main(int argc, char** argv) {
       ~StopStreaming() { leaves.abandon(); }
     } stopStreaming{streamed};
     const double buildWallMs = msSince(t);
+    trimWarmPages();
+    std::thread release;
+    if (a.release && a.cuda && !a.warmCheck) release = std::thread([&] { releaseCuda(options); });
     writeHdt(v, a.hdt, HdtWriteOptions{}, &streamed);
     options.leafSink = nullptr;
     const double writeMs = msSince(t);
+    if (release.joinable()) release.join();
+    const double releaseWaitMs = msSince(t);
     const double wallMs = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
     struct stat st {};
     stat(a.hdt.c_str(), &st);
@@ -169,7 +217,11 @@ int main(int argc, char** argv) {
       << ", \"copy_back_gb_per_s\": " << num(report.downloadMs > 0 ? report.downloadBytes / report.downloadMs / 1e6 : 0)
       << ", \"chunks\": " << report.chunks << ", \"write_ms\": " << num(writeMs) << ", \"file_bytes\": " << st.st_size
       << ", \"wall_ms\": " << num(wallMs) << ", \"peak_host_bytes\": " << peakResidentBytes()
-      << ", \"peak_device_bytes\": " << s.peakDeviceBytes << ", \"prepare_parts_ms\": " << partsJson(prepareParts);
+      << ", \"peak_device_bytes\": " << s.peakDeviceBytes << ", \"prepare_parts_ms\": " << partsJson(prepareParts)
+      << ", \"prepare_only_ms\": " << num(prepareOnlyMs) << ", \"host_warm_up_wait_ms\": " << num(hostWarmUpWaitMs)
+      << ", \"warm_bytes_at_prepare\": " << warmBefore.reserved << ", \"leaf_estimate_bytes\": " << num(leafEstimateBytes)
+      << ", \"warm_bytes_at_build\": " << warmAtBuild.reserved << ", \"reserve_wait_ms\": " << num(reserveWaitMs)
+      << ", \"release_wait_ms\": " << num(releaseWaitMs);
     if (a.prepareRepeat > 0) { // the same preparation again in this process: the best of K
       PrepareTimes best;
       double bestMs = 1e300;

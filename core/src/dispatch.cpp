@@ -22,6 +22,7 @@ Volume buildCuda(const PreparedMesh&, const BuildOptions&) {
               "backend cuda requested but this build has no CUDA driver (HDT_ENABLE_CUDA=OFF)");
 }
 void prepareCuda(const BuildConfig&, const BuildOptions&) {}
+void releaseCuda(const BuildOptions&) {}
 bool buildLabelledCuda(const PreparedMesh&, const std::vector<PreparedMesh>&, const std::vector<Label>&,
                        const LabelOptions&, const BuildOptions&, Volume&) {
   return false;

@@ -4,6 +4,7 @@
 #include "hdt/geometry.hpp"
 #include "hdt/huge_pages.hpp" // prefaultParallel
 #include "hdt/mesh_topology.hpp"
+#include "hdt/warm_pages.hpp"
 #include "hdt/volume.hpp"
 #include "hdt/winding_tree.hpp"
 
@@ -177,6 +178,21 @@ std::vector<std::string> buildWarnings(const PreparedMesh& mesh, const Volume& v
 
 PreparedMesh prepareMesh(const TriangleMesh& mesh, const BuildConfig& config) {
   return prepareMesh(mesh, config, nullptr);
+}
+
+size_t prepareMeshWarmBytes(size_t triangles, size_t points) {
+  using detail::warmRounded;
+  // The two scatters' count tables (at most 64 blocks x 4112 counts) and the
+  // topology's entries (two a triangle, 128 bits beyond 2^25 points).
+  const size_t countTable = warmRounded(64 * 4112 * sizeof(size_t));
+  const size_t entryBytes = points > (size_t(1) << 25) ? 16 : 8;
+  return warmRounded(points * 3 * sizeof(int32_t))           // snapped
+         + warmRounded(points * sizeof(uint32_t))            // numbers
+         + warmRounded(points * 16)                          // bucketed points
+         + warmRounded(triangles)                            // keep
+         + warmRounded(triangles * sizeof(LatticeTriangle))  // lattice triangles
+         + warmRounded(2 * triangles * entryBytes)           // edge and corner entries
+         + 2 * countTable;
 }
 
 PreparedMesh prepareMesh(const TriangleMesh& mesh, const BuildConfig& config, PrepareTimes* times) {

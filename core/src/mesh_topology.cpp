@@ -32,7 +32,7 @@ template <class Value, class Count, class Emit> Buckets<Value> scatterCounted(si
   // Per block and bucket: count, then first slot in the bucket. Rows padded:
   // a power-of-two stride would put a bucket's counts in one cache set.
   const size_t row = buckets + 16;
-  std::vector<Count> offset(blocks * row, 0);
+  Scratch<Count> offset(blocks * row, Count(0));
   tbb::parallel_for(size_t(0), blocks, [&](size_t k) {
     Count* count = offset.data() + k * row;
     auto put = [count](size_t b, const Value&) { ++count[b]; };

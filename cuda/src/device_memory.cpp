@@ -137,6 +137,14 @@ void DeviceMemory::prefill(int device, cudaStream_t stream, uint64_t bytes) {
   HDT_CUDA_CHECK(cudaFreeAsync(p, stream)); // back to the pool, which keeps it (release threshold: never)
   HDT_CUDA_CHECK(cudaStreamSynchronize(stream));
 }
+void DeviceMemory::releasePool(int device) {
+  PoolRegistry& r = registry();
+  std::lock_guard<std::mutex> lock(r.mutex);
+  if (size_t(device) >= r.state.size() || r.state[device] != 1) return;
+  cudaMemPoolDestroy(r.pools[device]);
+  r.pools[device] = nullptr;
+  r.state[device] = 0;
+}
 } // namespace cuda
 
 } // namespace hdt

@@ -55,6 +55,9 @@ public:
   // Grows the device's pool to `bytes` now (mapping memory is what makes a
   // process's first build slow); the pool keeps it for the builds.
   static void prefill(int device, cudaStream_t stream, uint64_t bytes);
+  // Destroys the device's pool (its memory goes back to the driver); the next
+  // build makes a new one.
+  static void releasePool(int device);
 
 private:
   int device_;

@@ -213,6 +213,17 @@ void reserveCopyStaging() {
   r.allocate();
 }
 
+void releaseCopyStaging() {
+  Ring& r = currentRing();
+  std::lock_guard<std::mutex> lock(r.mutex);
+  for (int i = 0; i < kSlots; ++i) {
+    if (r.slot[i]) cudaFreeHost(r.slot[i]);
+    if (r.arrived[i]) cudaEventDestroy(r.arrived[i]);
+    r.slot[i] = nullptr;
+    r.arrived[i] = nullptr;
+  }
+}
+
 void copyThroughRing(const StagingRing& ring, cudaStream_t stream, void* host, const void* device, size_t bytes,
                      const CopiedPrefix& copied) {
   if (bytes == 0) return;

@@ -37,6 +37,9 @@ void copyHostParallel(void* dst, const void* src, size_t bytes);
 // not inside the first build's copy-back). Idempotent.
 void reserveCopyStaging();
 
+// Frees the current device's staging ring (before its context goes: releaseCuda).
+void releaseCopyStaging();
+
 // The ring's shape, for the copy benchmark (bench/gpu/copy_bench.cpp): the
 // same copy through a ring of `slots` pinned buffers of `pieceBytes`
 // allocated by the caller (cudaMallocHost), with `events` (one a slot).

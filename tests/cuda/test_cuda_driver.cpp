@@ -9,6 +9,7 @@
 #include "hdt/error.hpp"
 #include "hdt/hdt_file.hpp"
 #include "hdt/mesh.hpp"
+#include "hdt/warm_pages.hpp"
 #include "support/shapes.hpp"
 
 #include <gtest/gtest.h>
@@ -53,6 +54,30 @@ TEST(CudaDriver, PreparedDeviceGivesTheCpuBytes) {
     EXPECT_GT(gpu.leafWords.size() * 4, size_t(20) << 20) << "the ring is not exercised";
     EXPECT_TRUE(sameVolume(gpu, build(mesh, cpuOptions())));
   }
+}
+
+// What hdt-voxelize does around a build: the leaf words' estimate reserved as
+// warm pages (the copy back then lands in them), and releaseCuda after the
+// build. The volume is the CPU driver's, and a build after the release (a new
+// context, pool and ring) gives the same bytes again.
+TEST(CudaDriver, WarmPagesAndReleaseGiveTheCpuBytes) {
+  HDT_REQUIRE_CUDA();
+  const Shape s = makeShape("two_bodies", 2048);
+  const BuildConfig config = s.config(2048, 16, 16, false);
+  const PreparedMesh mesh = prepareMesh(s.mesh, config);
+  const Volume cpu = build(mesh, cpuOptions());
+  const size_t leafBytes = cpu.leafWords.size() * sizeof(uint32_t);
+  trimWarmPages();
+  reserveWarmPages(leafBytes + (size_t(4) << 20));
+  const Volume warm = build(mesh, cudaOptions());
+  EXPECT_LT(warmPagesState().free, size_t(8) << 20) << "the leaf words did not take the reserved pages";
+  EXPECT_TRUE(sameVolume(warm, cpu));
+  releaseCuda(cudaOptions());
+  const Volume again = build(mesh, cudaOptions());
+  EXPECT_TRUE(sameVolume(again, cpu));
+  releaseCuda(cudaOptions());
+  releaseCuda(cudaOptions()); // twice: nothing left to release
+  EXPECT_TRUE(sameVolume(build(mesh, cudaOptions()), cpu));
 }
 
 // The copy back feeds the .hdt writer's leaf blocks piece by piece

@@ -82,6 +82,14 @@ Volume buildCuda(const PreparedMesh& mesh, const BuildOptions& options);
 // the mesh is read. Does nothing without a usable device; never throws.
 void prepareCuda(const BuildConfig& config, const BuildOptions& options);
 
+// Ends this process's use of the CUDA device options.device now: its memory
+// pool, pinned staging and context (cudaDeviceReset), which the process's exit
+// would otherwise tear down (tens of ms). For a process whose builds are done,
+// e.g. on a thread while it writes its files (hdt-voxelize); nothing may use
+// the device meanwhile, and a later build starts cold. Never throws; does
+// nothing without the CUDA driver.
+void releaseCuda(const BuildOptions& options);
+
 // Dispatches on options.backend. Auto runs CUDA when available and the CPU
 // driver otherwise (saying so once through options.log), and falls back to
 // the CPU driver if the device fails.

@@ -14,6 +14,8 @@
 #include <type_traits>
 #include <utility>
 
+#include "hdt/warm_pages.hpp"
+
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
@@ -61,7 +63,8 @@ inline void prefaultParallel(void* p, size_t bytes) {
 }
 
 // std::allocator whose large blocks are 2 MiB aligned and advised for huge
-// pages (for vectors that grow to many MB: each growth writes fresh memory).
+// pages (for vectors that grow to many MB: each growth writes fresh memory),
+// or taken from reserved warm pages (warm_pages.hpp) where they fit.
 template <class T>
 struct HugePageAllocator {
   using value_type = T;
@@ -70,6 +73,8 @@ struct HugePageAllocator {
 
   T* allocate(size_t n) {
     const size_t bytes = n * sizeof(T);
+    if (n <= SIZE_MAX / sizeof(T))
+      if (void* p = detail::takeWarmPages(bytes)) return static_cast<T*>(p); // already faulted in
     if (bytes < 2 * kHugePageBytes) return std::allocator<T>().allocate(n);
     const size_t rounded = (bytes + kHugePageBytes - 1) & ~(kHugePageBytes - 1);
     void* p = std::aligned_alloc(kHugePageBytes, rounded);
@@ -78,6 +83,7 @@ struct HugePageAllocator {
     return static_cast<T*>(p);
   }
   void deallocate(T* p, size_t n) noexcept {
+    if (detail::returnWarmPages(p, n * sizeof(T))) return;
     if (n * sizeof(T) < 2 * kHugePageBytes) {
       std::allocator<T>().deallocate(p, n);
     } else {

@@ -82,6 +82,12 @@ struct PrepareTimes {
 };
 PreparedMesh prepareMesh(const TriangleMesh& mesh, const BuildConfig& config, PrepareTimes* times);
 
+// Host bytes that prepareMesh's large arrays (its scratch and the lattice
+// triangles) take at most at once for a mesh of this size: reserved as warm
+// pages beforehand (warm_pages.hpp), its first call in a process runs as fast
+// as a warm one.
+size_t prepareMeshWarmBytes(size_t triangles, size_t points);
+
 struct Volume;
 
 // Things about a finished build its user should hear about although nothing
