@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # One device call for a kernel change: the new binaries' CUDA tests,
 # memcheck and racecheck, then an A/B of two hdt_gpu_bench binaries
-# (alternating processes, rounds until AB_SECONDS have passed) over the
+# (alternating processes, rounds while time is left) over the
 # shared meshes at 8192^3, and ncu kernel times of both on one mesh.
 # Run from a folder holding bench/gpu/ (this script, device-run.sh,
 # ab_bench.sh), .devdeps (linked), bin-new/{hdt_cuda_tests,hdt_gpu_bench}
@@ -9,8 +9,11 @@
 # summary in $OUT/summary.txt.
 #
 #   OUT=... bench/gpu/kernel_ab_call.sh
-# Env: AB_SECONDS (240), AB_ROUNDS (5), AB_RUNS (5), AB_MESHES (the ten), MEMCHECK_FILTER,
-#      RACECHECK_FILTER, SANITIZE_TIMEOUT (150 s each), PROFILE_MESH (cycloidal-drive.ply).
+# Env: AB_UNTIL (330: no A/B round starts later, seconds since the start), KT_BASE_UNTIL (380: the
+#      base's kernel times only before it), PROFILE_COUNT (400), AB_ROUNDS (5), AB_RUNS (5), AB_MESHES (the ten), MEMCHECK_FILTER,
+#      RACECHECK_FILTER, SANITIZE_TIMEOUT (150 s each), PROFILE_MESH (cycloidal-drive.ply);
+#      VARIANTS ("NAME..." of bin-NAME/hdt_gpu_bench: also timed, with base and new, on
+#      VARIANT_MESHES for VARIANT_ROUNDS rounds, none started after VARIANT_UNTIL).
 set -u -o pipefail
 ROOT=$(pwd)
 FINAL=$OUT
@@ -30,38 +33,49 @@ for tool in memcheck racecheck; do
     --error-exitcode 9 $ROOT/bin-new/hdt_cuda_tests --gtest_filter="$f" > $W/$tool.log 2>&1
   echo "== $tool ($f): rc=$? in $((SECONDS - s)) s: $(grep -E 'SUMMARY|^\[  (PASSED|FAILED) ' $W/$tool.log | tr '\n' ' ')" | tee -a $W/summary-sanitize.txt
 done
-# A/B: per round, every mesh, base then new (one process each), until the time is up
-meshes=${AB_MESHES:-"cycloidal-drive.ply stanford-dragon-100k.ply nefertiti.ply ogre.ply teapot.ply bracket.ply teapot-shell.ply fandisk.ply turbine-blade.ply tray-bottom.ply"}
-ab_end=$((SECONDS + ${AB_SECONDS:-240}))
-for r in $(seq "${AB_ROUNDS:-5}"); do
-  [ $SECONDS -lt $ab_end ] || { echo "ab: stopped before round $r" >> $W/ab/ab.log; break; }
-  for m in $meshes; do
-    for b in base new; do
-      timeout 120 $ROOT/bin-$b/hdt_gpu_bench --meshes .devdeps/meshes --mesh "$m" --res 8192 --modes surface,solid \
-        --runs "${AB_RUNS:-5}" --out "$W/ab/ab-$b.jsonl" >> $W/ab/ab.log 2>&1 || echo "ab: rc=$? for $b $m" >> $W/ab/ab.log
+kerneltimes() { # $1: new or base
+  OUT=$W/kt-$1 DEVICE_BIN=$ROOT/bin-$1 NCU_CLOCKS=none PROFILE_COUNT=${PROFILE_COUNT:-400} \
+    PROFILE_MESH=${PROFILE_MESH:-cycloidal-drive.ply} bash bench/gpu/device-run.sh kerneltimes > /dev/null 2>&1
+  { echo "== kerneltimes $1"; head -24 $W/kt-$1/kerneltimes.txt; } | tee -a $W/kerneltimes-both.txt
+}
+kerneltimes new
+# A/B: per round, every mesh, each binary in turn (one process each), until the time is up
+ab_run() { # "BINS" "MESHES" ROUNDS UNTIL(seconds since the start)
+  local r m b
+  for r in $(seq "$3"); do
+    [ $((SECONDS - t0)) -lt $4 ] || { echo "ab: stopped before round $r of $1" >> $W/ab/ab.log; break; }
+    for m in $2; do
+      for b in $1; do
+        timeout 120 $ROOT/bin-$b/hdt_gpu_bench --meshes .devdeps/meshes --mesh "$m" --res 8192 --modes surface,solid \
+          --runs "${AB_RUNS:-5}" --out "$W/ab/ab-$b.jsonl" >> $W/ab/ab.log 2>&1 || echo "ab: rc=$? for $b $m" >> $W/ab/ab.log
+      done
     done
+    echo "ab: round $r of $1 done at $((SECONDS - t0)) s" >> $W/ab/ab.log
   done
-  echo "ab: round $r done at $((SECONDS - t0)) s" >> $W/ab/ab.log
-done
-python3 - $W/ab <<'PY' | tee $W/ab/table.txt
+}
+meshes=${AB_MESHES:-"cycloidal-drive.ply stanford-dragon-100k.ply nefertiti.ply ogre.ply teapot.ply bracket.ply teapot-shell.ply fandisk.ply turbine-blade.ply tray-bottom.ply"}
+ab_run "base new" "$meshes" "${AB_ROUNDS:-5}" "${AB_UNTIL:-330}"
+# VARIANTS: more binaries (bin-NAME/hdt_gpu_bench) against base and new on VARIANT_MESHES
+[ -n "${VARIANTS:-}" ] && ab_run "base new $VARIANTS" "${VARIANT_MESHES:-cycloidal-drive.ply stanford-dragon-100k.ply}" \
+  "${VARIANT_ROUNDS:-3}" "${VARIANT_UNTIL:-400}"
+python3 - $W/ab base new ${VARIANTS:-} <<'PY' | tee $W/ab/table.txt
 import json, sys, os, statistics, collections
-d = sys.argv[1]; rows = collections.defaultdict(lambda: collections.defaultdict(list))
-for b in ("base", "new"):
+d, bins = sys.argv[1], sys.argv[2:]
+rows = collections.defaultdict(lambda: collections.defaultdict(list))
+for b in bins:
     for l in open(os.path.join(d, f"ab-{b}.jsonl")):
         r = json.loads(l); rows[(r["mesh"], "surface" if r["surface_only"] else "solid")][b].append(r["time_ms"])
-print("mesh mode procs: total base -> new (diff), T2, T3, classify medians over processes")
+print("mesh mode: binary processes total (diff to base) T2 T3 classify, medians over processes")
 for (m, mode), per in sorted(rows.items()):
     med = {b: {p: statistics.median(x[p] for x in v) for p in v[0]} for b, v in per.items()}
-    if len(med) < 2: continue
-    a, n = med["base"], med["new"]
-    print(f"{m[:22]:22} {mode:7} {len(per['base'])}/{len(per['new'])} total {a['total']:.3f} -> {n['total']:.3f} ({100*(n['total']/a['total']-1):+.1f}%)"
-          f"  T2 {a['branching']:.3f}->{n['branching']:.3f} T3 {a['leaf']:.3f}->{n['leaf']:.3f} cls {a['classify']:.3f}->{n['classify']:.3f}")
+    a = med["base"]
+    for b in bins:
+        if b not in med: continue
+        n = med[b]
+        print(f"{m[:22]:22} {mode:7} {b:6} {len(per[b])} total {n['total']:.3f} ({100*(n['total']/a['total']-1):+.1f}%)"
+              f"  T2 {n['branching']:.3f} T3 {n['leaf']:.3f} cls {n['classify']:.3f}")
 PY
-for b in new base; do
-  OUT=$W/kt-$b DEVICE_BIN=$ROOT/bin-$b NCU_CLOCKS=none PROFILE_MESH=${PROFILE_MESH:-cycloidal-drive.ply} \
-    bash bench/gpu/device-run.sh kerneltimes > /dev/null 2>&1
-  echo "== kerneltimes $b"; head -24 $W/kt-$b/kerneltimes.txt
-done | tee $W/kerneltimes-both.txt
+if [ $((SECONDS - t0)) -lt ${KT_BASE_UNTIL:-380} ]; then kerneltimes base; fi
 echo "total $((SECONDS - t0)) s"
 cat $W/summary-sanitize.txt > $FINAL/summary.txt
 cat $W/ab/table.txt $W/kerneltimes-both.txt >> $FINAL/summary.txt

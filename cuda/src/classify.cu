@@ -21,9 +21,8 @@
 //            XOR (its mask); closed meshes use the x rows, open ones the
 //            majority of the 3 axes per voxel; plane 0 = inside and not
 //            surface. One read and one write per leaf word;
-//   uniform  one thread per Empty element: the first leaf beyond it on its
-//            line, per axis (from the line's first leaf, by a per-line
-//            index); majority -> Full.
+//   uniform  one thread per Empty element: binary search of the first leaf
+//            beyond it on its line, per axis; majority -> Full.
 #include "device_common.cuh"
 #include "phases.hpp"
 
@@ -149,14 +148,6 @@ __global__ void __launch_bounds__(32 * kCrossWarps) leafCrossingsKernel(LeafArgs
 }
 
 // ---- lines ----------------------------------------------------------------------------
-// The first position of every line that has leaves (the others keep
-// kNoLineStart).
-__global__ void lineStartKernel(uint32_t n, const uint64_t* keys, LineKeys lk, uint32_t* lineStart) {
-  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
-  if (i >= n) return;
-  if (i == 0 || !lk.sameLine(keys[i - 1], keys[i])) lineStart[lk.line(keys[i])] = i;
-}
-
 __global__ void lineKeysKernel(uint32_t n, const uint64_t* coord, int axis, LineKeys lk, uint64_t* keys,
                                uint32_t* leafOf) {
   const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
@@ -184,17 +175,19 @@ __device__ __forceinline__ void lineSuffixWalkBack(int64_t top, uint64_t lineKey
     const int64_t idx = top - lane; // lane 0 is the farthest along the ray
     const bool valid = idx >= 0 && lk.sameLine(keys[idx], lineKey);
     const uint32_t leaf = valid ? leafOf[idx] : 0;
+    uint32_t v[RW]; // loaded before any store, as below
+#pragma unroll
+    for (int k = 0; k < RW; ++k) v[k] = valid ? parity[size_t(leaf) * RW + k] : 0u;
 #pragma unroll
     for (int k = 0; k < RW; ++k) {
-      const uint32_t v = valid ? parity[size_t(leaf) * RW + k] : 0u;
-      uint32_t incl = v; // XOR of this leaf and those beyond it in the step
+      uint32_t incl = v[k]; // XOR of this leaf and those beyond it in the step
 #pragma unroll
       for (int o = 1; o < 32; o <<= 1) {
         const uint32_t x = __shfl_up_sync(kFullMask, incl, o);
         if (lane >= o) incl ^= x;
       }
       if (valid) {
-        parity[size_t(leaf) * RW + k] = carry[k] ^ incl ^ v; // exit: beyond the leaf
+        parity[size_t(leaf) * RW + k] = carry[k] ^ incl ^ v[k]; // exit: beyond the leaf
         if (k == 0) entry[leaf] = uint8_t((carry[0] ^ incl) & 1u);
       }
       carry[k] ^= __shfl_sync(kFullMask, incl, 31);
@@ -223,18 +216,22 @@ __global__ void lineSuffixKernel(uint32_t n, const uint64_t* keys, const uint32_
   const uint32_t leaf = owned ? leafOf[pos] : 0;
   // The first segment continues before the window when the line does.
   const bool walkBack = window > 0 && lk.sameLine(keys[window * 32 - 1], keys[window * 32]);
-  uint32_t carry[RW];
+  // All of the leaf's words are loaded before any is stored: the stores
+  // would otherwise keep each load waiting for the previous word's (the
+  // compiler cannot tell the leaves apart).
+  uint32_t v[RW], carry[RW];
+#pragma unroll
+  for (int k = 0; k < RW; ++k) v[k] = owned ? parity[size_t(leaf) * RW + k] : 0u;
 #pragma unroll
   for (int k = 0; k < RW; ++k) {
-    const uint32_t v = owned ? parity[size_t(leaf) * RW + k] : 0u;
-    uint32_t incl = v; // XOR of this leaf and the later ones of its segment
+    uint32_t incl = v[k]; // XOR of this leaf and the later ones of its segment
 #pragma unroll
     for (int o = 1; o < 32; o <<= 1) {
       const uint32_t x = __shfl_down_sync(kFullMask, incl, o);
       if (lane + o <= segmentEnd) incl ^= x;
     }
     if (owned) {
-      parity[size_t(leaf) * RW + k] = incl ^ v; // exit: beyond the leaf (the line ends in this window)
+      parity[size_t(leaf) * RW + k] = incl ^ v[k]; // exit: beyond the leaf (the line ends in this window)
       if (k == 0) entry[leaf] = uint8_t(incl & 1u);
     }
     carry[k] = __shfl_sync(kFullMask, incl, 0); // the first segment's XOR in this window
@@ -331,37 +328,7 @@ struct LineView {
   const uint64_t* key;
   const uint32_t* leaf;
   const uint8_t* entry;
-  const uint32_t* lineStart; // or null: search all keys
 };
-
-// lower_bound(key) among the sorted keys: the first position whose key is
-// >= key, or one whose key lies on another line when the key's line has none
-// (the caller checks the line). With the line index the search starts at
-// the key's line's first leaf and gallops along the line (lines hold a few
-// leaves): a few loads instead of log2(leaves) ones over the whole array.
-// Both give the same position where it matters: on the key's line, keys
-// before the line's first are smaller and keys after its last are larger.
-__device__ __forceinline__ uint32_t lowerBoundOfKey(const LineView& t, LineKeys lk, uint64_t key, uint32_t n) {
-  uint32_t lo = 0, hi = n;
-  if (t.lineStart) {
-    const uint32_t s = t.lineStart[lk.line(key)];
-    if (s == kNoLineStart) return n; // no leaf on the line
-    if (t.key[s] >= key) return s;
-    // t.key[lo] < key; widen until t.key[hi] >= key or the end
-    lo = s;
-    for (uint32_t step = 1;; step <<= 1) {
-      hi = n - lo > step ? lo + step : n;
-      if (hi == n || t.key[hi] >= key) break;
-      lo = hi;
-    }
-    ++lo; // the answer is in [lo, hi]
-  }
-  while (lo < hi) {
-    const uint32_t mid = (lo + hi) >> 1;
-    if (t.key[mid] < key) lo = mid + 1; else hi = mid;
-  }
-  return lo;
-}
 
 __global__ void uniformKernel(uint32_t count, ElementWord* words, const uint64_t* coords, uint64_t leavesPerElement,
                               uint64_t leavesPerAxis, LineKeys lk, int axes, LineView t0, LineView t1, LineView t2,
@@ -375,7 +342,11 @@ __global__ void uniformKernel(uint32_t count, ElementWord* words, const uint64_t
     uint64_t key;
     if (!uniformLineKey(lk, c, leavesPerElement, leavesPerAxis, axis, key)) continue; // nothing beyond: parity 0
     const LineView& t = tables[axis];
-    const uint32_t lo = lowerBoundOfKey(t, lk, key, leafCount);
+    uint32_t lo = 0, hi = leafCount; // lower_bound
+    while (lo < hi) {
+      const uint32_t mid = (lo + hi) >> 1;
+      if (t.key[mid] < key) lo = mid + 1; else hi = mid;
+    }
     if (lo < leafCount && lk.sameLine(t.key[lo], key)) votes += t.entry[t.leaf[lo]];
   }
   if (majorityInside(votes, axes)) words[j] = makeElement(ElementState::Full, 0);
@@ -455,15 +426,6 @@ LineTable lineParity(DeviceMemory& mem, const GridSpec& grid, const Leaves& leav
   lineKeysKernel<<<blocksFor(n, 256), 256, 0, s>>>(n, leaves.coord.data(), axis, lk, t.key.data(), t.leaf.data());
   HDT_CUDA_CHECK_LAUNCH("lineKeysKernel");
   sortPairs(mem, t.key, t.leaf, n, 3 * lk.bits);
-  // The line index for the uniform elements' searches, where it is no larger
-  // than about the keys themselves.
-  const uint64_t lines = uint64_t(1) << (2 * lk.bits);
-  if (lines <= 2 * uint64_t(n) + 65536) {
-    t.lineStart = DeviceBuffer<uint32_t>(mem, lines);
-    HDT_CUDA_CHECK(cudaMemsetAsync(t.lineStart.data(), 0xFF, lines * sizeof(uint32_t), s));
-    lineStartKernel<<<blocksFor(n, 256), 256, 0, s>>>(n, t.key.data(), lk, t.lineStart.data());
-    HDT_CUDA_CHECK_LAUNCH("lineStartKernel");
-  }
   switch (grid.leafSize) {
   case 8: launchSuffix<8>(n, t.key.data(), t.leaf.data(), lk, parity, t.entry.data(), s); break;
   case 16: launchSuffix<16>(n, t.key.data(), t.leaf.data(), lk, parity, t.entry.data(), s); break;
@@ -488,10 +450,7 @@ void classifyUniform(DeviceMemory& mem, const GridSpec& grid, int level, Level& 
   const uint64_t leavesPerElement = uint64_t(grid.elementVoxels(level)) / uint64_t(grid.leafSize);
   const uint64_t leavesPerAxis = uint64_t(grid.resolution / grid.leafSize);
   LineView v[3] = {};
-  for (int a = 0; a < axes; ++a) {
-    const LineTable& t = *tables[a];
-    v[a] = LineView{t.key.data(), t.leaf.data(), t.entry.data(), t.lineStart.size() ? t.lineStart.data() : nullptr};
-  }
+  for (int a = 0; a < axes; ++a) v[a] = LineView{tables[a]->key.data(), tables[a]->leaf.data(), tables[a]->entry.data()};
   uniformKernel<<<blocksFor(lv.count, 256), 256, 0, mem.stream()>>>(lv.count, lv.words.data(), lv.coords.data(),
                                                                    leavesPerElement, leavesPerAxis,
                                                                    lineKeysFor(grid), axes, v[0], v[1], v[2],

@@ -167,12 +167,7 @@ struct LineTable {
   DeviceBuffer<uint64_t> key;  // sorted line keys (LineKeys)
   DeviceBuffer<uint32_t> leaf; // leaf of each key
   DeviceBuffer<uint8_t> entry; // per leaf: entry parity of row 0
-  // Per line (LineKeys::line): the position of its first key, or
-  // kNoLineStart; empty when the grid has too many lines for the leaves
-  // (the uniform elements then search all keys).
-  DeviceBuffer<uint32_t> lineStart;
 };
-constexpr uint32_t kNoLineStart = 0xFFFFFFFFu;
 LineTable lineParity(DeviceMemory& mem, const GridSpec& grid, const Leaves& leaves, int axis, uint32_t* parity);
 
 // Pass 2: inside bits (plane 0) of every leaf voxel that is not surface,
