@@ -160,11 +160,12 @@ __global__ void lineKeysKernel(uint32_t n, const uint64_t* coord, int axis, Line
 // warp whose window holds its last leaf. All the lines that end in the window
 // are done at once: per parity word, one segmented suffix XOR over the lanes
 // (a segment runs up to the next line end), so a window with many short lines
-// costs one pass, not one pass a line (ncu: the loop over line ends was most of
-// this kernel on the CAD parts). Only the window's first line can begin in an
-// earlier window; the warp walks that one back, 32 leaves a step, with the
-// XOR of its leaves in this window as the carry. The positions after the
-// window's last line end belong to a line that a later warp finishes.
+// costs one pass, not one pass a line (what bounds the kernel is its random
+// parity accesses, not this: bench/results/gpu-notes.md, change 28). Only
+// the window's first line can begin in an earlier window; the warp walks
+// that one back, 32 leaves a step, with the XOR of its leaves in this window
+// as the carry. The positions after the window's last line end belong to a
+// line that a later warp finishes.
 template <int L>
 __device__ __forceinline__ void lineSuffixWalkBack(int64_t top, uint64_t lineKey, const uint64_t* keys,
                                                    const uint32_t* leafOf, LineKeys lk, uint32_t (&carry)[rowWordsFor(L)],
