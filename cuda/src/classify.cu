@@ -14,9 +14,9 @@
 //            kernel here runs y and z of open meshes (with masks) and chunk
 //            phase A (parities only, before the leaf words exist);
 //   lines    per axis, the leaves sorted by line key (LineKeys) with a radix
-//            sort on 3b bits; one warp per line runs the suffix XOR
-//            (suffixParityStep) as a scan (shuffles, 32 leaves a step), in
-//            place, and records the entry parity of row 0;
+//            sort on 3b bits; the suffix XOR (suffixParityStep) as a
+//            segmented scan over each warp's 32 sorted leaves (shuffles),
+//            in place, recording the entry parity of row 0;
 //   pass 2   no geometry left: a row is inside where (exit parity of the row)
 //            XOR (its mask); closed meshes use the x rows, open ones the
 //            majority of the 3 axes per voxel; plane 0 = inside and not
@@ -156,46 +156,89 @@ __global__ void lineKeysKernel(uint32_t n, const uint64_t* coord, int axis, Line
   leafOf[i] = i;
 }
 
-// One warp per group of 32 sorted positions; each line is handled by the warp
-// holding its last leaf, which walks it backwards 32 leaves at a time.
+// One warp per window of 32 sorted positions; each line is finished by the
+// warp whose window holds its last leaf. All the lines that end in the window
+// are done at once: per parity word, one segmented suffix XOR over the lanes
+// (a segment runs up to the next line end), so a window with many short lines
+// costs one pass, not one pass a line (what bounds the kernel is its random
+// parity accesses, not this: bench/results/gpu-notes.md, change 28). Only
+// the window's first line can begin in an earlier window; the warp walks
+// that one back, 32 leaves a step, with the XOR of its leaves in this window
+// as the carry. The positions after the window's last line end belong to a
+// line that a later warp finishes.
+template <int L>
+__device__ __forceinline__ void lineSuffixWalkBack(int64_t top, uint64_t lineKey, const uint64_t* keys,
+                                                   const uint32_t* leafOf, LineKeys lk, uint32_t (&carry)[rowWordsFor(L)],
+                                                   uint32_t* parity, uint8_t* entry) {
+  constexpr int RW = rowWordsFor(L);
+  const int lane = threadIdx.x & 31;
+  for (;; top -= 32) {
+    const int64_t idx = top - lane; // lane 0 is the farthest along the ray
+    const bool valid = idx >= 0 && lk.sameLine(keys[idx], lineKey);
+    const uint32_t leaf = valid ? leafOf[idx] : 0;
+    uint32_t v[RW]; // loaded before any store, as below
+#pragma unroll
+    for (int k = 0; k < RW; ++k) v[k] = valid ? parity[size_t(leaf) * RW + k] : 0u;
+#pragma unroll
+    for (int k = 0; k < RW; ++k) {
+      uint32_t incl = v[k]; // XOR of this leaf and those beyond it in the step
+#pragma unroll
+      for (int o = 1; o < 32; o <<= 1) {
+        const uint32_t x = __shfl_up_sync(kFullMask, incl, o);
+        if (lane >= o) incl ^= x;
+      }
+      if (valid) {
+        parity[size_t(leaf) * RW + k] = carry[k] ^ incl ^ v[k]; // exit: beyond the leaf
+        if (k == 0) entry[leaf] = uint8_t((carry[0] ^ incl) & 1u);
+      }
+      carry[k] ^= __shfl_sync(kFullMask, incl, 31);
+    }
+    if (!__all_sync(kFullMask, valid)) break; // passed the line's first leaf
+  }
+}
+
 template <int L>
 __global__ void lineSuffixKernel(uint32_t n, const uint64_t* keys, const uint32_t* leafOf, LineKeys lk,
                                  uint32_t* parity, uint8_t* entry) {
   constexpr int RW = rowWordsFor(L);
   const int lane = threadIdx.x & 31;
-  const uint64_t group = (uint64_t(blockIdx.x) * blockDim.x + threadIdx.x) >> 5;
-  const uint64_t pos = group * 32 + lane;
-  const bool isEnd = pos < n && (pos + 1 == n || !lk.sameLine(keys[pos + 1], keys[pos]));
-  unsigned ends = __ballot_sync(kFullMask, isEnd);
-  while (ends) {
-    const uint64_t last = group * 32 + (__ffs(ends) - 1);
-    ends &= ends - 1;
-    const uint64_t lineKey = keys[last];
-    uint32_t carry[RW];
+  const uint64_t window = (uint64_t(blockIdx.x) * blockDim.x + threadIdx.x) >> 5;
+  const uint64_t pos = window * 32 + lane;
+  const bool inRange = pos < n;
+  const uint64_t key = inRange ? keys[pos] : 0;
+  const bool isEnd = inRange && (pos + 1 == n || !lk.sameLine(keys[pos + 1], key));
+  const unsigned ends = __ballot_sync(kFullMask, isEnd);
+  if (ends == 0) return; // warp-uniform: the whole window is inside a line that ends later
+  // This lane's segment ends at the first line end at or after it; lanes past
+  // the last end belong to a later warp's line.
+  const unsigned endsFromHere = ends & ~((1u << lane) - 1u);
+  const bool owned = endsFromHere != 0;
+  const int segmentEnd = owned ? __ffs(endsFromHere) - 1 : 31;
+  const uint32_t leaf = owned ? leafOf[pos] : 0;
+  // The first segment continues before the window when the line does.
+  const bool walkBack = window > 0 && lk.sameLine(keys[window * 32 - 1], keys[window * 32]);
+  // All of the leaf's words are loaded before any is stored: the stores
+  // would otherwise keep each load waiting for the previous word's (the
+  // compiler cannot tell the leaves apart).
+  uint32_t v[RW], carry[RW];
 #pragma unroll
-    for (int k = 0; k < RW; ++k) carry[k] = 0;
-    for (int64_t top = int64_t(last);; top -= 32) {
-      const int64_t idx = top - lane; // lane 0 is the farthest along the ray
-      const bool valid = idx >= 0 && lk.sameLine(keys[idx], lineKey);
-      const uint32_t leaf = valid ? leafOf[idx] : 0;
+  for (int k = 0; k < RW; ++k) v[k] = owned ? parity[size_t(leaf) * RW + k] : 0u;
 #pragma unroll
-      for (int k = 0; k < RW; ++k) {
-        const uint32_t v = valid ? parity[size_t(leaf) * RW + k] : 0u;
-        uint32_t incl = v; // XOR of this leaf and those beyond it in the step
+  for (int k = 0; k < RW; ++k) {
+    uint32_t incl = v[k]; // XOR of this leaf and the later ones of its segment
 #pragma unroll
-        for (int o = 1; o < 32; o <<= 1) {
-          const uint32_t x = __shfl_up_sync(kFullMask, incl, o);
-          if (lane >= o) incl ^= x;
-        }
-        if (valid) {
-          parity[size_t(leaf) * RW + k] = carry[k] ^ incl ^ v; // exit: beyond the leaf
-          if (k == 0) entry[leaf] = uint8_t((carry[0] ^ incl) & 1u);
-        }
-        carry[k] ^= __shfl_sync(kFullMask, incl, 31);
-      }
-      if (!__all_sync(kFullMask, valid)) break; // passed the line's first leaf
+    for (int o = 1; o < 32; o <<= 1) {
+      const uint32_t x = __shfl_down_sync(kFullMask, incl, o);
+      if (lane + o <= segmentEnd) incl ^= x;
     }
+    if (owned) {
+      parity[size_t(leaf) * RW + k] = incl ^ v[k]; // exit: beyond the leaf (the line ends in this window)
+      if (k == 0) entry[leaf] = uint8_t(incl & 1u);
+    }
+    carry[k] = __shfl_sync(kFullMask, incl, 0); // the first segment's XOR in this window
   }
+  if (walkBack) lineSuffixWalkBack<L>(int64_t(window * 32) - 1, __shfl_sync(kFullMask, key, 0), keys, leafOf, lk, carry,
+                                      parity, entry);
 }
 
 // ---- pass 2 -----------------------------------------------------------------------------

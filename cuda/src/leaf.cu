@@ -45,9 +45,12 @@ namespace {
 // pairs of all four share the steps (1 for L = 32, whose words are 8x
 // larger). The sizes below were chosen by measurement:
 // bench/results/gpu-notes.md ("T3 kernel shape").
+#ifndef HDT_CUDA_T3_LEAVES
+#define HDT_CUDA_T3_LEAVES 4
+#endif
 template <int L>
 constexpr int leavesPerWarp() {
-  return L == 32 ? 1 : 4;
+  return L == 32 ? 1 : HDT_CUDA_T3_LEAVES;
 }
 // 4 warps a block (2 for L = 32); 10 blocks of 4 warps per SM cap registers
 // at 48 (and fill the shared memory: 22 KB a block for L = 16).

@@ -6,10 +6,11 @@
 //            the row-axis frame and the x rays' centre ranges, both clamped
 //            to the leaves' box, and the entry counts of its tables;
 //   scans    CUB exclusive sums of the counts place each triangle's entries;
-//   entries  one thread per table entry (its triangle from a max-scan of
-//            the triangles' first entries): sliceSpans, columnSpan or
-//            raySpanAtW on the whole box, as the CPU driver evaluates them
-//            on a leaf's part.
+//   entries  one thread per few consecutive table entries (each one's
+//            triangle from a max-scan of the triangles' first entries):
+//            sliceSpans, columnSpan or raySpanAtW on the whole box, as the
+//            CPU driver evaluates them on a leaf's part, with the
+//            triangle's part of them set up once per thread and triangle.
 #include "device_common.cuh"
 #include "phases.hpp"
 
@@ -145,8 +146,13 @@ DeviceBuffer<uint32_t> entryOwners(DeviceMemory& mem, uint32_t m, const uint64_t
   return owner;
 }
 
-// One thread per table entry: its triangle (mesh and table index), setup
-// and place k in the triangle's run; `Entry` evaluates and stores it.
+// One thread per kEntriesPerThread consecutive table entries: each entry's
+// triangle (mesh and table index), setup and place k in the triangle's run.
+// `Entry` sets up what depends on the triangle alone (prepare: clipper
+// parts, edge reciprocals) once for the thread's run of entries of one
+// triangle, and evaluates and stores each entry (eval); a triangle's
+// entries are consecutive, so most threads prepare once.
+constexpr int kEntriesPerThread = 4;
 struct EntryArgs {
   const uint32_t* owner;
   const uint64_t* start;
@@ -156,10 +162,20 @@ struct EntryArgs {
 };
 template <class Entry>
 __global__ void entriesKernel(uint64_t total, EntryArgs a, Entry entry) {
-  const uint64_t e = uint64_t(blockIdx.x) * blockDim.x + threadIdx.x;
-  if (e >= total) return;
-  const uint32_t j = a.owner[e];
-  entry(a.tris[a.triangleOf[j]], a.setup[j], int64_t(e - a.start[j]), e);
+  const uint64_t e0 = (uint64_t(blockIdx.x) * blockDim.x + threadIdx.x) * kEntriesPerThread;
+  typename Entry::State state;
+  uint32_t prepared = 0xFFFFFFFFu; // table index `state` belongs to
+  uint64_t start = 0;
+#pragma unroll 1
+  for (uint64_t e = e0; e < e0 + kEntriesPerThread && e < total; ++e) {
+    const uint32_t j = a.owner[e];
+    if (j != prepared) {
+      entry.prepare(a.tris[a.triangleOf[j]], a.setup[j], state);
+      start = a.start[j];
+      prepared = j;
+    }
+    entry.eval(state, int64_t(e - start), e);
+  }
 }
 
 __device__ __forceinline__ void boxOf(const TriangleSetup& s, int64_t (&first)[3], int64_t (&last)[3]) {
@@ -171,37 +187,57 @@ __device__ __forceinline__ void boxOf(const TriangleSetup& s, int64_t (&first)[3
 
 struct SliceEntry { // rows and x span of slice z = first z + k
   uint2* out;
-  __device__ void operator()(const LatticeTriangle& original, const TriangleSetup& s, int64_t k, uint64_t e) const {
+  struct State {
+    RowClipper c; // the parts for the rows of a slice and its x span
+    int64_t first[3], last[3];
+  };
+  __device__ void prepare(const LatticeTriangle& original, const TriangleSetup& s, State& st) const {
     const LatticeTriangle t = permuteToRowAxis(original, s.axis);
-    RowClipper c;
-    for (int part = 0; part < 5; ++part) makeRowClipperPart(t, part, c); // rows of a slice
-    for (int part = 6; part < 9; ++part) makeRowClipperPart(t, part, c); // the slice's x span
-    int64_t first[3], last[3], y0, y1, x0, x1;
-    boxOf(s, first, last);
-    sliceSpans(c, first, last, first[2] + k, y0, y1, x0, x1);
-    out[e] = make_uint2(packSpan(y0, y1, first[1]), packSpan(x0, x1, first[0]));
+    for (int part = 0; part < 5; ++part) makeRowClipperPart(t, part, st.c); // rows of a slice
+    for (int part = 6; part < 9; ++part) makeRowClipperPart(t, part, st.c); // the slice's x span
+    boxOf(s, st.first, st.last);
+  }
+  __device__ void eval(const State& st, int64_t k, uint64_t e) const {
+    int64_t y0, y1, x0, x1;
+    sliceSpans(st.c, st.first, st.last, st.first[2] + k, y0, y1, x0, x1);
+    out[e] = make_uint2(packSpan(y0, y1, st.first[1]), packSpan(x0, x1, st.first[0]));
   }
 };
 
 struct HeightEntry { // x span of row height y = first y + k
   uint32_t* out;
-  __device__ void operator()(const LatticeTriangle& original, const TriangleSetup& s, int64_t k, uint64_t e) const {
+  struct State {
+    RowClipper c; // the column parts
+    int64_t first[3], last[3];
+  };
+  __device__ void prepare(const LatticeTriangle& original, const TriangleSetup& s, State& st) const {
     const LatticeTriangle t = permuteToRowAxis(original, s.axis);
-    RowClipper c;
-    for (int part = 9; part < 12; ++part) makeRowClipperPart(t, part, c);
-    int64_t first[3], last[3], x0, x1;
-    boxOf(s, first, last);
-    columnSpan(c, first, last, first[1] + k, x0, x1);
-    out[e] = packSpan(x0, x1, first[0]);
+    for (int part = 9; part < 12; ++part) makeRowClipperPart(t, part, st.c);
+    boxOf(s, st.first, st.last);
+  }
+  __device__ void eval(const State& st, int64_t k, uint64_t e) const {
+    int64_t x0, x1;
+    columnSpan(st.c, st.first, st.last, st.first[1] + k, x0, x1);
+    out[e] = packSpan(x0, x1, st.first[0]);
   }
 };
 
 struct LineEntry { // hit rays of the x-ray line z = w0 + k
   uint32_t* out;
-  __device__ void operator()(const LatticeTriangle& original, const TriangleSetup& s, int64_t k, uint64_t e) const {
-    int64_t f = s.u0, l = s.u1;
-    raySpanAtW(original, kRayAxis, s.w0 + k, f, l);
-    out[e] = packSpan(f, l, s.u0);
+  struct State {
+    RaySpanSetup r;
+    int32_t u0, u1, w0;
+  };
+  __device__ void prepare(const LatticeTriangle& original, const TriangleSetup& s, State& st) const {
+    makeRaySpanSetup(original, kRayAxis, st.r);
+    st.u0 = s.u0;
+    st.u1 = s.u1;
+    st.w0 = s.w0;
+  }
+  __device__ void eval(const State& st, int64_t k, uint64_t e) const {
+    int64_t f = st.u0, l = st.u1;
+    raySpanAtW(st.r, st.w0 + k, f, l);
+    out[e] = packSpan(f, l, st.u0);
   }
 };
 
@@ -213,7 +249,8 @@ void fillTable(DeviceMemory& mem, uint32_t m, const uint64_t* start, const uint3
   const DeviceBuffer<uint32_t> owner = entryOwners(mem, m, start, count, total);
   a.owner = owner.data();
   a.start = start;
-  entriesKernel<<<blocksFor(total, kBlock), kBlock, 0, mem.stream()>>>(total, a, entry);
+  entriesKernel<<<blocksFor((total + kEntriesPerThread - 1) / kEntriesPerThread, kBlock), kBlock, 0, mem.stream()>>>(
+      total, a, entry);
   HDT_CUDA_CHECK_LAUNCH("entriesKernel");
 }
 

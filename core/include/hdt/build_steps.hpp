@@ -511,20 +511,44 @@ HDT_HD void forEachXRowOf(int axis, int L, int h, int s, int first, int last, Se
 // equal the projected triangle's orientation (the three orientations sum to
 // it, so the other sign class is empty, and a triangle whose projection has
 // no area is never hit).
-HDT_HD void raySpanAtW(const LatticeTriangle& t, int axis, int64_t w, int64_t& first, int64_t& last) {
+//
+// What does not depend on w (the edges and their reciprocals) is set up once
+// per triangle (makeRaySpanSetup), so that a driver evaluating many lines of
+// one triangle (the CUDA driver's line table) does not redo it per line.
+struct RaySpanSetup {
+  bool hits;     // the projection has area (no ray hits otherwise)
+  bool positive; // its orientation
+  int64_t au[3], aw[3], du[3], dw[3]; // edge j: start vertex and direction in (U, W)
+  double inv[3]; // 1 / |A| of edge j (A = -256 dw; 0 when A == 0)
+};
+
+HDT_HD void makeRaySpanSetup(const LatticeTriangle& t, int axis, RaySpanSetup& s) {
   const int U = rayAxisU(axis), W = rayAxisW(axis);
   const int64_t area = (int64_t(t.v[1][U]) - t.v[0][U]) * (int64_t(t.v[2][W]) - t.v[0][W]) -
                        (int64_t(t.v[1][W]) - t.v[0][W]) * (int64_t(t.v[2][U]) - t.v[0][U]);
-  if (area == 0) {
+  s.hits = area != 0;
+  s.positive = area > 0;
+  for (int j = 0; j < 3; ++j) {
+    const int k = j == 2 ? 0 : j + 1;
+    s.au[j] = t.v[j][U];
+    s.aw[j] = t.v[j][W];
+    s.du[j] = t.v[k][U] - s.au[j];
+    s.dw[j] = t.v[k][W] - s.aw[j];
+    const int64_t absA = (s.dw[j] < 0 ? -s.dw[j] : s.dw[j]) * kLatticePerVoxel;
+    s.inv[j] = absA == 0 ? 0.0 : 1.0 / double(absA);
+  }
+}
+
+HDT_HD void raySpanAtW(const RaySpanSetup& s, int64_t w, int64_t& first, int64_t& last) {
+  if (!s.hits) {
     last = first - 1;
     return;
   }
-  const bool positive = area > 0;
+  const bool positive = s.positive;
   const int64_t pw = latticeOfVoxelCentre(w), half = kLatticePerVoxel / 2;
   for (int j = 0; j < 3 && first <= last; ++j) {
-    const int k = j == 2 ? 0 : j + 1;
-    const int64_t au = t.v[j][U], aw = t.v[j][W];
-    const int64_t du = t.v[k][U] - au, dw = t.v[k][W] - aw;
+    const int64_t au = s.au[j], aw = s.aw[j];
+    const int64_t du = s.du[j], dw = s.dw[j];
     // orientPerturbed(a, b, p) with pu = 256 u + 128: o(u) = A u + B; on a
     // tie (o = 0) its sign is that of -dw, or of du when dw = 0.
     const int64_t A = -dw * kLatticePerVoxel;
@@ -535,7 +559,7 @@ HDT_HD void raySpanAtW(const LatticeTriangle& t, int axis, int64_t w, int64_t& f
       continue;
     }
     const int64_t absA = A > 0 ? A : -A;
-    const double inv = 1.0 / double(absA);
+    const double inv = s.inv[j];
     if (A > 0) {
       if (positive) { // o >= 0 (ties count as +): u >= ceil(-B / A)
         const int64_t f = detail::ceilDiv(-B, absA, inv);
@@ -554,6 +578,12 @@ HDT_HD void raySpanAtW(const LatticeTriangle& t, int axis, int64_t w, int64_t& f
       }
     }
   }
+}
+
+HDT_HD void raySpanAtW(const LatticeTriangle& t, int axis, int64_t w, int64_t& first, int64_t& last) {
+  RaySpanSetup s;
+  makeRaySpanSetup(t, axis, s);
+  raySpanAtW(s, w, first, last);
 }
 
 // For a ray that hits the triangle (raySpanAtW, rayHitsTriangle): if the
