@@ -142,7 +142,11 @@ WindingTree buildWindingTree(const LatticeTriangles& triangles) {
   tree.nodes.resize(1);
   b.fill(0, 0, uint32_t(triangles.size()));
   tree.triangles.resize(triangles.size());
-  for (size_t i = 0; i < triangles.size(); ++i) tree.triangles[i] = windingTriangle(triangles[b.order[i]]);
+  tree.lattice.resize(triangles.size());
+  for (size_t i = 0; i < triangles.size(); ++i) {
+    tree.triangles[i] = windingTriangle(triangles[b.order[i]]);
+    tree.lattice[i] = triangles[b.order[i]];
+  }
   buildWindingEdges(triangles, tree);
   return tree;
 }
@@ -208,6 +212,7 @@ void buildWindingEdges(const LatticeTriangles& triangles, WindingTree& tree) {
       e.hi[a] = std::max(e.a[a], e.b[a]);
     }
     e.weight = double(std::abs(k.count));
+    e.net = double(k.count);
     const double dx = e.b[0] - e.a[0], dy = e.b[1] - e.a[1], dz = e.b[2] - e.a[2];
     e.length = std::sqrt(dx * dx + dy * dy + dz * dz) * (1 + 1e-12); // covers the root's rounding
     tree.edges.push_back(e);

@@ -1,0 +1,169 @@
+// The winding number at a lattice point from an exact crossing count and the
+// boundary curve alone (docs/design.md, "Winding number", "crossings and
+// strips"), shared by the CPU and CUDA drivers.
+//
+// Sweep every edge e = (a -> b) of the mesh's boundary 1-chain C (net count
+// m_e, WindingEdge::net) to -infinity along x: the strips' boundary cancels
+// C, so S + strips is closed up to a copy of S at -infinity, whose solid
+// angle vanishes. For a closed surface the solid-angle sum is 4 pi times the
+// signed count of crossings of any ray, and the +x ray from p meets a strip
+// only where p lies in that strip's plane. Hence, for p on neither S nor a
+// strip,
+//
+//   4 pi w(p) = 4 pi N(p) + K(p),   K(p) = sum_e m_e Omega(a - p, b - p, -x),
+//
+// N(p) the signed count of the triangles the +x ray crosses (the sign of the
+// triangle's normal x component), Omega the Van Oosterom-Strackee solid angle
+// of the spherical triangle whose third corner is the direction -x (the limit
+// of the strip swept from e; tests/test_winding_crossings.cpp pins the signs
+// against the brute-force sum).
+//
+// Exactness: p is a lattice point (voxel units * 256, as voxel centres and the
+// centres of voxel boxes are). N uses the parity pass's exact predicate
+// (rayHitsTriangle: the ray perturbed to (y + eps, z + eps^2), so a ray
+// through an edge or a vertex is counted by exactly one of the triangles
+// around it), and a crossing exactly at p (p on S) gives up. Each strip's
+// determinant (a 2x2 determinant in y, z) is exact in double for lattice
+// points; where it is 0 (p in the plane of a strip, so the ray may graze the
+// boundary, or p on the line of an edge parallel to x) the evaluation gives
+// up. K's rounding is bounded per edge (windingStripAngle), so the result is
+// a WindingSum with a rigorous error and windingVerdict decides from it as
+// from any other bounded sum (its margin covers the brute-force sum's own
+// rounding). Only + - * / and sqrt, fixed order, fixed stacks.
+#pragma once
+
+#include "hdt/geometry.hpp"
+#include "hdt/lattice.hpp"
+#include "hdt/platform.hpp"
+#include "hdt/winding_basics.hpp"
+
+#include <cstdint>
+
+namespace hdt {
+
+// Unit roundoff of double.
+constexpr double kWindingUlp = 1.1102230246251565e-16; // 2^-53
+
+// The +x ray from lattice point P against one triangle: 0 when it misses (or
+// meets it only behind P), the sign of the triangle's normal x component when
+// it crosses ahead of P, 2 when P lies on the triangle.
+constexpr int kWindingOnTriangle = 2;
+
+HDT_HD int windingRayCrossing(const LatticeTriangle& t, const int64_t* P) {
+  if (!rayHitsTriangle(t, 0, P[1], P[2])) return 0; // the projection has area: n[0] != 0
+  int64_t n[3];
+  triangleNormal(t, n);
+  // n . (X - v0) = 0 on the ray X = (x, P1, P2): n0 (x - P0) = D.
+  const int128_t D = int128_t(n[0]) * (int64_t(t.v[0][0]) - P[0]) - int128_t(n[1]) * (P[1] - t.v[0][1]) -
+                     int128_t(n[2]) * (P[2] - t.v[0][2]);
+  if (D == 0) return kWindingOnTriangle;
+  if ((D > 0) != (n[0] > 0)) return 0; // the crossing lies behind P
+  return n[0] > 0 ? 1 : -1;
+}
+
+// N(P): the signed count of crossings ahead of P, the triangles found by a
+// walk of the tree's node boxes that the ray can meet. False when P lies on a
+// triangle (or the stack would overflow: not for trees of this depth).
+HDT_HD bool windingRayCrossings(const WindingTreeView& t, const int64_t* P, int& count) {
+  const double px = double(P[0]) / double(kLatticePerVoxel), py = double(P[1]) / double(kLatticePerVoxel),
+               pz = double(P[2]) / double(kLatticePerVoxel);
+  uint32_t stack[kWindingStack];
+  int top = 0;
+  stack[top++] = 0;
+  count = 0;
+  while (top > 0) {
+    const WindingNode& n = t.nodes[stack[--top]];
+    if (n.hi[0] < px || n.lo[1] > py || n.hi[1] < py || n.lo[2] > pz || n.hi[2] < pz) continue;
+    if (n.count == 0) {
+      if (top + 2 > kWindingStack) return false;
+      stack[top++] = n.first + 1;
+      stack[top++] = n.first;
+      continue;
+    }
+    for (uint32_t i = n.first; i < n.first + n.count; ++i) {
+      const int c = windingRayCrossing(t.lattice[i], P);
+      if (c == kWindingOnTriangle) return false;
+      count += c;
+    }
+  }
+  return true;
+}
+
+// One strip's solid angle Omega(a - p, b - p, -x) (steradians) and a bound on
+// its rounding; false when p lies in the strip's plane (or on the line of an
+// edge parallel to x). An edge parallel to x sweeps a strip of no area: 0.
+//
+// With A = (a_y, a_z), B = (b_y, b_z) relative to p and c = -x, Van Oosterom
+// and Strackee's numerator is a . (b x c) = a_z b_y - a_y b_z (exact for
+// lattice points: products of multiples of 2^-8 below 2^17) and the
+// denominator |a||b| + a.b + a.c |b| + b.c |a| = (|a| - a_x)(|b| - b_x) + A.B,
+// with |a| - a_x = |A|^2 / (|a| + a_x) when a_x > 0 (no cancellation).
+HDT_HD bool windingStripAngle(const WindingEdge& e, const double* p, double& angle, double& error) {
+  const double ax = e.a[0] - p[0], ay = e.a[1] - p[1], az = e.a[2] - p[2];
+  const double bx = e.b[0] - p[0], by = e.b[1] - p[1], bz = e.b[2] - p[2];
+  angle = 0;
+  error = 0;
+  if (e.a[1] == e.b[1] && e.a[2] == e.b[2]) return !(ay == 0 && az == 0);
+  const double det = az * by - ay * bz;
+  if (det == 0) return false;
+  const double a2 = ay * ay + az * az, b2 = by * by + bz * bz;
+  const double la = sqrt(ax * ax + a2), lb = sqrt(bx * bx + b2);
+  const double ra = ax > 0 ? a2 / (la + ax) : la - ax;
+  const double rb = bx > 0 ? b2 / (lb + bx) : lb - bx;
+  const double ab = ay * by + az * bz;
+  const double den = ra * rb + ab;
+  angle = 2.0 * windingAtan2(det, den);
+  // Rounding of den: ra and rb within 5 ulps each (squares, sums, root,
+  // quotient), their product and the last sum: below 16 ulps of the terms.
+  // atan2(y, x) moves by at most d |y| / ((|x| - d)^2 + y^2) when x moves by
+  // d; windingAtan2 itself is good to a few ulps of pi.
+  const double d = 16.0 * kWindingUlp * (ra * rb + fabs(ay * by) + fabs(az * bz));
+  const double gap = fabs(den) - d > 0 ? fabs(den) - d : 0.0;
+  error = 2.0 * d * fabs(det) / (gap * gap + det * det) * (1 + 1e-6) + 1e-14;
+  return true;
+}
+
+// 4 pi w at lattice point P (voxel units * 256) as a bounded sum: ok false
+// when P lies on S or on a strip's plane (then the caller takes another
+// evaluation). error covers K's rounding and that of the final sum.
+HDT_HD WindingSum windingCrossingSum(const WindingTreeView& t, const int64_t* P) {
+  int N = 0;
+  if (!windingRayCrossings(t, P, N)) return WindingSum{0.0, 0.0, false};
+  const double p[3] = {double(P[0]) / double(kLatticePerVoxel), double(P[1]) / double(kLatticePerVoxel),
+                       double(P[2]) / double(kLatticePerVoxel)};
+  double K = 0, magnitude = 0, error = 0;
+  for (uint32_t i = 0; i < t.edgeCount; ++i) {
+    const WindingEdge& e = t.edges[i];
+    double angle, err;
+    if (!windingStripAngle(e, p, angle, err)) return WindingSum{0.0, 0.0, false};
+    const double term = e.net * angle;
+    K = K + term;
+    magnitude = magnitude + fabs(term);
+    error = error + e.weight * err;
+  }
+  const double whole = 4.0 * kWindingPi * double(N);
+  const double sum = whole + K;
+  error = error + double(t.edgeCount + 16) * 2.3e-16 * (magnitude + fabs(whole));
+  return WindingSum{sum, error, true};
+}
+
+// The lattice point of p (voxel units) when p is one (p * 256 an integer
+// below 2^40 in magnitude), for windingCrossingSum.
+HDT_HD bool windingLatticePoint(const double* p, int64_t* P) {
+  for (int a = 0; a < 3; ++a) {
+    const double q = p[a] * double(kLatticePerVoxel);
+    if (!(fabs(q) < 1099511627776.0)) return false;
+    P[a] = int64_t(q);
+    if (double(P[a]) != q) return false;
+  }
+  return true;
+}
+
+// windingCrossingSum at p (voxel units); ok false when p is not a lattice point.
+HDT_HD WindingSum windingCrossingSumAt(const WindingTreeView& t, const double* p) {
+  int64_t P[3];
+  if (t.lattice == nullptr || !windingLatticePoint(p, P)) return WindingSum{0.0, 0.0, false};
+  return windingCrossingSum(t, P);
+}
+
+} // namespace hdt
