@@ -273,11 +273,14 @@ HDT_HD double windingSumAll(const WindingTreeView& t, double px, double py, doub
   return s;
 }
 
-// The decision at one point: the refined sum, and where even the exact sum
-// is within the rounding margin of 1/2, the exact sum in tree order; ties
+// The decision at one point: crossings and strips (winding_crossings.hpp)
+// where they decide, else the refined sum, and where even the exact sum is
+// within the rounding margin of 1/2, the exact sum in tree order; ties
 // (w == 1/2 as computed) are inside.
 HDT_HD bool windingInsideAt(const WindingTreeView& t, double px, double py, double pz) {
   const double p[3] = {px, py, pz};
+  const int c = windingVerdict(windingCrossingSumAt(t, p), t.triangleCount);
+  if (c != kWindingUnsure) return c == kWindingInside;
   const int v = windingVerdict(windingSumOverBox(t, p, p, 1 << 30), t.triangleCount);
   if (v != kWindingUnsure) return v == kWindingInside;
   return windingSumAll(t, px, py, pz) >= 2.0 * kWindingPi;
@@ -499,8 +502,10 @@ HDT_HD void windingCarryPiece(const WindingTreeView& t, int L, const int* origin
   const double gradient = windingGradientBound(t, plo, phi);
   double seedCentre[3];
   centreOf(piece.seed, seedCentre);
-  if (piece.reach * gradient < kWindingPi) {
-    const WindingSum s = windingSumOverBox(t, seedCentre, seedCentre, kWindingSeedOpenings, piece.reach * gradient);
+  if (piece.reach * gradient < 2.0 * kWindingPi) {
+    WindingSum s = windingCrossingSumAt(t, seedCentre);
+    if (!s.ok && piece.reach * gradient < kWindingPi)
+      s = windingSumOverBox(t, seedCentre, seedCentre, kWindingSeedOpenings, piece.reach * gradient);
     if (windingCarriedVerdict(s, piece.reach, gradient, t.triangleCount) != kWindingUnsure) {
       carry(piece.seed, 1 << 15, s, gradient);
       return;
@@ -533,7 +538,8 @@ HDT_HD void windingCarryPiece(const WindingTreeView& t, int L, const int* origin
       if (r * g[i] < 1.5 * kWindingPi) want = i;
     }
     const double slack = kWindingSeedReach[want] * g[want] < 1.5 * kWindingPi ? 1.02 * kWindingSeedReach[want] * g[want] : 0.0;
-    const WindingSum s = windingSumOverBox(t, c, c, kWindingSeedOpenings, slack);
+    WindingSum s = windingCrossingSumAt(t, c);
+    if (!s.ok) s = windingSumOverBox(t, c, c, kWindingSeedOpenings, slack);
     const double clearance = fabs(s.sum - 2.0 * kWindingPi) - (s.error * 1.001 + windingMargin(t.triangleCount));
     if (!(clearance > 0)) {
       state[v] = 2; // w too close to 1/2 for this sum: the per-voxel decision
@@ -679,6 +685,9 @@ HDT_HD int windingCarriedBoxVerdict(const WindingTreeView& t, const VoxelBox& b)
   }
   const double reach = sqrt(reach2) * (1 + 1e-12);
   const double gradient = windingGradientBound(t, lo, hi);
+  if (!(reach * gradient < 2.0 * kWindingPi)) return kWindingUnsure;
+  const WindingSum c = windingCrossingSumAt(t, centre);
+  if (c.ok) return windingCarriedVerdict(c, reach, gradient, t.triangleCount);
   if (!(reach * gradient < kWindingPi)) return kWindingUnsure;
   const WindingSum s = windingSumOverBox(t, centre, centre, kWindingSeedOpenings, reach * gradient);
   return windingCarriedVerdict(s, reach, gradient, t.triangleCount);
@@ -718,14 +727,21 @@ HDT_HD void windingDecideBox(const WindingTreeView& t, const VoxelBox& box, Skip
       settle(b, v == kWindingInside);
       continue;
     }
-    if (small && windingBoxLists(t, lo, hi, lists)) {
+    if (small) {
+      // Each voxel centre by crossings and strips; the lists are filled
+      // for the first centre that needs them (if they fit).
+      int listed = 0; // 0 not yet, 1 filled, -1 overflow
       for (int z = b.lo[2]; z < b.hi[2] && !done(); ++z)
         for (int y = b.lo[1]; y < b.hi[1]; ++y)
           for (int x = b.lo[0]; x < b.hi[0]; ++x) {
             const VoxelBox one{{x, y, z}, {x + 1, y + 1, z + 1}};
             if (skip(one)) continue;
             const double p[3] = {x + 0.5, y + 0.5, z + 0.5};
-            const int pv = windingVerdict(windingSumFromLists(t, lists, p), t.triangleCount);
+            int pv = windingVerdict(windingCrossingSumAt(t, p), t.triangleCount);
+            if (pv == kWindingUnsure) {
+              if (listed == 0) listed = windingBoxLists(t, lo, hi, lists) ? 1 : -1;
+              if (listed == 1) pv = windingVerdict(windingSumFromLists(t, lists, p), t.triangleCount);
+            }
             settle(one, pv == kWindingUnsure ? windingInsideAt(t, p[0], p[1], p[2]) : pv == kWindingInside);
           }
       continue;
