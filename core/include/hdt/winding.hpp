@@ -347,6 +347,14 @@ HDT_HD double windingGradientBound(const WindingTreeView& t, const double* lo, c
     const WindingEdgeGroup& group = t.edgeGroups[g];
     const double dg = windingBoxDistance(group.lo, group.hi, lo, hi);
     const double asGroup = dg > 0 ? windingEdgeBound(group.weightedLength, group.weight, dg) : INFINITY;
+    // A group farther than twice its own diagonal: its edges one by one would
+    // say at most (1 + 1/2)^2 times less; not worth their divisions.
+    double diag2 = 0;
+    for (int a = 0; a < 3; ++a) diag2 = diag2 + (group.hi[a] - group.lo[a]) * (group.hi[a] - group.lo[a]);
+    if (dg * dg > 4.0 * diag2) {
+      total = total + asGroup;
+      continue;
+    }
     double oneByOne = 0;
     for (uint32_t i = group.first; i < group.first + group.count && oneByOne < asGroup; ++i) {
       const WindingEdge& e = t.edges[i];
@@ -522,39 +530,47 @@ HDT_HD void windingCarryPiece(const WindingTreeView& t, int L, const int* origin
     }
     double c[3];
     centreOf(v, c);
-    // The gradient bound over each reach's box; the sum is refined for the
-    // largest reach that a clear w (0 or 1: 2 pi from the threshold) could
-    // carry, and the reach actually taken is the largest its clearance allows.
-    double g[5];
-    int want = 4;
-    for (int i = 4; i >= 0; --i) {
+    // The gradient bound over the box that the paths of reach i stay in.
+    auto boundFor = [&](int i) {
       const int r = kWindingSeedReach[i];
       double lo[3], hi[3];
       for (int a = 0; a < 3; ++a) {
         lo[a] = c[a] - 0.5 - r > plo[a] ? c[a] - 0.5 - r : plo[a];
         hi[a] = c[a] + 0.5 + r < phi[a] ? c[a] + 0.5 + r : phi[a];
       }
-      g[i] = windingGradientBound(t, lo, hi);
-      if (r * g[i] < 1.5 * kWindingPi) want = i;
-    }
-    const double slack = kWindingSeedReach[want] * g[want] < 1.5 * kWindingPi ? 1.02 * kWindingSeedReach[want] * g[want] : 0.0;
+      return windingGradientBound(t, lo, hi);
+    };
+    double g[5] = {-1.0, -1.0, -1.0, -1.0, -1.0};
     WindingSum s = windingCrossingSumAt(t, c);
-    if (!s.ok) s = windingSumOverBox(t, c, c, kWindingSeedOpenings, slack);
+    if (!s.ok) {
+      // The tree's sum, refined for the largest reach that a clear w (0 or
+      // 1: 2 pi from the threshold) could carry.
+      int want = 4;
+      for (int i = 4; i >= 0; --i) {
+        g[i] = boundFor(i);
+        if (kWindingSeedReach[i] * g[i] < 1.5 * kWindingPi) want = i;
+      }
+      const double slack = kWindingSeedReach[want] * g[want] < 1.5 * kWindingPi ? 1.02 * kWindingSeedReach[want] * g[want] : 0.0;
+      s = windingSumOverBox(t, c, c, kWindingSeedOpenings, slack);
+    }
     const double clearance = fabs(s.sum - 2.0 * kWindingPi) - (s.error * 1.001 + windingMargin(t.triangleCount));
     if (!(clearance > 0)) {
       state[v] = 2; // w too close to 1/2 for this sum: the per-voxel decision
       continue;
     }
-    int depth = 0;
-    double gd = 0;
-    for (int i = 0; i < 5; ++i) {
-      if (kWindingSeedReach[i] * g[i] * 1.01 < clearance) {
-        depth = kWindingSeedReach[i];
-        gd = g[i];
-        break;
-      }
+    // The largest reach the clearance allows, the bounds asked for reach 4,
+    // then 8 and 16, or 2 and 1 (about three bounds of the edges, not five).
+    auto allows = [&](int i) {
+      if (g[i] < 0) g[i] = boundFor(i);
+      return kWindingSeedReach[i] * g[i] * 1.01 < clearance;
+    };
+    int best = -1;
+    if (allows(2)) {
+      best = allows(1) ? (allows(0) ? 0 : 1) : 2;
+    } else {
+      best = allows(3) ? 3 : (allows(4) ? 4 : -1);
     }
-    carry(v, depth, s, gd);
+    carry(v, best < 0 ? 0 : kWindingSeedReach[best], s, best < 0 ? 0.0 : g[best]);
   }
 }
 
