@@ -125,6 +125,41 @@ TEST(Crossings, StripAngleIsTheSolidAngleTowardMinusX) {
   }
 }
 
+// K as one running product (windingStripProduct) and as the sum of the
+// edges' angles agree, and the product decides almost every point (teapot:
+// 160 boundary edges, many whole turns).
+TEST(Crossings, StripProductMatchesTheEdgeSum) {
+  std::string why;
+  const std::string path = sharedMeshPath("teapot.obj", &why);
+  const PreparedMesh m = path.empty() ? prepared(windingShapes()[1].mesh, 64) : prepared(readMesh(path), 64);
+  const WindingTree tree = buildWindingTree(m.triangles);
+  const WindingTreeView t = tree.view();
+  std::mt19937 rng(11);
+  std::uniform_int_distribution<int64_t> coord(-8 * kPer, 72 * kPer);
+  int products = 0, tried = 0, turned = 0;
+  for (int i = 0; i < 3000; ++i) {
+    const double p[3] = {double(coord(rng)) / kPer, double(coord(rng)) / kPer, double(coord(rng)) / kPer};
+    double K = 0, error = 0, sum = 0, sumError = 0;
+    bool ok = true;
+    for (const WindingEdge& e : tree.edges) {
+      double angle, err;
+      ok = ok && windingStripAngle(e, p, angle, err);
+      sum += e.net * angle;
+      sumError += e.weight * err;
+    }
+    const int r = windingStripProduct(t, p, K, error);
+    EXPECT_EQ(r < 0, !ok);
+    if (!ok) continue;
+    ++tried;
+    if (r != 0) continue;
+    ++products;
+    turned += std::fabs(K) > 2 * kWindingPi;
+    ASSERT_LE(std::fabs(K - sum), error + sumError + 1e-12) << p[0] << " " << p[1] << " " << p[2];
+  }
+  EXPECT_GT(products, tried * 99 / 100);
+  if (!path.empty()) EXPECT_GT(turned, 0);
+}
+
 // An open box of lattice triangles: the faces x = 0, x = 8, y = 0, y = 8,
 // z = 0 (voxels), each a fan of 4 triangles around its centre, outward; the
 // top (z = 8) open. Rays at y = z (the fans' diagonals) pass through

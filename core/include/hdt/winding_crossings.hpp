@@ -89,38 +89,103 @@ HDT_HD bool windingRayCrossings(const WindingTreeView& t, const int64_t* P, int&
   return true;
 }
 
-// One strip's solid angle Omega(a - p, b - p, -x) (steradians) and a bound on
-// its rounding; false when p lies in the strip's plane (or on the line of an
-// edge parallel to x). An edge parallel to x sweeps a strip of no area: 0.
+// One strip's solid angle Omega(a - p, b - p, -x) = 2 atan2(det, den), as
+// the pair (det, den) with a bound d on den's rounding: 0, or 1 for an edge
+// parallel to x (a strip of no area: Omega = 0), or -1 when p lies in the
+// strip's plane (or on the line of an edge parallel to x).
 //
 // With A = (a_y, a_z), B = (b_y, b_z) relative to p and c = -x, Van Oosterom
 // and Strackee's numerator is a . (b x c) = a_z b_y - a_y b_z (exact for
 // lattice points: products of multiples of 2^-8 below 2^17) and the
 // denominator |a||b| + a.b + a.c |b| + b.c |a| = (|a| - a_x)(|b| - b_x) + A.B,
-// with |a| - a_x = |A|^2 / (|a| + a_x) when a_x > 0 (no cancellation).
-HDT_HD bool windingStripAngle(const WindingEdge& e, const double* p, double& angle, double& error) {
+// with |a| - a_x = |A|^2 / (|a| + a_x) when a_x > 0 (no cancellation). Its
+// rounding: ra and rb within 5 ulps each (squares, sums, root, quotient),
+// their product and the last sum: below 16 ulps of the terms.
+HDT_HD int windingStripPair(const WindingEdge& e, const double* p, double& det, double& den, double& d) {
   const double ax = e.a[0] - p[0], ay = e.a[1] - p[1], az = e.a[2] - p[2];
   const double bx = e.b[0] - p[0], by = e.b[1] - p[1], bz = e.b[2] - p[2];
-  angle = 0;
-  error = 0;
-  if (e.a[1] == e.b[1] && e.a[2] == e.b[2]) return !(ay == 0 && az == 0);
-  const double det = az * by - ay * bz;
-  if (det == 0) return false;
+  det = 0;
+  den = 1;
+  d = 0;
+  if (e.a[1] == e.b[1] && e.a[2] == e.b[2]) return (ay == 0 && az == 0) ? -1 : 1;
+  det = az * by - ay * bz;
+  if (det == 0) return -1;
   const double a2 = ay * ay + az * az, b2 = by * by + bz * bz;
   const double la = sqrt(ax * ax + a2), lb = sqrt(bx * bx + b2);
   const double ra = ax > 0 ? a2 / (la + ax) : la - ax;
   const double rb = bx > 0 ? b2 / (lb + bx) : lb - bx;
   const double ab = ay * by + az * bz;
-  const double den = ra * rb + ab;
+  den = ra * rb + ab;
+  d = 16.0 * kWindingUlp * (ra * rb + fabs(ay * by) + fabs(az * bz));
+  return 0;
+}
+
+// The strip's solid angle and a bound on its rounding; false when p lies in
+// the strip's plane. atan2(y, x) moves by at most d |y| / ((|x| - d)^2 + y^2)
+// when x moves by d; windingAtan2 itself is good to a few ulps of pi.
+HDT_HD bool windingStripAngle(const WindingEdge& e, const double* p, double& angle, double& error) {
+  double det, den, d;
+  const int kind = windingStripPair(e, p, det, den, d);
+  angle = 0;
+  error = 0;
+  if (kind != 0) return kind > 0;
   angle = 2.0 * windingAtan2(det, den);
-  // Rounding of den: ra and rb within 5 ulps each (squares, sums, root,
-  // quotient), their product and the last sum: below 16 ulps of the terms.
-  // atan2(y, x) moves by at most d |y| / ((|x| - d)^2 + y^2) when x moves by
-  // d; windingAtan2 itself is good to a few ulps of pi.
-  const double d = 16.0 * kWindingUlp * (ra * rb + fabs(ay * by) + fabs(az * bz));
   const double gap = fabs(den) - d > 0 ? fabs(den) - d : 0.0;
   error = 2.0 * d * fabs(det) / (gap * gap + det * det) * (1 + 1e-6) + 1e-14;
   return true;
+}
+
+// K at p with one atan2 instead of one per edge: K / 2 is the argument of
+// the product of den_e + i det_e over the edges (conjugated for m_e < 0,
+// |m_e| times), up to whole turns. The turns are counted exactly: when a
+// factor of positive argument psi takes the running argument A in (-pi, pi]
+// past pi, A was > 0 and the new one is < 0 (and A + psi > pi is possible
+// only with A > 0); the mirror case for psi < 0. So only the signs of the
+// running product's imaginary part are needed, and each is taken only when
+// it is certain: the product's relative rounding (each factor's den error
+// over a lower bound of its modulus, plus sqrt(5) ulps a multiplication,
+// Brent, Percival and Zimmermann) stays below its imaginary part. Powers of
+// two keep it in range, exactly. Returns 0 with K and its error, 1 when a
+// sign is not certain (the caller sums the edges one by one), -1 when p lies
+// in a strip's plane.
+HDT_HD int windingStripProduct(const WindingTreeView& t, const double* p, double& K, double& error) {
+  double zr = 1, zi = 0, rel = 0;
+  int turns = 0;
+  for (uint32_t i = 0; i < t.edgeCount; ++i) {
+    const WindingEdge& e = t.edges[i];
+    double det, den, d;
+    const int kind = windingStripPair(e, p, det, den, d);
+    if (kind < 0) return -1;
+    if (kind > 0) continue;
+    const double modulus = fabs(det) > fabs(den) - d ? fabs(det) : fabs(den) - d; // <= |den + i det| exact
+    const double eta = d / modulus;
+    if (!(eta < 1e-6)) return 1;
+    const int m = int(e.net);
+    const double wi = m > 0 ? det : -det;
+    for (int r = 0; r < (m > 0 ? m : -m); ++r) {
+      const bool wasPositive = zi > 0, wasNegative = zi < 0;
+      const double nr = zr * den - zi * wi, ni = zr * wi + zi * den;
+      zr = nr;
+      zi = ni;
+      rel = rel + eta + 3.5e-16;
+      const double size = fabs(zr) + fabs(zi);
+      if (!(fabs(zi) > 1.01 * rel * size) || !(rel < 1e-6)) return 1;
+      if (wi > 0 && wasPositive && zi < 0) ++turns;
+      if (wi < 0 && wasNegative && zi > 0) --turns;
+      if (size > 0x1p200) {
+        zr = zr * 0x1p-200;
+        zi = zi * 0x1p-200;
+      } else if (size < 0x1p-200) {
+        zr = zr * 0x1p200;
+        zi = zi * 0x1p200;
+      }
+    }
+  }
+  const double angle = windingAtan2(zi, zr);
+  K = 2.0 * (angle + 2.0 * kWindingPi * double(turns));
+  error = 2.0 * (1.01 * rel + 1e-15 * (1.0 + fabs(angle)) + 1e-15 * double(turns > 0 ? turns : -turns)) +
+          4.0 * kWindingUlp * fabs(K);
+  return 0;
 }
 
 // 4 pi w at lattice point P (voxel units * 256) as a bounded sum: ok false
@@ -132,6 +197,14 @@ HDT_HD WindingSum windingCrossingSum(const WindingTreeView& t, const int64_t* P)
   const double p[3] = {double(P[0]) / double(kLatticePerVoxel), double(P[1]) / double(kLatticePerVoxel),
                        double(P[2]) / double(kLatticePerVoxel)};
   double K = 0, magnitude = 0, error = 0;
+  const int product = windingStripProduct(t, p, K, error);
+  if (product < 0) return WindingSum{0.0, 0.0, false};
+  if (product == 0) {
+    const double whole = 4.0 * kWindingPi * double(N);
+    return WindingSum{whole + K, error + 4.0 * kWindingUlp * (fabs(whole) + fabs(K)), true};
+  }
+  K = 0;
+  error = 0;
   for (uint32_t i = 0; i < t.edgeCount; ++i) {
     const WindingEdge& e = t.edges[i];
     double angle, err;
