@@ -26,7 +26,9 @@
 // determinant (a 2x2 determinant in y, z) is exact in double for lattice
 // points; where it is 0 (p in the plane of a strip, so the ray may graze the
 // boundary, or p on the line of an edge parallel to x) the evaluation gives
-// up. K's rounding is bounded per edge (windingStripAngle), so the result is
+// up. K is taken as one running complex product and one atan2
+// (windingStripProduct), or edge by edge (windingStripAngle) where the
+// product cannot count its turns for certain; its rounding is bounded, so the result is
 // a WindingSum with a rigorous error and windingVerdict decides from it as
 // from any other bounded sum (its margin covers the brute-force sum's own
 // rounding). Only + - * / and sqrt, fixed order, fixed stacks.
