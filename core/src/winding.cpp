@@ -142,7 +142,11 @@ WindingTree buildWindingTree(const LatticeTriangles& triangles) {
   tree.nodes.resize(1);
   b.fill(0, 0, uint32_t(triangles.size()));
   tree.triangles.resize(triangles.size());
-  for (size_t i = 0; i < triangles.size(); ++i) tree.triangles[i] = windingTriangle(triangles[b.order[i]]);
+  tree.lattice.resize(triangles.size());
+  for (size_t i = 0; i < triangles.size(); ++i) {
+    tree.triangles[i] = windingTriangle(triangles[b.order[i]]);
+    tree.lattice[i] = triangles[b.order[i]];
+  }
   buildWindingEdges(triangles, tree);
   return tree;
 }
@@ -208,6 +212,7 @@ void buildWindingEdges(const LatticeTriangles& triangles, WindingTree& tree) {
       e.hi[a] = std::max(e.a[a], e.b[a]);
     }
     e.weight = double(std::abs(k.count));
+    e.net = double(k.count);
     const double dx = e.b[0] - e.a[0], dy = e.b[1] - e.a[1], dz = e.b[2] - e.a[2];
     e.length = std::sqrt(dx * dx + dy * dy + dz * dz) * (1 + 1e-12); // covers the root's rounding
     tree.edges.push_back(e);
@@ -322,17 +327,34 @@ void classifyLeaf(const WindingTreeView& t, uint32_t* words, int L, const std::a
   for (uint32_t i = 0; i < leafWordCount(L); ++i) words[i] &= kSurfacePlaneBits;
   const LeafView view{words, L};
   const size_t n = size_t(L) * size_t(L) * size_t(L);
-  std::vector<uint16_t> label(n), steps(n), queue(n);
-  std::vector<WindingPiece> pieces(n / 2 + 1);
+  // Scratch kept per thread (filling it afresh for every leaf cost more than
+  // the leaf's sums): label is written whole by windingLeafPieces, steps,
+  // queue and pieces before they are read, visit is compared with a stamp
+  // that only grows.
+  struct Scratch {
+    std::vector<uint16_t> label, steps, queue;
+    std::vector<WindingPiece> pieces;
+    std::vector<uint32_t> visit;
+    uint32_t stamp = 0;
+  };
+  thread_local Scratch scratch;
+  Scratch& sc = scratch;
+  if (sc.label.size() < n || sc.stamp > 0xF0000000u) {
+    sc.label.resize(n);
+    sc.steps.resize(n);
+    sc.queue.resize(n);
+    sc.pieces.resize(n / 2 + 1);
+    sc.visit.assign(n, 0);
+    sc.stamp = 0;
+  }
+  uint16_t* label = sc.label.data();
   const int count = windingLeafPieces(
       L, [&](uint32_t v) { return view.voxel(int(v % uint32_t(L)), int((v / uint32_t(L)) % uint32_t(L)), int(v / uint32_t(L * L))) == VoxelState::Surface; },
-      label.data(), steps.data(), queue.data(), pieces.data(), int(pieces.size()));
+      label, sc.steps.data(), sc.queue.data(), sc.pieces.data(), int(n / 2 + 1));
   std::vector<uint8_t> decided(n, 0); // 0 open, 1 decided, 2 per-voxel decision
-  std::vector<uint32_t> visit(n, 0);
-  uint32_t stamp = 0;
   for (int k = 0; k < count; ++k) {
-    windingCarryPiece(t, L, origin.data(), pieces[size_t(k)], k, label.data(), steps.data(), queue.data(), visit.data(),
-                      &stamp, decided.data(), [&](uint32_t v, bool inside) {
+    windingCarryPiece(t, L, origin.data(), sc.pieces[size_t(k)], k, label, sc.steps.data(), sc.queue.data(),
+                      sc.visit.data(), &sc.stamp, decided.data(), [&](uint32_t v, bool inside) {
                         if (inside) words[v / kVoxelsPerWord] |= 1u << (2 * (v % kVoxelsPerWord));
                       });
   }

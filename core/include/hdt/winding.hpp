@@ -14,109 +14,13 @@
 #pragma once
 
 #include "hdt/platform.hpp"
+#include "hdt/winding_basics.hpp"
+#include "hdt/winding_crossings.hpp"
 
 #include <cmath>
 #include <cstdint>
 
 namespace hdt {
-
-constexpr double kWindingPi = 3.141592653589793116; // the double nearest pi
-constexpr double kWindingHalfPi = 1.570796326794896558;
-
-// atan(t) for t in [0, 1]: two half-angle steps atan t = 2 atan(t / (1 +
-// sqrt(1 + t^2))) bring t below tan(pi / 16) < 0.2, then the Taylor series
-// to t^27 (remainder below 1e-20).
-HDT_HD double windingAtanUnit(double t) {
-  double u = t / (1.0 + sqrt(1.0 + t * t));
-  u = u / (1.0 + sqrt(1.0 + u * u));
-  const double u2 = u * u;
-  double s = 0;
-  for (int k = 13; k >= 0; --k) s = s * u2 + ((k & 1) ? -1.0 : 1.0) / double(2 * k + 1);
-  return 4.0 * (u * s);
-}
-
-// atan2(y, x) from windingAtanUnit: the same bits on host and device (the
-// libraries' atan2 differ in the last places). atan2(0, 0) = 0.
-HDT_HD double windingAtan2(double y, double x) {
-  const double ay = fabs(y), ax = fabs(x);
-  if (ax == 0 && ay == 0) return 0;
-  double a = ay <= ax ? windingAtanUnit(ay / ax) : kWindingHalfPi - windingAtanUnit(ax / ay);
-  if (x < 0) a = kWindingPi - a;
-  return y < 0 ? -a : a;
-}
-
-// Signed solid angle of triangle (v[0..2], v[3..5], v[6..8]) seen from p
-// (Van Oosterom & Strackee 1983): positive when p sees the triangle's back
-// (counter-clockwise from outside), so a closed outward mesh gives 4 pi
-// inside and 0 outside.
-HDT_HD double triangleSolidAngle(const double* v, double px, double py, double pz) {
-  const double ax = v[0] - px, ay = v[1] - py, az = v[2] - pz;
-  const double bx = v[3] - px, by = v[4] - py, bz = v[5] - pz;
-  const double cx = v[6] - px, cy = v[7] - py, cz = v[8] - pz;
-  const double la = sqrt(ax * ax + ay * ay + az * az);
-  const double lb = sqrt(bx * bx + by * by + bz * bz);
-  const double lc = sqrt(cx * cx + cy * cy + cz * cz);
-  const double det = ax * (by * cz - bz * cy) + ay * (bz * cx - bx * cz) + az * (bx * cy - by * cx);
-  const double ab = ax * bx + ay * by + az * bz;
-  const double ac = ax * cx + ay * cy + az * cz;
-  const double bc = bx * cx + by * cy + bz * cz;
-  const double den = la * lb * lc + ab * lc + ac * lb + bc * la;
-  return 2.0 * windingAtan2(det, den);
-}
-
-// A node of the tree: a box of triangles with what the far field needs.
-// Inner nodes have count == 0 and children first, first + 1; leaves hold
-// triangles [first, first + count) of the tree's triangle order.
-struct WindingNode {
-  double lo[3], hi[3]; // bounding box of the triangles
-  double centre[3];    // box centre
-  double radius;       // half diagonal: every point of a triangle is this close to centre
-  double area;         // sum of triangle areas
-  double dipole[3];    // sum of area * unit normal (= half the cross products)
-  double quad[9];      // sum of (area * normal) (centroid - centre)^T, row major
-  uint32_t first, count;
-};
-
-// One triangle in tree order: corners, area and bounding box.
-struct WindingTriangle {
-  double v[9];
-  double area;
-  double lo[3], hi[3];
-  double centroid[3];
-  double halfCross[3]; // area * unit normal
-  double radius;       // every point of the triangle is this close to the centroid
-  double secondMoment; // integral of |x - centroid|^2 over the triangle: area * sum |v - centroid|^2 / 12
-};
-
-// An edge of the mesh's boundary 1-chain: the triangles' directed edges,
-// identified by their exact lattice corners, with opposite directions
-// cancelling and equal ones adding; only edges with a nonzero net count
-// (weight = |count|) remain. A closed, consistently oriented mesh has none.
-struct WindingEdge {
-  double a[3], b[3];
-  double weight; // |net count|
-  double length;
-  double lo[3], hi[3];
-};
-
-// Consecutive boundary edges (in a spatial order) bounded together.
-struct WindingEdgeGroup {
-  double lo[3], hi[3];   // bounding box of the edges
-  double weightedLength; // sum weight * length
-  double weight;         // sum weight
-  uint32_t first, count; // edges [first, first + count)
-};
-
-struct WindingTreeView {
-  const WindingNode* nodes;
-  const WindingTriangle* triangles;
-  uint32_t triangleCount;
-  const WindingEdge* edges = nullptr;
-  const WindingEdgeGroup* edgeGroups = nullptr;
-  uint32_t edgeGroupCount = 0;
-};
-
-constexpr int kWindingStack = 96; // > 2 * tree depth (depth <= 40 for 2^32 triangles in leaves of 8)
 
 // Distance between two boxes (0 when they meet).
 HDT_HD double windingBoxDistance(const double* alo, const double* ahi, const double* blo, const double* bhi) {
@@ -147,11 +51,7 @@ HDT_HD double windingBoxDistance(const double* alo, const double* ahi, const dou
 // one with the largest error (the first in the list on a tie) until the
 // estimate is clear of 2 pi by more than the total error, or nothing is left
 // to open, or `maxOpen` nodes were opened. The order of every step is fixed.
-struct WindingSum {
-  double sum;   // estimate at the box centre
-  double error; // bound on |exact - sum| over the box
-  bool ok;      // false: a triangle meets the box, or the refinement gave up
-};
+// (WindingSum, in winding_basics.hpp: the estimate, its error bound, ok.)
 
 constexpr int kWindingOpen = 1024;
 
@@ -373,11 +273,14 @@ HDT_HD double windingSumAll(const WindingTreeView& t, double px, double py, doub
   return s;
 }
 
-// The decision at one point: the refined sum, and where even the exact sum
-// is within the rounding margin of 1/2, the exact sum in tree order; ties
+// The decision at one point: crossings and strips (winding_crossings.hpp)
+// where they decide, else the refined sum, and where even the exact sum is
+// within the rounding margin of 1/2, the exact sum in tree order; ties
 // (w == 1/2 as computed) are inside.
 HDT_HD bool windingInsideAt(const WindingTreeView& t, double px, double py, double pz) {
   const double p[3] = {px, py, pz};
+  const int c = windingVerdict(windingCrossingSumAt(t, p), t.triangleCount);
+  if (c != kWindingUnsure) return c == kWindingInside;
   const int v = windingVerdict(windingSumOverBox(t, p, p, 1 << 30), t.triangleCount);
   if (v != kWindingUnsure) return v == kWindingInside;
   return windingSumAll(t, px, py, pz) >= 2.0 * kWindingPi;
@@ -444,6 +347,14 @@ HDT_HD double windingGradientBound(const WindingTreeView& t, const double* lo, c
     const WindingEdgeGroup& group = t.edgeGroups[g];
     const double dg = windingBoxDistance(group.lo, group.hi, lo, hi);
     const double asGroup = dg > 0 ? windingEdgeBound(group.weightedLength, group.weight, dg) : INFINITY;
+    // A group farther than twice its own diagonal: its edges one by one would
+    // say at most (1 + 1/2)^2 times less; not worth their divisions.
+    double diag2 = 0;
+    for (int a = 0; a < 3; ++a) diag2 = diag2 + (group.hi[a] - group.lo[a]) * (group.hi[a] - group.lo[a]);
+    if (dg * dg > 4.0 * diag2) {
+      total = total + asGroup;
+      continue;
+    }
     double oneByOne = 0;
     for (uint32_t i = group.first; i < group.first + group.count && oneByOne < asGroup; ++i) {
       const WindingEdge& e = t.edges[i];
@@ -599,8 +510,10 @@ HDT_HD void windingCarryPiece(const WindingTreeView& t, int L, const int* origin
   const double gradient = windingGradientBound(t, plo, phi);
   double seedCentre[3];
   centreOf(piece.seed, seedCentre);
-  if (piece.reach * gradient < kWindingPi) {
-    const WindingSum s = windingSumOverBox(t, seedCentre, seedCentre, kWindingSeedOpenings, piece.reach * gradient);
+  if (piece.reach * gradient < 2.0 * kWindingPi) {
+    WindingSum s = windingCrossingSumAt(t, seedCentre);
+    if (!s.ok && piece.reach * gradient < kWindingPi)
+      s = windingSumOverBox(t, seedCentre, seedCentre, kWindingSeedOpenings, piece.reach * gradient);
     if (windingCarriedVerdict(s, piece.reach, gradient, t.triangleCount) != kWindingUnsure) {
       carry(piece.seed, 1 << 15, s, gradient);
       return;
@@ -617,38 +530,47 @@ HDT_HD void windingCarryPiece(const WindingTreeView& t, int L, const int* origin
     }
     double c[3];
     centreOf(v, c);
-    // The gradient bound over each reach's box; the sum is refined for the
-    // largest reach that a clear w (0 or 1: 2 pi from the threshold) could
-    // carry, and the reach actually taken is the largest its clearance allows.
-    double g[5];
-    int want = 4;
-    for (int i = 4; i >= 0; --i) {
+    // The gradient bound over the box that the paths of reach i stay in.
+    auto boundFor = [&](int i) {
       const int r = kWindingSeedReach[i];
       double lo[3], hi[3];
       for (int a = 0; a < 3; ++a) {
         lo[a] = c[a] - 0.5 - r > plo[a] ? c[a] - 0.5 - r : plo[a];
         hi[a] = c[a] + 0.5 + r < phi[a] ? c[a] + 0.5 + r : phi[a];
       }
-      g[i] = windingGradientBound(t, lo, hi);
-      if (r * g[i] < 1.5 * kWindingPi) want = i;
+      return windingGradientBound(t, lo, hi);
+    };
+    double g[5] = {-1.0, -1.0, -1.0, -1.0, -1.0};
+    WindingSum s = windingCrossingSumAt(t, c);
+    if (!s.ok) {
+      // The tree's sum, refined for the largest reach that a clear w (0 or
+      // 1: 2 pi from the threshold) could carry.
+      int want = 4;
+      for (int i = 4; i >= 0; --i) {
+        g[i] = boundFor(i);
+        if (kWindingSeedReach[i] * g[i] < 1.5 * kWindingPi) want = i;
+      }
+      const double slack = kWindingSeedReach[want] * g[want] < 1.5 * kWindingPi ? 1.02 * kWindingSeedReach[want] * g[want] : 0.0;
+      s = windingSumOverBox(t, c, c, kWindingSeedOpenings, slack);
     }
-    const double slack = kWindingSeedReach[want] * g[want] < 1.5 * kWindingPi ? 1.02 * kWindingSeedReach[want] * g[want] : 0.0;
-    const WindingSum s = windingSumOverBox(t, c, c, kWindingSeedOpenings, slack);
     const double clearance = fabs(s.sum - 2.0 * kWindingPi) - (s.error * 1.001 + windingMargin(t.triangleCount));
     if (!(clearance > 0)) {
       state[v] = 2; // w too close to 1/2 for this sum: the per-voxel decision
       continue;
     }
-    int depth = 0;
-    double gd = 0;
-    for (int i = 0; i < 5; ++i) {
-      if (kWindingSeedReach[i] * g[i] * 1.01 < clearance) {
-        depth = kWindingSeedReach[i];
-        gd = g[i];
-        break;
-      }
+    // The largest reach the clearance allows, the bounds asked for reach 4,
+    // then 8 and 16, or 2 and 1 (about three bounds of the edges, not five).
+    auto allows = [&](int i) {
+      if (g[i] < 0) g[i] = boundFor(i);
+      return kWindingSeedReach[i] * g[i] * 1.01 < clearance;
+    };
+    int best = -1;
+    if (allows(2)) {
+      best = allows(1) ? (allows(0) ? 0 : 1) : 2;
+    } else {
+      best = allows(3) ? 3 : (allows(4) ? 4 : -1);
     }
-    carry(v, depth, s, gd);
+    carry(v, best < 0 ? 0 : kWindingSeedReach[best], s, best < 0 ? 0.0 : g[best]);
   }
 }
 
@@ -779,6 +701,9 @@ HDT_HD int windingCarriedBoxVerdict(const WindingTreeView& t, const VoxelBox& b)
   }
   const double reach = sqrt(reach2) * (1 + 1e-12);
   const double gradient = windingGradientBound(t, lo, hi);
+  if (!(reach * gradient < 2.0 * kWindingPi)) return kWindingUnsure;
+  const WindingSum c = windingCrossingSumAt(t, centre);
+  if (c.ok) return windingCarriedVerdict(c, reach, gradient, t.triangleCount);
   if (!(reach * gradient < kWindingPi)) return kWindingUnsure;
   const WindingSum s = windingSumOverBox(t, centre, centre, kWindingSeedOpenings, reach * gradient);
   return windingCarriedVerdict(s, reach, gradient, t.triangleCount);
@@ -818,14 +743,21 @@ HDT_HD void windingDecideBox(const WindingTreeView& t, const VoxelBox& box, Skip
       settle(b, v == kWindingInside);
       continue;
     }
-    if (small && windingBoxLists(t, lo, hi, lists)) {
+    if (small) {
+      // Each voxel centre by crossings and strips; the lists are filled
+      // for the first centre that needs them (if they fit).
+      int listed = 0; // 0 not yet, 1 filled, -1 overflow
       for (int z = b.lo[2]; z < b.hi[2] && !done(); ++z)
         for (int y = b.lo[1]; y < b.hi[1]; ++y)
           for (int x = b.lo[0]; x < b.hi[0]; ++x) {
             const VoxelBox one{{x, y, z}, {x + 1, y + 1, z + 1}};
             if (skip(one)) continue;
             const double p[3] = {x + 0.5, y + 0.5, z + 0.5};
-            const int pv = windingVerdict(windingSumFromLists(t, lists, p), t.triangleCount);
+            int pv = windingVerdict(windingCrossingSumAt(t, p), t.triangleCount);
+            if (pv == kWindingUnsure) {
+              if (listed == 0) listed = windingBoxLists(t, lo, hi, lists) ? 1 : -1;
+              if (listed == 1) pv = windingVerdict(windingSumFromLists(t, lists, p), t.triangleCount);
+            }
             settle(one, pv == kWindingUnsure ? windingInsideAt(t, p[0], p[1], p[2]) : pv == kWindingInside);
           }
       continue;

@@ -26,9 +26,10 @@ struct WindingTree {
   std::vector<WindingTriangle> triangles;
   std::vector<WindingEdge> edges;           // the boundary 1-chain, in groups
   std::vector<WindingEdgeGroup> edgeGroups; // of kWindingEdgeGroup consecutive edges
+  std::vector<LatticeTriangle> lattice;     // the triangles in tree order, exact
   WindingTreeView view() const {
-    return {nodes.data(), triangles.data(), uint32_t(triangles.size()), edges.data(), edgeGroups.data(),
-            uint32_t(edgeGroups.size())};
+    return {nodes.data(),      triangles.data(), uint32_t(triangles.size()), edges.data(), edgeGroups.data(),
+            uint32_t(edgeGroups.size()), lattice.data(), uint32_t(edges.size())};
   }
 };
 
