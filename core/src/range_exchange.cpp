@@ -169,13 +169,33 @@ RangeBoundary unpackBoundary(const uint8_t* data, size_t size, int rowWords) {
   return b;
 }
 
-std::vector<uint8_t> packRangeTree(const RangeTree& t) {
-  Writer w;
-  w.value(kTreeTag);
+namespace {
+// A tree buffer's header and levels (packRangeTree, packRangeLevels: the tag tells them apart).
+void writeLevels(Writer& w, uint32_t tag, const RangeTree& t) {
+  w.value(tag);
   w.value(t.cells.first);
   w.value(t.cells.end);
   w.value<uint64_t>(t.levels.size());
   for (const std::vector<ElementWord>& level : t.levels) w.array(level);
+}
+
+RangeTree readLevels(Reader& r, uint32_t tag, const GridSpec& g) {
+  RangeTree t;
+  if (r.value<uint32_t>() != tag) throw Error(ErrorKind::BadInput, "a tree buffer from another process is damaged");
+  t.cells.first = r.value<uint64_t>();
+  t.cells.end = r.value<uint64_t>();
+  if (r.value<uint64_t>() != uint64_t(g.height) + 1 || t.cells.first > t.cells.end)
+    throw Error(ErrorKind::BadInput, "a tree buffer from another process does not match the grid");
+  t.levels.resize(size_t(g.height) + 1);
+  for (std::vector<ElementWord>& level : t.levels) r.array(level);
+  return t;
+}
+
+} // namespace
+
+std::vector<uint8_t> packRangeTree(const RangeTree& t) {
+  Writer w;
+  writeLevels(w, kTreeTag, t);
   w.value<uint64_t>(t.leafWords.size());
   w.bytes(t.leafWords.data(), t.leafWords.size() * sizeof(uint32_t));
   return std::move(w.out);
@@ -183,15 +203,7 @@ std::vector<uint8_t> packRangeTree(const RangeTree& t) {
 
 RangeTree unpackRangeTree(const uint8_t* data, size_t size, const GridSpec& g) {
   Reader r(data, size);
-  RangeTree t;
-  if (r.value<uint32_t>() != kTreeTag) throw Error(ErrorKind::BadInput, "a tree buffer from another process is damaged");
-  t.cells.first = r.value<uint64_t>();
-  t.cells.end = r.value<uint64_t>();
-  const uint64_t levels = r.value<uint64_t>();
-  if (levels != uint64_t(g.height) + 1 || t.cells.first > t.cells.end)
-    throw Error(ErrorKind::BadInput, "a tree buffer from another process does not match the grid");
-  t.levels.resize(levels);
-  for (std::vector<ElementWord>& level : t.levels) r.array(level);
+  RangeTree t = readLevels(r, kTreeTag, g);
   const uint64_t words = r.value<uint64_t>();
   if (words > size || words % leafWordCount(g.leafSize))
     throw Error(ErrorKind::BadInput, "a tree buffer from another process is damaged");
@@ -213,24 +225,13 @@ uint64_t boundaryElements(const RangeTree& t) {
 
 std::vector<uint8_t> packRangeLevels(const RangeTree& t) {
   Writer w;
-  w.value(kLevelsTag);
-  w.value(t.cells.first);
-  w.value(t.cells.end);
-  w.value<uint64_t>(t.levels.size());
-  for (const std::vector<ElementWord>& level : t.levels) w.array(level);
+  writeLevels(w, kLevelsTag, t);
   return std::move(w.out);
 }
 
 RangeTree unpackRangeLevels(const uint8_t* data, size_t size, const GridSpec& g) {
   Reader r(data, size);
-  RangeTree t;
-  if (r.value<uint32_t>() != kLevelsTag) throw Error(ErrorKind::BadInput, "a levels buffer from another process is damaged");
-  t.cells.first = r.value<uint64_t>();
-  t.cells.end = r.value<uint64_t>();
-  if (r.value<uint64_t>() != uint64_t(g.height) + 1 || t.cells.first > t.cells.end)
-    throw Error(ErrorKind::BadInput, "a levels buffer from another process does not match the grid");
-  t.levels.resize(size_t(g.height) + 1);
-  for (std::vector<ElementWord>& level : t.levels) r.array(level);
+  RangeTree t = readLevels(r, kLevelsTag, g);
   r.end();
   return t;
 }
