@@ -1332,6 +1332,11 @@ std::map<Label, std::string> decodeLabelNames(const uint8_t* bytes, size_t size)
   return names;
 }
 
+// memcpy for arrays that may be empty (an empty vector's data() may be null).
+void copyBytes(void* to, const void* from, size_t n) {
+  if (n) std::memcpy(to, from, n);
+}
+
 // Section 21's payload (compactLabelVoxelBytes), decoded: the palettes
 // first, which say how many index words and wide labels must follow.
 void decodeCompactLabelVoxels(const uint8_t* bytes, size_t size, Volume& v, size_t mixed) {
@@ -1340,8 +1345,10 @@ void decodeCompactLabelVoxels(const uint8_t* bytes, size_t size, Volume& v, size
   const uint32_t layout = r.u32();
   if (layout != kCompactLabelLayout)
     invalid("compact label voxels section: layout " + str(layout) + ", this reader knows layout 2");
+  if ((size - 4) / sizeof(LeafPalette) < mixed)
+    invalid("compact label voxels section: " + str(size) + " bytes cannot hold " + str(mixed) + " palettes");
   f.palettes.resize(mixed);
-  std::memcpy(f.palettes.data(), bytes + 4, mixed * sizeof(LeafPalette));
+  copyBytes(f.palettes.data(), bytes + 4, mixed * sizeof(LeafPalette));
   littleEndianToHost(reinterpret_cast<Label*>(f.palettes.data()), mixed * kPaletteSize);
   size_t wide = 0;
   for (const LeafPalette& p : f.palettes) wide += p.isWide();
@@ -1351,10 +1358,10 @@ void decodeCompactLabelVoxels(const uint8_t* bytes, size_t size, Volume& v, size
     invalid("compact label voxels section: " + str(size) + " bytes, but its palettes call for " +
             str(head + words * 4 + wideLabels * 2));
   f.paletteIndices.resize(words);
-  std::memcpy(f.paletteIndices.data(), bytes + head, words * 4);
+  copyBytes(f.paletteIndices.data(), bytes + head, words * 4);
   littleEndianToHost(f.paletteIndices.data(), words);
   f.wideLabels.resize(wideLabels);
-  std::memcpy(f.wideLabels.data(), bytes + head + words * 4, wideLabels * 2);
+  copyBytes(f.wideLabels.data(), bytes + head + words * 4, wideLabels * 2);
   littleEndianToHost(f.wideLabels.data(), wideLabels);
 }
 
