@@ -49,6 +49,15 @@ std::string joined(const std::vector<std::string>& v)
   return s;
 }
 
+// These tests were written for the masked conversion at full depth with 8^3
+// leaves (the filter's defaults until issue 13); tests that vary them say so.
+void UseMaskedFullDepthDefaults(vtkHDTVoxelizer* filter)
+{
+  filter->SetMaskOutside(true);
+  filter->SetMaxDepth(-1);
+  filter->SetLeafGridSize(8);
+}
+
 class Conversion : public ::testing::TestWithParam<Case>
 {
 };
@@ -59,11 +68,7 @@ TEST_P(Conversion, EveryCellMatchesTheVolume)
   const Case c = GetParam();
   vtkSmartPointer<vtkPolyData> mesh = c.torus ? hdtvtk::MakeTorus() : hdtvtk::MakeSphere();
   vtkNew<vtkHDTVoxelizer> filter;
-  // These tests were written for the masked conversion at full depth with 8^3
-  // leaves (the filter's defaults until issue 13); tests that vary them say so.
-  filter->SetMaskOutside(true);
-  filter->SetMaxDepth(-1);
-  filter->SetLeafGridSize(8);
+  UseMaskedFullDepthDefaults(filter);
   filter->SetInputData(mesh);
   filter->SetResolution(c.resolution);
   filter->SetRootGridSize(c.rootGrid);
@@ -162,11 +167,7 @@ INSTANTIATE_TEST_SUITE_P(Meshes, Conversion,
 TEST(ConversionMaxDepth, CutsAndAggregates)
 {
   vtkNew<vtkHDTVoxelizer> filter;
-  // These tests were written for the masked conversion at full depth with 8^3
-  // leaves (the filter's defaults until issue 13); tests that vary them say so.
-  filter->SetMaskOutside(true);
-  filter->SetMaxDepth(-1);
-  filter->SetLeafGridSize(8);
+  UseMaskedFullDepthDefaults(filter);
   filter->SetInputData(hdtvtk::MakeTorus());
   filter->SetResolution(128);
   filter->SetRootGridSize(4);
@@ -240,11 +241,7 @@ TEST(ConversionMaxDepth, AggregateRule)
 TEST(ConversionMask, OffMeansNoMaskAndSameStates)
 {
   vtkNew<vtkHDTVoxelizer> filter;
-  // These tests were written for the masked conversion at full depth with 8^3
-  // leaves (the filter's defaults until issue 13); tests that vary them say so.
-  filter->SetMaskOutside(true);
-  filter->SetMaxDepth(-1);
-  filter->SetLeafGridSize(8);
+  UseMaskedFullDepthDefaults(filter);
   filter->SetInputData(hdtvtk::MakeSphere());
   filter->SetResolution(128);
   filter->Update();
@@ -273,11 +270,7 @@ TEST(ConversionMask, OffMeansNoMaskAndSameStates)
 TEST(ConversionThreads, SequentialEqualsParallel)
 {
   vtkNew<vtkHDTVoxelizer> filter;
-  // These tests were written for the masked conversion at full depth with 8^3
-  // leaves (the filter's defaults until issue 13); tests that vary them say so.
-  filter->SetMaskOutside(true);
-  filter->SetMaxDepth(-1);
-  filter->SetLeafGridSize(8);
+  UseMaskedFullDepthDefaults(filter);
   filter->SetInputData(hdtvtk::MakeTorus());
   filter->SetResolution(256);
   filter->SetRootGridSize(8);
@@ -305,11 +298,7 @@ TEST(ConversionThreads, SequentialEqualsParallel)
 TEST(ConversionTreeBuild, InitializeForReaderEqualsBreadthFirstDescriptor)
 {
   vtkNew<vtkHDTVoxelizer> filter;
-  // These tests were written for the masked conversion at full depth with 8^3
-  // leaves (the filter's defaults until issue 13); tests that vary them say so.
-  filter->SetMaskOutside(true);
-  filter->SetMaxDepth(-1);
-  filter->SetLeafGridSize(8);
+  UseMaskedFullDepthDefaults(filter);
   filter->SetInputData(hdtvtk::MakeTorus());
   filter->SetResolution(128);
   filter->SetRootGridSize(4);
@@ -345,11 +334,7 @@ TEST(ConversionTreeBuild, InitializeForReaderEqualsBreadthFirstDescriptor)
 TEST(ConversionRobustness, InconsistentVolumesAreRefused)
 {
   vtkNew<vtkHDTVoxelizer> filter;
-  // These tests were written for the masked conversion at full depth with 8^3
-  // leaves (the filter's defaults until issue 13); tests that vary them say so.
-  filter->SetMaskOutside(true);
-  filter->SetMaxDepth(-1);
-  filter->SetLeafGridSize(8);
+  UseMaskedFullDepthDefaults(filter);
   filter->SetInputData(hdtvtk::MakeSphere());
   filter->SetResolution(64);
   filter->SetRootGridSize(4); // height 1
