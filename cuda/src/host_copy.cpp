@@ -31,10 +31,11 @@ constexpr size_t kDirectBytes = size_t(4) << 20;
 constexpr int kSlots = 4;
 constexpr size_t kPieceBytes = size_t(16) << 20;
 
-// The ring's memory: one block on 2 MiB pages, faulted in, then registered
-// with the driver (page-locked). The driver pins 32 huge pages rather than
-// the 16,384 small ones of cudaMallocHost: about half the time, at the same
-// copy speed (bench/results/end-to-end.md), and its release is cheaper too.
+// The ring's memory: one block advised for 2 MiB pages, faulted in, then
+// registered with the driver (page-locked). Pinning it takes about half the
+// time of cudaMallocHost's 4 x 16 MiB (where the kernel gives huge pages the
+// driver pins 32 pages rather than 16,384), its release a third, at the same
+// copy speed (bench/results/end-to-end.md).
 class PinnedBlock {
 public:
   // False (nothing held) when the memory cannot be had or pinned.
