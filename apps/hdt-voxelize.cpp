@@ -10,6 +10,7 @@
 #include "cli_mpi.hpp"
 #include "cli_options.hpp"
 #include "cli_report.hpp"
+#include "joining_thread.hpp"
 
 #include "hdt/atomic_file.hpp"
 #include "hdt/builder.hpp"
@@ -33,7 +34,6 @@
 #include <iostream>
 #include <memory>
 #include <new>
-#include <thread>
 
 namespace hdt::cli {
 namespace {
@@ -163,23 +163,20 @@ public:
       deviceSeen_.set_value(false);
       return;
     }
-    thread_ = std::thread([this, &o] {
+    thread_ = JoiningThread([this, &o] {
       deviceSeen_.set_value(cudaDeviceCount() > 0);
       prepareCuda(o.config, o.build);
     });
   }
   std::shared_future<bool> hasDevice() const { return hasDevice_; }
-  ~WarmUp() { join(); }
-  WarmUp(const WarmUp&) = delete;
+  WarmUp(const WarmUp&) = delete; // the thread holds `this`
   WarmUp& operator=(const WarmUp&) = delete;
-  void join() {
-    if (thread_.joinable()) thread_.join();
-  }
+  void join() { thread_.join(); }
 
 private:
   std::promise<bool> deviceSeen_;
   std::shared_future<bool> hasDevice_;
-  std::thread thread_;
+  JoiningThread thread_; // last: joined before the promise goes
 };
 
 // oneTBB's workers started and prepareMesh's memory faulted in on a thread
@@ -188,28 +185,16 @@ private:
 // prepareMesh about 70 (points included), so 4x the file covers it; text
 // formats take more bytes a triangle. Capped: a large file's slack is given
 // back after prepareMesh (trimWarmPages).
-class HostWarmUp {
-public:
-  explicit HostWarmUp(const std::string& meshPath) {
-    std::error_code error;
-    const uintmax_t fileBytes = meshPath.rfind("builtin:", 0) == 0 ? 0 : std::filesystem::file_size(meshPath, error);
-    const uint64_t cap = std::min<uint64_t>(uint64_t(1) << 30, availableHostBytes() / 8);
-    const uint64_t bytes = error ? 0 : std::min<uint64_t>(cap, 4 * uint64_t(fileBytes) + (uint64_t(8) << 20));
-    thread_ = std::thread([bytes] {
-      startHostThreads();
-      reserveWarmPages(bytes);
-    });
-  }
-  ~HostWarmUp() { join(); }
-  HostWarmUp(const HostWarmUp&) = delete;
-  HostWarmUp& operator=(const HostWarmUp&) = delete;
-  void join() {
-    if (thread_.joinable()) thread_.join();
-  }
-
-private:
-  std::thread thread_;
-};
+JoiningThread startHostWarmUp(const std::string& meshPath) {
+  std::error_code error;
+  const uintmax_t fileBytes = meshPath.rfind("builtin:", 0) == 0 ? 0 : std::filesystem::file_size(meshPath, error);
+  const uint64_t cap = std::min<uint64_t>(uint64_t(1) << 30, availableHostBytes() / 8);
+  const uint64_t bytes = error ? 0 : std::min<uint64_t>(cap, 4 * uint64_t(fileBytes) + (uint64_t(8) << 20));
+  return JoiningThread([bytes] {
+    startHostThreads();
+    reserveWarmPages(bytes);
+  });
+}
 
 // The leaf words' bytes of the memory estimate, reserved as warm pages while
 // the device gets ready (the copy back then writes faulted-in memory), unless
@@ -220,21 +205,6 @@ void reserveLeafWords(const HostMemoryEstimate& e, const GridSpec& grid) {
   const double cap = std::min(double(uint64_t(4) << 30), double(availableHostBytes()) / 8);
   if (bytes > 0 && bytes <= cap) reserveWarmPages(size_t(bytes));
 }
-
-// hdt::releaseCuda on a thread once the build is done (beside the write).
-class CudaRelease {
-public:
-  void start(const BuildOptions& options) {
-    thread_ = std::thread([&options] { releaseCuda(options); });
-  }
-  ~CudaRelease() { join(); }
-  void join() {
-    if (thread_.joinable()) thread_.join();
-  }
-
-private:
-  std::thread thread_;
-};
 
 double unixMs() {
   return std::chrono::duration<double, std::milli>(std::chrono::system_clock::now().time_since_epoch()).count();
@@ -261,7 +231,7 @@ int run(int argc, const char* const* argv, const MpiSession& session, Clock::tim
   // The device's context, kernels and memory pool get ready while the mesh
   // is read, so that the build is not a cold one.
   WarmUp warmUp(options);
-  HostWarmUp hostWarmUp(options.mesh);
+  JoiningThread hostWarmUp = startHostWarmUp(options.mesh);
   Clock::time_point t = Clock::now();
   std::vector<MeshArray> arrays;
   for (const std::string& name : options.transfer) arrays.push_back(MeshArray{name, ArraySource::Point, 0, {}});
@@ -315,8 +285,9 @@ int run(int argc, const char* const* argv, const MpiSession& session, Clock::tim
   report.io.build = msSince(t);
   trimWarmPages(); // the estimate's excess
   // The device's tear-down (tens of ms at the exit) beside the host's work.
-  CudaRelease release;
-  if (options.build.backend != Backend::Cpu && session.size() == 1) release.start(options.build);
+  JoiningThread release;
+  if (options.build.backend != Backend::Cpu && session.size() == 1)
+    release = JoiningThread([&options] { releaseCuda(options.build); });
   if (session.rank() != 0) return 0; // rank 0 has the joined volume and writes
   t = Clock::now();
   about(options.mesh, [&] { transferArrays(mesh, arrays, volume); }); // a host pass after the build

@@ -156,6 +156,19 @@ __global__ void lineKeysKernel(uint32_t n, const uint64_t* coord, int axis, Line
   leafOf[i] = i;
 }
 
+// Inclusive XOR scan over a warp's lanes: toward lower lanes, the XOR of
+// lanes `bound`..lane (shuffle up); toward higher lanes, of lanes lane..`bound`
+// (shuffle down). Lanes outside the range take no part in a lane's result.
+template <bool kTowardLowerLanes>
+__device__ __forceinline__ uint32_t warpXorScan(uint32_t value, int lane, int bound) {
+#pragma unroll
+  for (int o = 1; o < 32; o <<= 1) {
+    const uint32_t x = kTowardLowerLanes ? __shfl_up_sync(kFullMask, value, o) : __shfl_down_sync(kFullMask, value, o);
+    if (kTowardLowerLanes ? lane - o >= bound : lane + o <= bound) value ^= x;
+  }
+  return value;
+}
+
 // One warp per window of 32 sorted positions; each line is finished by the
 // warp whose window holds its last leaf. All the lines that end in the window
 // are done at once: per parity word, one segmented suffix XOR over the lanes
@@ -181,12 +194,7 @@ __device__ __forceinline__ void lineSuffixWalkBack(int64_t top, uint64_t lineKey
     for (int k = 0; k < RW; ++k) v[k] = valid ? parity[size_t(leaf) * RW + k] : 0u;
 #pragma unroll
     for (int k = 0; k < RW; ++k) {
-      uint32_t incl = v[k]; // XOR of this leaf and those beyond it in the step
-#pragma unroll
-      for (int o = 1; o < 32; o <<= 1) {
-        const uint32_t x = __shfl_up_sync(kFullMask, incl, o);
-        if (lane >= o) incl ^= x;
-      }
+      const uint32_t incl = warpXorScan<true>(v[k], lane, 0); // XOR of this leaf and those beyond it in the step
       if (valid) {
         parity[size_t(leaf) * RW + k] = carry[k] ^ incl ^ v[k]; // exit: beyond the leaf
         if (k == 0) entry[leaf] = uint8_t((carry[0] ^ incl) & 1u);
@@ -225,12 +233,7 @@ __global__ void lineSuffixKernel(uint32_t n, const uint64_t* keys, const uint32_
   for (int k = 0; k < RW; ++k) v[k] = owned ? parity[size_t(leaf) * RW + k] : 0u;
 #pragma unroll
   for (int k = 0; k < RW; ++k) {
-    uint32_t incl = v[k]; // XOR of this leaf and the later ones of its segment
-#pragma unroll
-    for (int o = 1; o < 32; o <<= 1) {
-      const uint32_t x = __shfl_down_sync(kFullMask, incl, o);
-      if (lane + o <= segmentEnd) incl ^= x;
-    }
+    const uint32_t incl = warpXorScan<false>(v[k], lane, segmentEnd); // XOR of this leaf and the later ones of its segment
     if (owned) {
       parity[size_t(leaf) * RW + k] = incl ^ v[k]; // exit: beyond the leaf (the line ends in this window)
       if (k == 0) entry[leaf] = uint8_t(incl & 1u);
