@@ -150,8 +150,8 @@ HDT_HD bool windingStripAngle(const WindingEdge& e, const double* p, double& ang
 // two keep it in range, exactly. Returns 0 with K and its error, 1 when a
 // sign is not certain (the caller sums the edges one by one), -1 when p lies
 // in a strip's plane.
-// windingStripProductOf: the same over `count` edges edgeAt(0 .. count - 1)
-// (a part of the boundary chain: its strips' solid angles).
+// windingStripProductOf takes the edges edgeAt(0 .. count - 1), in order (a
+// part of the boundary chain); windingStripProduct below takes them all.
 template <class EdgeAt>
 HDT_HD int windingStripProductOf(uint32_t count, EdgeAt&& edgeAt, const double* p, double& K, double& error) {
   double zr = 1, zi = 0, rel = 0;
