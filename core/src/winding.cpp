@@ -2,10 +2,12 @@
 // (winding.hpp, docs/design.md "Winding number").
 #include "hdt/winding_tree.hpp"
 
+#include "hdt/build_steps.hpp"
 #include "hdt/error.hpp"
 #include "hdt/mesh.hpp"
 #include "hdt/volume.hpp"
 #include "hdt/volume_walk.hpp"
+#include "hdt/winding_leaf.hpp"
 
 #include <algorithm>
 #include <atomic>
@@ -502,6 +504,113 @@ uint64_t refineSplitElements(const WindingTreeView& t, Volume& v, const std::vec
   return refined;
 }
 
+// ---- leaves from signed crossing counts (winding_leaf.hpp) --------------------
+
+// fn(row, before, sign) for every crossing of a +x ray of the leaf at
+// `origin` with a triangle inside the leaf's half-open x extent (the parity
+// pass's exact crossings, forEachPairCrossing; row = y + L z, before = the
+// row's voxel centres strictly before it), sign = that of the triangle's
+// normal x component. The candidates: the tree's triangles whose node boxes
+// meet the leaf's closed box (a crossing in the leaf lies in it).
+template <class Fn>
+void forEachSignedLeafCrossing(const WindingTree& tree, const std::array<int, 3>& origin, int L, Fn&& fn) {
+  const int64_t v0[3] = {origin[0], origin[1], origin[2]};
+  double lo[3], hi[3];
+  for (int a = 0; a < 3; ++a) {
+    lo[a] = origin[size_t(a)];
+    hi[a] = origin[size_t(a)] + L;
+  }
+  uint32_t stack[kWindingStack];
+  int top = 0;
+  stack[top++] = 0;
+  while (top > 0) {
+    const WindingNode& n = tree.nodes[stack[--top]];
+    bool meets = true;
+    for (int a = 0; a < 3; ++a) meets = meets && n.lo[a] <= hi[a] && n.hi[a] >= lo[a];
+    if (!meets) continue;
+    if (n.count == 0) {
+      stack[top++] = n.first + 1;
+      stack[top++] = n.first;
+      continue;
+    }
+    for (uint32_t i = n.first; i < n.first + n.count; ++i) {
+      const LatticeTriangle& tri = tree.lattice[i];
+      int64_t normal[3];
+      triangleNormal(tri, normal);
+      if (normal[0] == 0) continue; // parallel to x: no ray crosses it
+      const int sign = normal[0] > 0 ? 1 : -1;
+      forEachPairCrossing(tri, 0, v0, L, [&](int row, int before) { fn(row, before, sign); });
+    }
+  }
+}
+
+// Every leaf of the volume by windingDecideLeaf: the signed crossings of each
+// leaf's rows summed per row, their suffix sums along each line of leaves
+// (between two leaves of a line lie only uniform elements, which hold no
+// triangle) give the count at each row's +x exit, and the leaf's own
+// crossings the count at each voxel centre. A leaf whose counts do not fit
+// 16 bits takes the pieces-and-seeds decision (classifyLeaf).
+void classifyLeavesByCrossings(const WindingTree& tree, Volume& volume,
+                               const std::vector<std::array<int, 3>>& origins) {
+  const WindingTreeView t = tree.view();
+  const int L = volume.grid.leafSize;
+  const size_t rows = size_t(L) * size_t(L), leaves = origins.size();
+  std::vector<int32_t> exits(leaves * rows, 0); // the leaf's own row totals, then the counts beyond it
+  tbb::parallel_for(size_t(0), leaves, [&](size_t leaf) {
+    int32_t* total = exits.data() + leaf * rows;
+    forEachSignedLeafCrossing(tree, origins[leaf], L, [&](int row, int, int sign) { total[row] += sign; });
+  });
+  // Lines of leaves (same y, z), each walked from its +x end.
+  std::vector<uint32_t> order(leaves);
+  std::iota(order.begin(), order.end(), 0u);
+  std::sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) {
+    const std::array<int, 3>&oa = origins[a], &ob = origins[b];
+    if (oa[2] != ob[2]) return oa[2] < ob[2];
+    if (oa[1] != ob[1]) return oa[1] < ob[1];
+    return oa[0] > ob[0];
+  });
+  std::vector<size_t> lineStarts;
+  for (size_t i = 0; i < leaves; ++i)
+    if (i == 0 || origins[order[i]][1] != origins[order[i - 1]][1] || origins[order[i]][2] != origins[order[i - 1]][2])
+      lineStarts.push_back(i);
+  lineStarts.push_back(leaves);
+  tbb::parallel_for(size_t(0), lineStarts.size() - 1, [&](size_t line) {
+    std::vector<int32_t> running(rows, 0);
+    for (size_t i = lineStarts[line]; i < lineStarts[line + 1]; ++i) {
+      int32_t* e = exits.data() + size_t(order[i]) * rows;
+      for (size_t r = 0; r < rows; ++r) {
+        const int32_t own = e[r];
+        e[r] = running[r];
+        running[r] += own;
+      }
+    }
+  });
+  tbb::parallel_for(size_t(0), leaves, [&](size_t leaf) {
+    thread_local std::vector<int32_t> wide;
+    thread_local std::vector<int16_t> counts;
+    const size_t n = rows * size_t(L);
+    wide.resize(n);
+    counts.resize(n);
+    const int32_t* exit = exits.data() + leaf * rows;
+    for (size_t r = 0; r < rows; ++r)
+      for (int x = 0; x < L; ++x) wide[r * size_t(L) + size_t(x)] = exit[r];
+    forEachSignedLeafCrossing(tree, origins[leaf], L, [&](int row, int before, int sign) {
+      for (int x = 0; x < before; ++x) wide[size_t(row) * size_t(L) + size_t(x)] += sign;
+    });
+    uint32_t* words = volume.leafWords.data() + leafWordOffset(leaf, L);
+    bool fits = true;
+    for (size_t v = 0; v < n; ++v) {
+      fits = fits && wide[v] >= INT16_MIN && wide[v] <= INT16_MAX;
+      counts[v] = int16_t(wide[v]);
+    }
+    if (!fits) {
+      classifyLeaf(t, words, L, origins[leaf]);
+      return;
+    }
+    windingDecideLeaf(t, L, origins[leaf].data(), words, counts.data(), words);
+  });
+}
+
 } // namespace
 
 WindingOutcome classifyByWindingNumber(const WindingTree& tree, Volume& volume) {
@@ -510,10 +619,12 @@ WindingOutcome classifyByWindingNumber(const WindingTree& tree, Volume& volume) 
   std::vector<uint8_t> split(volume.elements.size(), 0);
   std::atomic<bool> anySplit{false};
   const int deepest = int(volume.levelStart.size()) - 2;
+  const size_t leafCount = volume.leafWords.size() / leafWordCount(L);
+  std::vector<std::array<int, 3>> leafOrigins(leafCount);
   parallelWalkVolume(volume, deepest, [&](const WalkedElement& e) {
     switch (e.state()) {
     case ElementState::Boundary:
-      classifyLeaf(t, volume.leafWords.data() + leafWordOffset(e.payload(), L), L, e.origin);
+      leafOrigins[e.payload()] = e.origin;
       break;
     case ElementState::Empty:
     case ElementState::Full: {
@@ -528,6 +639,7 @@ WindingOutcome classifyByWindingNumber(const WindingTree& tree, Volume& volume) 
     case ElementState::Branch: break;
     }
   });
+  classifyLeavesByCrossings(tree, volume, leafOrigins);
   WindingOutcome out;
   if (anySplit.load()) out.refinedElements = refineSplitElements(t, volume, split);
   return out;
