@@ -5,6 +5,8 @@
 #include "hdt/error.hpp"
 #include "hdt/mesh.hpp"
 
+#include <tbb/parallel_for.h>
+
 #include <chrono>
 #include <map>
 #include <string>
@@ -99,14 +101,15 @@ Volume voxelizeLabelled(const TriangleMesh& mesh, const BuildConfig& config, con
   const auto t0 = std::chrono::steady_clock::now();
   std::vector<std::pair<Label, TriangleMesh>> split = splitByLabel(mesh);
   const auto t1 = std::chrono::steady_clock::now();
-  std::vector<PreparedMesh> prepared;
-  std::vector<Label> partLabels;
-  prepared.reserve(split.size());
-  for (auto& [label, part] : split) {
-    prepared.push_back(prepareMesh(part, placed));
-    part = TriangleMesh{}; // the part's points are no longer needed
-    partLabels.push_back(label);
-  }
+  // The parts are prepared side by side: many are small, too small to fill
+  // the host's threads one after another.
+  std::vector<PreparedMesh> prepared(split.size());
+  std::vector<Label> partLabels(split.size());
+  tbb::parallel_for(size_t(0), split.size(), [&](size_t i) {
+    prepared[i] = prepareMesh(split[i].second, placed);
+    split[i].second = TriangleMesh{}; // the part's points are no longer needed
+    partLabels[i] = split[i].first;
+  });
   if (options.log) {
     const auto ms = [](std::chrono::steady_clock::time_point a, std::chrono::steady_clock::time_point b) {
       return std::to_string(int(std::chrono::duration<double, std::milli>(b - a).count()));
