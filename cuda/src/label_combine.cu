@@ -20,6 +20,19 @@ __device__ __forceinline__ uint64_t threadIndex() { return uint64_t(blockIdx.x) 
 
 __device__ __forceinline__ void fail(CombineError e) { atomicOr(e.flag, 1u); }
 
+// The thread of a kernel over `total` items grouped `perLeaf` to a leaf
+// (leaf words, or voxels): item j, its leaf and its place in that leaf.
+struct LeafItem {
+  uint64_t j, leaf, at;
+};
+__device__ __forceinline__ bool leafItemOfThread(uint64_t total, uint32_t perLeaf, LeafItem& item) {
+  item.j = threadIndex();
+  if (item.j >= total) return false;
+  item.leaf = item.j / perLeaf;
+  item.at = item.j % perLeaf;
+  return true;
+}
+
 __global__ void mapPartLevelKernel(const ElementWord* partWords, uint32_t partCount, uint64_t partNextStart,
                                    const uint32_t* map, const ElementWord* unionWords, uint64_t unionStart,
                                    uint64_t unionNextStart, uint32_t* nextMap, uint32_t* leafMap, uint16_t rank,
@@ -59,10 +72,10 @@ __global__ void mapPartLevelKernel(const ElementWord* partWords, uint32_t partCo
 __global__ void orPartLeavesKernel(const uint32_t* partWords, uint64_t total, uint32_t wordsPerLeaf,
                                    const uint32_t* leafMap, uint32_t* acc, uint32_t* claimCount, uint16_t* claimRank,
                                    uint16_t rank) {
-  const uint64_t j = threadIndex();
-  if (j >= total) return;
-  const uint64_t pl = j / wordsPerLeaf, w = j % wordsPerLeaf;
-  const uint64_t ul = leafMap[pl];
+  LeafItem t;
+  if (!leafItemOfThread(total, wordsPerLeaf, t)) return;
+  const uint64_t j = t.j, w = t.at;
+  const uint64_t ul = leafMap[t.leaf];
   acc[ul * wordsPerLeaf + w] |= partWords[j];
   if (w == 0) {
     claimCount[ul] += 1;
@@ -130,10 +143,10 @@ __device__ __forceinline__ void claimVoxels(uint32_t mine, uint16_t* ranks, uint
 __global__ void partVoxelRanksKernel(const uint32_t* partWords, uint64_t total, uint32_t wordsPerLeaf,
                                      const uint32_t* leafMap, const uint32_t* claimCount, const uint32_t* multiIndex,
                                      const uint32_t* combined, uint16_t* voxelRanks, uint16_t rank) {
-  const uint64_t j = threadIndex();
-  if (j >= total) return;
-  const uint64_t pl = j / wordsPerLeaf, w = j % wordsPerLeaf;
-  const uint64_t ul = leafMap[pl];
+  LeafItem t;
+  if (!leafItemOfThread(total, wordsPerLeaf, t)) return;
+  const uint64_t j = t.j, w = t.at;
+  const uint64_t ul = leafMap[t.leaf];
   if (claimCount[ul] < 2) return;
   const uint32_t pw = partWords[j], c = combined[ul * wordsPerLeaf + w];
   const uint32_t mine = (planeOf(pw, kSurfacePlane) & planeOf(c, kSurfacePlane)) |
@@ -144,9 +157,9 @@ __global__ void partVoxelRanksKernel(const uint32_t* partWords, uint64_t total, 
 __global__ void inheritedVoxelRanksKernel(uint64_t total, uint32_t wordsPerLeaf, const uint32_t* claimCount,
                                           const uint32_t* multiIndex, const uint16_t* leafInherited,
                                           const uint32_t* combined, uint16_t* voxelRanks) {
-  const uint64_t j = threadIndex();
-  if (j >= total) return;
-  const uint64_t ul = j / wordsPerLeaf, w = j % wordsPerLeaf;
+  LeafItem t;
+  if (!leafItemOfThread(total, wordsPerLeaf, t)) return;
+  const uint64_t j = t.j, ul = t.leaf, w = t.at;
   const uint16_t rank = leafInherited[ul];
   if (claimCount[ul] < 2 || rank == kNoRank) return;
   claimVoxels(planeOf(combined[j], kInsidePlane),
@@ -235,9 +248,9 @@ __global__ void paletteIndicesKernel(uint64_t total, uint32_t wordsPerLeaf, cons
                                      const uint32_t* paletteFlag, const uint32_t* paletteBlock,
                                      const LeafPalette* multiPalette, const uint16_t* voxelRanks,
                                      const uint16_t* labelOfRank, uint32_t* out) {
-  const uint64_t j = threadIndex();
-  if (j >= total) return;
-  const uint64_t m = j / wordsPerLeaf, w = j % wordsPerLeaf;
+  LeafItem t;
+  if (!leafItemOfThread(total, wordsPerLeaf, t)) return;
+  const uint64_t j = t.j, m = t.leaf, w = t.at;
   const uint32_t leaf = multiLeaf[m];
   if (!paletteFlag[leaf]) return;
   const LeafPalette palette = multiPalette[m];
@@ -251,9 +264,9 @@ __global__ void paletteIndicesKernel(uint64_t total, uint32_t wordsPerLeaf, cons
 __global__ void wideLabelsKernel(uint64_t total, uint32_t voxelsPerLeaf, const uint32_t* multiLeaf,
                                  const uint32_t* wideFlag, const uint32_t* wideBlock, const uint16_t* voxelRanks,
                                  const uint16_t* labelOfRank, uint16_t* out) {
-  const uint64_t j = threadIndex();
-  if (j >= total) return;
-  const uint64_t m = j / voxelsPerLeaf, v = j % voxelsPerLeaf;
+  LeafItem t;
+  if (!leafItemOfThread(total, voxelsPerLeaf, t)) return;
+  const uint64_t j = t.j, m = t.leaf, v = t.at;
   const uint32_t leaf = multiLeaf[m];
   if (!wideFlag[leaf]) return;
   out[uint64_t(wideBlock[leaf]) * voxelsPerLeaf + v] = uint16_t(labelOfVoxel(voxelRanks[j], labelOfRank));
