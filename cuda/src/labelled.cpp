@@ -387,9 +387,9 @@ Volume buildLabelled(const PreparedMesh& whole, const std::vector<PreparedMesh>&
     options.log("CUDA labelled build: " + std::to_string(parts.size()) + " parts combined on the device: " +
                 ms(wall0, combine0) + " ms the whole mesh and the parts (" + ms(wall0, parts0) + " + " +
                 ms(parts0, combine0) + "), " + ms(combine0, finish0) + " ms the combination and the copy back (" +
-                std::to_string(s.copyBackBytes >> 20) + " MiB in " + std::to_string(int(s.copyBackMs)) + " ms; " +
-                laps + "), " + ms(finish0, stats0) + " ms the index of mixed leaves, " + ms(stats0, Clock::now()) +
-                " ms the statistics");
+                std::to_string(s.copyBackBytes >> 20) + " MiB in " + std::to_string(int(s.copyBackMs)) + " ms), " +
+                ms(finish0, stats0) + " ms the index of mixed leaves, " + ms(stats0, Clock::now()) +
+                " ms the statistics; the combination's steps: " + laps);
   }
   return v;
 }
