@@ -7,6 +7,7 @@
 #include "hdt/mesh.hpp"
 #include "hdt/volume_walk.hpp"
 
+#include <tbb/blocked_range.h>
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
@@ -538,14 +539,30 @@ std::vector<LabelStatistics> labelStatistics(const Volume& v) {
   if (v.labels.empty()) return table;
   const LabelField& f = v.labels;
   const GridSpec& g = v.grid;
-  std::vector<uint64_t> surface(65536, 0), inside(65536, 0);
+  // Counts per thread over chunks of elements, then added up (integers: the
+  // same sums whatever the split).
+  struct Counts {
+    std::vector<uint64_t> surface = std::vector<uint64_t>(65536, 0), inside = std::vector<uint64_t>(65536, 0);
+  };
+  tbb::enumerable_thread_specific<Counts> perThread;
   for (int k = 0; k <= g.height; ++k) {
     const uint64_t edge = uint64_t(g.elementVoxels(k));
-    for (uint64_t i = v.levelStart[size_t(k)]; i < v.levelStart[size_t(k) + 1]; ++i) {
-      const ElementWord w = v.elements[i];
-      if (elementState(w) == ElementState::Full) inside[f.elementLabels[i]] += edge * edge * edge;
-      if (elementState(w) != ElementState::Boundary) continue;
-      countLeafVoxels(v, i, surface, inside);
+    tbb::parallel_for(tbb::blocked_range<uint64_t>(v.levelStart[size_t(k)], v.levelStart[size_t(k) + 1], 1 << 14),
+                      [&](const tbb::blocked_range<uint64_t>& r) {
+                        Counts& c = perThread.local();
+                        for (uint64_t i = r.begin(); i != r.end(); ++i) {
+                          const ElementWord w = v.elements[i];
+                          if (elementState(w) == ElementState::Full) c.inside[f.elementLabels[i]] += edge * edge * edge;
+                          if (elementState(w) != ElementState::Boundary) continue;
+                          countLeafVoxels(v, i, c.surface, c.inside);
+                        }
+                      });
+  }
+  std::vector<uint64_t> surface(65536, 0), inside(65536, 0);
+  for (const Counts& c : perThread) {
+    for (size_t l = 0; l < surface.size(); ++l) {
+      surface[l] += c.surface[l];
+      inside[l] += c.inside[l];
     }
   }
   const double s = g.voxelSize;
