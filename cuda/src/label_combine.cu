@@ -129,15 +129,26 @@ __global__ void markMultiKernel(uint32_t leaves, const uint32_t* claimCount, uin
   if (i < leaves) flag[i] = claimCount[i] >= 2 ? 1u : 0u;
 }
 
-// The claim's voxels (its plane bits that are in the combined state) take
-// the lower of their rank and the claim's.
+// The claim's voxels (mine: a word's voxels at even bits, those of the
+// claim in the combined state) take the lower of their rank and the claim's.
+// A word's 16 ranks are 32 bytes, 32-byte aligned: read and written whole
+// (two 16-byte accesses rather than one 2-byte access a voxel), updated in
+// registers. Each word belongs to one thread, so nothing else writes them.
 __device__ __forceinline__ void claimVoxels(uint32_t mine, uint16_t* ranks, uint16_t rank) {
-  while (mine) {
-    const int bit = __ffs(mine) - 1;
-    mine &= mine - 1;
-    uint16_t& r = ranks[bit / 2];
-    r = r < rank ? r : rank;
+  static_assert(kVoxelsPerWord == 16, "a word's ranks are two 16-byte vectors");
+  if (!mine) return;
+  uint4* const at = reinterpret_cast<uint4*>(ranks);
+  uint4 v[2] = {at[0], at[1]};
+  uint32_t* const pair = reinterpret_cast<uint32_t*>(v); // voxels 2k (low half) and 2k + 1
+#pragma unroll
+  for (int voxel = 0; voxel < kVoxelsPerWord; ++voxel) {
+    if (!((mine >> (2 * voxel)) & 1u)) continue;
+    const int shift = 16 * (voxel & 1);
+    if (rank < ((pair[voxel / 2] >> shift) & 0xFFFFu))
+      pair[voxel / 2] = (pair[voxel / 2] & ~(0xFFFFu << shift)) | (uint32_t(rank) << shift);
   }
+  at[0] = v[0];
+  at[1] = v[1];
 }
 
 __global__ void partVoxelRanksKernel(const uint32_t* partWords, uint64_t total, uint32_t wordsPerLeaf,
