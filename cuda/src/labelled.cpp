@@ -25,11 +25,9 @@
 #include "hdt/host_memory.hpp"
 #include "hdt/labels.hpp"
 #include "hdt/mesh.hpp"
-#include "hdt/warm_pages.hpp"
 
 #include <algorithm>
 #include <chrono>
-#include <future>
 #include <numeric>
 #include <stdexcept>
 #include <string>
@@ -200,10 +198,10 @@ private:
 };
 
 // Steps 3 and the copy back. counts: the volume's surface and inside voxels
-// (its statistics); hostPages: the leaf words' warm pages, being faulted in.
+// (its statistics).
 Volume combineOnDevice(Session& s, UnionState& u, std::vector<PartOnDevice>& parts,
-                       const std::vector<uint16_t>& labelOfRankHost, std::future<void>& hostPages,
-                       unsigned long long counts[2], std::string& laps) {
+                       const std::vector<uint16_t>& labelOfRankHost, unsigned long long counts[2],
+                       std::string& laps) {
   Laps lap(s, laps);
   const GridSpec& g = s.grid;
   const cudaStream_t st = s.stream.get();
@@ -269,8 +267,6 @@ Volume combineOnDevice(Session& s, UnionState& u, std::vector<PartOnDevice>& par
   v.elements.resize(u.start.back());
   for (size_t k = 0; k <= h; ++k) download(s, v.elements.data() + u.start[k], levels[k].words.data(), levels[k].count);
   lap("elements down");
-  if (hostPages.valid()) hostPages.get();
-  lap("host pages wait");
   v.leafWords.resize(size_t(leaves) * W);
   download(s, v.leafWords.data(), u.acc.data(), v.leafWords.size());
   lap("words down");
@@ -286,18 +282,6 @@ Volume combineOnDevice(Session& s, UnionState& u, std::vector<PartOnDevice>& par
   s.clock.mark(kDownload);
   lap("labels down");
   return v;
-}
-
-// The host pages of the leaf words and of the mixed leaves' index, faulted
-// in on the host's threads while the parts are built on the device (as
-// hdt-voxelize does beside a plain build): the copy back then writes warm
-// memory. Up to 4 GiB and an eighth of the available memory, as there.
-std::future<void> reserveHostPages(uint32_t leaves, const GridSpec& g) {
-  const uint64_t bytes = detail::warmRounded(uint64_t(leaves) * leafWordCount(g.leafSize) * sizeof(uint32_t)) +
-                         detail::warmRounded(uint64_t(leaves) * sizeof(uint32_t));
-  const uint64_t cap = std::min(uint64_t(4) << 30, availableHostBytes() / 8);
-  if (leaves == 0 || bytes > cap) return {};
-  return std::async(std::launch::async, [bytes] { reserveWarmPages(size_t(bytes)); });
 }
 
 Volume buildLabelled(const PreparedMesh& whole, const std::vector<PreparedMesh>& parts,
@@ -336,7 +320,6 @@ Volume buildLabelled(const PreparedMesh& whole, const std::vector<PreparedMesh>&
   fill(s, u.claimRank, 0xFF);
   fill(s, u.error, 0);
 
-  std::future<void> hostPages = reserveHostPages(leaves, g);
   std::vector<uint16_t> labelOfRank;
   const std::vector<uint16_t> rank = ranksOf(partLabels, labels, labelOfRank);
   std::vector<PartOnDevice> onDevice;
@@ -351,8 +334,7 @@ Volume buildLabelled(const PreparedMesh& whole, const std::vector<PreparedMesh>&
   const auto combine0 = Clock::now();
   std::string laps;
   unsigned long long voxelCounts[2] = {0, 0}; // surface, inside
-  Volume v = combineOnDevice(s, u, onDevice, labelOfRank, hostPages, voxelCounts, laps);
-  trimWarmPages(); // what the leaf words and the index did not take
+  Volume v = combineOnDevice(s, u, onDevice, labelOfRank, voxelCounts, laps);
   s.sync();
   s.clock.collect(s.ms);
   const auto finish0 = Clock::now();
@@ -418,10 +400,8 @@ bool buildLabelledCuda(const PreparedMesh& whole, const std::vector<PreparedMesh
     out = buildLabelled(whole, parts, partLabels, labels, options);
     return true;
   } catch (const Mismatch& e) {
-    trimWarmPages(); // the copy back's pages, not taken
     return skip(e.what());
   } catch (const DeviceMemoryExhausted& e) {
-    trimWarmPages();
     return skip("does not fit the device in one piece: " + std::to_string(e.neededBytes() >> 20) + " MiB more");
   }
 }
