@@ -5,6 +5,9 @@
 #include "hdt/error.hpp"
 #include "hdt/mesh.hpp"
 
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for.h>
+
 #include <chrono>
 #include <map>
 #include <string>
@@ -16,9 +19,9 @@ namespace {
 
 // The triangles of each label as a mesh of their own (points renumbered in
 // order of first use by the part's triangles, in input order), ascending by
-// label. Linear: triangles grouped by label first, then one point map shared
-// by all parts, stamped with the part that wrote it (a map per label would
-// cost labels x points).
+// label. Linear: triangles grouped by label first, then the parts made side
+// by side, each thread with one point map shared by its parts, stamped with
+// the part that wrote it (a map per label would cost labels x points).
 std::vector<std::pair<Label, TriangleMesh>> splitByLabel(const TriangleMesh& mesh) {
   const size_t n = mesh.triangleCount();
   if (mesh.triangleLabels.size() != n) {
@@ -40,26 +43,39 @@ std::vector<std::pair<Label, TriangleMesh>> splitByLabel(const TriangleMesh& mes
   std::vector<uint32_t> byLabel(n), next(first.begin(), first.end() - 1);
   for (size_t t = 0; t < n; ++t) byLabel[next[mesh.triangleLabels[t]]++] = uint32_t(t);
 
-  std::vector<std::pair<Label, TriangleMesh>> out;
-  std::vector<uint32_t> stamp(mesh.pointCount(), 0), local(mesh.pointCount()); // stamp: label + 1 of the writer
-  for (uint32_t label = 1; label < 65536; ++label) {
-    if (first[label] == first[label + 1]) continue;
+  std::vector<Label> labels;
+  for (uint32_t label = 1; label < 65536; ++label)
+    if (first[label] != first[label + 1]) labels.push_back(Label(label));
+  std::vector<std::pair<Label, TriangleMesh>> out(labels.size());
+  // A thread's point map is stamped with the part that wrote it (label + 1):
+  // reused without clearing.
+  struct PointMap {
+    std::vector<uint32_t> stamp, local;
+  };
+  tbb::enumerable_thread_specific<PointMap> maps;
+  tbb::parallel_for(size_t(0), labels.size(), [&](size_t k) {
+    const uint32_t label = labels[k];
+    PointMap& map = maps.local();
+    if (map.stamp.empty()) {
+      map.stamp.assign(mesh.pointCount(), 0);
+      map.local.resize(mesh.pointCount());
+    }
     TriangleMesh part;
     part.triangles.reserve(3 * size_t(first[label + 1] - first[label]));
     for (uint32_t i = first[label]; i < first[label + 1]; ++i) {
       const size_t t = byLabel[i];
       for (int c = 0; c < 3; ++c) {
         const uint32_t p = mesh.triangles[3 * t + size_t(c)];
-        if (stamp[p] != label + 1) {
-          stamp[p] = label + 1;
-          local[p] = uint32_t(part.pointCount());
+        if (map.stamp[p] != label + 1) {
+          map.stamp[p] = label + 1;
+          map.local[p] = uint32_t(part.pointCount());
           part.points.insert(part.points.end(), mesh.points.begin() + 3 * p, mesh.points.begin() + 3 * p + 3);
         }
-        part.triangles.push_back(local[p]);
+        part.triangles.push_back(map.local[p]);
       }
     }
-    out.emplace_back(Label(label), std::move(part));
-  }
+    out[k] = {Label(label), std::move(part)};
+  });
   return out;
 }
 
@@ -99,14 +115,15 @@ Volume voxelizeLabelled(const TriangleMesh& mesh, const BuildConfig& config, con
   const auto t0 = std::chrono::steady_clock::now();
   std::vector<std::pair<Label, TriangleMesh>> split = splitByLabel(mesh);
   const auto t1 = std::chrono::steady_clock::now();
-  std::vector<PreparedMesh> prepared;
-  std::vector<Label> partLabels;
-  prepared.reserve(split.size());
-  for (auto& [label, part] : split) {
-    prepared.push_back(prepareMesh(part, placed));
-    part = TriangleMesh{}; // the part's points are no longer needed
-    partLabels.push_back(label);
-  }
+  // The parts are prepared side by side: many are small, too small to fill
+  // the host's threads one after another.
+  std::vector<PreparedMesh> prepared(split.size());
+  std::vector<Label> partLabels(split.size());
+  tbb::parallel_for(size_t(0), split.size(), [&](size_t i) {
+    prepared[i] = prepareMesh(split[i].second, placed);
+    split[i].second = TriangleMesh{}; // the part's points are no longer needed
+    partLabels[i] = split[i].first;
+  });
   if (options.log) {
     const auto ms = [](std::chrono::steady_clock::time_point a, std::chrono::steady_clock::time_point b) {
       return std::to_string(int(std::chrono::duration<double, std::milli>(b - a).count()));

@@ -7,6 +7,7 @@
 #include "hdt/mesh.hpp"
 #include "hdt/volume_walk.hpp"
 
+#include <tbb/blocked_range.h>
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
@@ -273,24 +274,70 @@ Volume combineLabelledParts(const std::vector<Volume>& parts, const std::vector<
   return out;
 }
 
+namespace {
+
+// Exclusive prefix sums of per-chunk counts (chunks of kIndexChunk items):
+// where each chunk's items start; the last entry is the total.
+constexpr size_t kIndexChunk = size_t(1) << 16;
+
+template <class Count>
+std::vector<uint64_t> chunkStarts(size_t items, const Count& count) {
+  const size_t chunks = (items + kIndexChunk - 1) / kIndexChunk;
+  std::vector<uint64_t> start(chunks + 1, 0);
+  tbb::parallel_for(size_t(0), chunks, [&](size_t c) {
+    start[c + 1] = count(c * kIndexChunk, std::min(items, (c + 1) * kIndexChunk));
+  });
+  for (size_t c = 0; c < chunks; ++c) start[c + 1] += start[c];
+  return start;
+}
+
+} // namespace
+
+// Two parallel passes over fixed chunks (count, then write from each chunk's
+// start): the same numbering as one pass in element order.
 void indexMixedLeaves(Volume& v) {
   LabelField& f = v.labels;
   f.mixedIndex.clear();
   f.mixedBlock.clear();
   if (f.empty()) return;
-  f.mixedIndex.assign(v.leafCount(), kNotMixed);
-  uint32_t mixed = 0, paletteBlocks = 0, wideBlocks = 0;
-  for (uint64_t i = v.levelStart[size_t(v.grid.height)]; i < v.elements.size(); ++i) {
-    const ElementWord w = v.elements[i];
-    if (elementState(w) != ElementState::Boundary || f.elementLabels[i] != kOutsideLabel) continue;
-    if (mixed == f.palettes.size())
-      throw Error(ErrorKind::InvalidArgument, "labels: more mixed leaves than palettes");
-    f.mixedIndex[elementPayload(w)] = mixed;
-    f.mixedBlock.push_back(f.palettes[mixed++].isWide() ? wideBlocks++ : paletteBlocks++);
-  }
-  if (mixed != f.palettes.size())
+  const uint64_t first = v.levelStart[size_t(v.grid.height)];
+  const size_t leafLevel = v.elements.size() - first;
+  const auto isMixed = [&](uint64_t i) {
+    return elementState(v.elements[i]) == ElementState::Boundary && f.elementLabels[i] == kOutsideLabel;
+  };
+  const std::vector<uint64_t> mixedStart = chunkStarts(leafLevel, [&](size_t b, size_t e) {
+    uint64_t n = 0;
+    for (size_t i = b; i < e; ++i) n += isMixed(first + i);
+    return n;
+  });
+  if (mixedStart.back() > f.palettes.size())
+    throw Error(ErrorKind::InvalidArgument, "labels: more mixed leaves than palettes");
+  if (mixedStart.back() != f.palettes.size())
     throw Error(ErrorKind::InvalidArgument, "labels: " + std::to_string(f.palettes.size()) + " palettes for " +
-                                                std::to_string(mixed) + " mixed leaves");
+                                                std::to_string(mixedStart.back()) + " mixed leaves");
+  f.mixedIndex.resize(v.leafCount());
+  tbb::parallel_for(size_t(0), (f.mixedIndex.size() + kIndexChunk - 1) / kIndexChunk, [&](size_t c) {
+    std::fill(f.mixedIndex.begin() + c * kIndexChunk,
+              f.mixedIndex.begin() + std::min(f.mixedIndex.size(), (c + 1) * kIndexChunk), kNotMixed);
+  });
+  tbb::parallel_for(size_t(0), mixedStart.size() - 1, [&](size_t c) {
+    uint32_t mixed = uint32_t(mixedStart[c]);
+    for (size_t i = c * kIndexChunk; i < std::min(leafLevel, (c + 1) * kIndexChunk); ++i)
+      if (isMixed(first + i)) f.mixedIndex[elementPayload(v.elements[first + i])] = mixed++;
+  });
+  // Blocks: wide and palette leaves numbered apart, in mixed order.
+  const size_t mixed = f.palettes.size();
+  const std::vector<uint64_t> wideStart = chunkStarts(mixed, [&](size_t b, size_t e) {
+    uint64_t n = 0;
+    for (size_t k = b; k < e; ++k) n += f.palettes[k].isWide();
+    return n;
+  });
+  f.mixedBlock.resize(mixed);
+  tbb::parallel_for(size_t(0), wideStart.size() - 1, [&](size_t c) {
+    uint64_t wide = wideStart[c], palette = c * kIndexChunk - wideStart[c];
+    for (size_t k = c * kIndexChunk; k < std::min(mixed, (c + 1) * kIndexChunk); ++k)
+      f.mixedBlock[k] = uint32_t(f.palettes[k].isWide() ? wide++ : palette++);
+  });
 }
 
 LeafLabels leafLabels(const Volume& v, uint64_t element) {
@@ -492,14 +539,30 @@ std::vector<LabelStatistics> labelStatistics(const Volume& v) {
   if (v.labels.empty()) return table;
   const LabelField& f = v.labels;
   const GridSpec& g = v.grid;
-  std::vector<uint64_t> surface(65536, 0), inside(65536, 0);
+  // Counts per thread over chunks of elements, then added up (integers: the
+  // same sums whatever the split).
+  struct Counts {
+    std::vector<uint64_t> surface = std::vector<uint64_t>(65536, 0), inside = std::vector<uint64_t>(65536, 0);
+  };
+  tbb::enumerable_thread_specific<Counts> perThread;
   for (int k = 0; k <= g.height; ++k) {
     const uint64_t edge = uint64_t(g.elementVoxels(k));
-    for (uint64_t i = v.levelStart[size_t(k)]; i < v.levelStart[size_t(k) + 1]; ++i) {
-      const ElementWord w = v.elements[i];
-      if (elementState(w) == ElementState::Full) inside[f.elementLabels[i]] += edge * edge * edge;
-      if (elementState(w) != ElementState::Boundary) continue;
-      countLeafVoxels(v, i, surface, inside);
+    tbb::parallel_for(tbb::blocked_range<uint64_t>(v.levelStart[size_t(k)], v.levelStart[size_t(k) + 1], 1 << 14),
+                      [&](const tbb::blocked_range<uint64_t>& r) {
+                        Counts& c = perThread.local();
+                        for (uint64_t i = r.begin(); i != r.end(); ++i) {
+                          const ElementWord w = v.elements[i];
+                          if (elementState(w) == ElementState::Full) c.inside[f.elementLabels[i]] += edge * edge * edge;
+                          if (elementState(w) != ElementState::Boundary) continue;
+                          countLeafVoxels(v, i, c.surface, c.inside);
+                        }
+                      });
+  }
+  std::vector<uint64_t> surface(65536, 0), inside(65536, 0);
+  for (const Counts& c : perThread) {
+    for (size_t l = 0; l < surface.size(); ++l) {
+      surface[l] += c.surface[l];
+      inside[l] += c.inside[l];
     }
   }
   const double s = g.voxelSize;

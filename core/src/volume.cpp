@@ -9,14 +9,6 @@
 namespace hdt {
 
 void computeStructureStatistics(Volume& v) {
-  Statistics& s = v.stats;
-  const uint64_t L = uint64_t(v.grid.leafSize);
-  s.treeElements = v.elements.size();
-  s.leafGrids = v.leafCount();
-  s.leafVoxels = s.leafGrids * L * L * L;
-  s.topologyBytes = v.elements.size() * sizeof(ElementWord);
-  s.leafBytes = v.leafWords.size() * sizeof(uint32_t);
-
   struct Counts {
     uint64_t surface = 0, inside = 0;
   };
@@ -31,13 +23,25 @@ void computeStructureStatistics(Volume& v) {
         return c;
       },
       [](Counts a, Counts b) { return Counts{a.surface + b.surface, a.inside + b.inside}; });
-  s.activeVoxels = leafCounts.surface;
-  s.insideVoxels = leafCounts.inside;
+  uint64_t inside = leafCounts.inside;
   for (size_t level = 0; level + 1 < v.levelStart.size(); ++level) {
     const uint64_t edge = uint64_t(v.grid.elementVoxels(int(level)));
     for (uint64_t i = v.levelStart[level]; i < v.levelStart[level + 1]; ++i)
-      if (elementState(v.elements[i]) == ElementState::Full) s.insideVoxels += edge * edge * edge;
+      if (elementState(v.elements[i]) == ElementState::Full) inside += edge * edge * edge;
   }
+  computeStructureStatistics(v, leafCounts.surface, inside);
+}
+
+void computeStructureStatistics(Volume& v, uint64_t surfaceVoxels, uint64_t insideVoxels) {
+  Statistics& s = v.stats;
+  const uint64_t L = uint64_t(v.grid.leafSize);
+  s.treeElements = v.elements.size();
+  s.leafGrids = v.leafCount();
+  s.leafVoxels = s.leafGrids * L * L * L;
+  s.topologyBytes = v.elements.size() * sizeof(ElementWord);
+  s.leafBytes = v.leafWords.size() * sizeof(uint32_t);
+  s.activeVoxels = surfaceVoxels;
+  s.insideVoxels = insideVoxels;
   s.paperBitsPerActiveVoxel =
       s.activeVoxels ? double(s.treeElements) * 20.0 * 8.0 / double(s.activeVoxels) : 0.0;
 }

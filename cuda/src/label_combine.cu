@@ -8,6 +8,8 @@
 
 #include <cub/device/device_scan.cuh>
 
+#include <algorithm>
+
 namespace hdt {
 namespace cuda {
 namespace {
@@ -17,6 +19,19 @@ constexpr unsigned kBlock = 256;
 __device__ __forceinline__ uint64_t threadIndex() { return uint64_t(blockIdx.x) * blockDim.x + threadIdx.x; }
 
 __device__ __forceinline__ void fail(CombineError e) { atomicOr(e.flag, 1u); }
+
+// The thread of a kernel over `total` items grouped `perLeaf` to a leaf
+// (leaf words, or voxels): item j, its leaf and its place in that leaf.
+struct LeafItem {
+  uint64_t j, leaf, at;
+};
+__device__ __forceinline__ bool leafItemOfThread(uint64_t total, uint32_t perLeaf, LeafItem& item) {
+  item.j = threadIndex();
+  if (item.j >= total) return false;
+  item.leaf = item.j / perLeaf;
+  item.at = item.j % perLeaf;
+  return true;
+}
 
 __global__ void mapPartLevelKernel(const ElementWord* partWords, uint32_t partCount, uint64_t partNextStart,
                                    const uint32_t* map, const ElementWord* unionWords, uint64_t unionStart,
@@ -57,10 +72,10 @@ __global__ void mapPartLevelKernel(const ElementWord* partWords, uint32_t partCo
 __global__ void orPartLeavesKernel(const uint32_t* partWords, uint64_t total, uint32_t wordsPerLeaf,
                                    const uint32_t* leafMap, uint32_t* acc, uint32_t* claimCount, uint16_t* claimRank,
                                    uint16_t rank) {
-  const uint64_t j = threadIndex();
-  if (j >= total) return;
-  const uint64_t pl = j / wordsPerLeaf, w = j % wordsPerLeaf;
-  const uint64_t ul = leafMap[pl];
+  LeafItem t;
+  if (!leafItemOfThread(total, wordsPerLeaf, t)) return;
+  const uint64_t j = t.j, w = t.at;
+  const uint64_t ul = leafMap[t.leaf];
   acc[ul * wordsPerLeaf + w] |= partWords[j];
   if (w == 0) {
     claimCount[ul] += 1;
@@ -114,24 +129,35 @@ __global__ void markMultiKernel(uint32_t leaves, const uint32_t* claimCount, uin
   if (i < leaves) flag[i] = claimCount[i] >= 2 ? 1u : 0u;
 }
 
-// The claim's voxels (its plane bits that are in the combined state) take
-// the lower of their rank and the claim's.
+// The claim's voxels (mine: a word's voxels at even bits, those of the
+// claim in the combined state) take the lower of their rank and the claim's.
+// A word's 16 ranks are 32 bytes, 32-byte aligned: read and written whole
+// (two 16-byte accesses rather than one 2-byte access a voxel), updated in
+// registers. Each word belongs to one thread, so nothing else writes them.
 __device__ __forceinline__ void claimVoxels(uint32_t mine, uint16_t* ranks, uint16_t rank) {
-  while (mine) {
-    const int bit = __ffs(mine) - 1;
-    mine &= mine - 1;
-    uint16_t& r = ranks[bit / 2];
-    r = r < rank ? r : rank;
+  static_assert(kVoxelsPerWord == 16, "a word's ranks are two 16-byte vectors");
+  if (!mine) return;
+  uint4* const at = reinterpret_cast<uint4*>(ranks);
+  uint4 v[2] = {at[0], at[1]};
+  uint32_t* const pair = reinterpret_cast<uint32_t*>(v); // voxels 2k (low half) and 2k + 1
+#pragma unroll
+  for (int voxel = 0; voxel < kVoxelsPerWord; ++voxel) {
+    if (!((mine >> (2 * voxel)) & 1u)) continue;
+    const int shift = 16 * (voxel & 1);
+    if (rank < ((pair[voxel / 2] >> shift) & 0xFFFFu))
+      pair[voxel / 2] = (pair[voxel / 2] & ~(0xFFFFu << shift)) | (uint32_t(rank) << shift);
   }
+  at[0] = v[0];
+  at[1] = v[1];
 }
 
 __global__ void partVoxelRanksKernel(const uint32_t* partWords, uint64_t total, uint32_t wordsPerLeaf,
                                      const uint32_t* leafMap, const uint32_t* claimCount, const uint32_t* multiIndex,
                                      const uint32_t* combined, uint16_t* voxelRanks, uint16_t rank) {
-  const uint64_t j = threadIndex();
-  if (j >= total) return;
-  const uint64_t pl = j / wordsPerLeaf, w = j % wordsPerLeaf;
-  const uint64_t ul = leafMap[pl];
+  LeafItem t;
+  if (!leafItemOfThread(total, wordsPerLeaf, t)) return;
+  const uint64_t j = t.j, w = t.at;
+  const uint64_t ul = leafMap[t.leaf];
   if (claimCount[ul] < 2) return;
   const uint32_t pw = partWords[j], c = combined[ul * wordsPerLeaf + w];
   const uint32_t mine = (planeOf(pw, kSurfacePlane) & planeOf(c, kSurfacePlane)) |
@@ -142,9 +168,9 @@ __global__ void partVoxelRanksKernel(const uint32_t* partWords, uint64_t total, 
 __global__ void inheritedVoxelRanksKernel(uint64_t total, uint32_t wordsPerLeaf, const uint32_t* claimCount,
                                           const uint32_t* multiIndex, const uint16_t* leafInherited,
                                           const uint32_t* combined, uint16_t* voxelRanks) {
-  const uint64_t j = threadIndex();
-  if (j >= total) return;
-  const uint64_t ul = j / wordsPerLeaf, w = j % wordsPerLeaf;
+  LeafItem t;
+  if (!leafItemOfThread(total, wordsPerLeaf, t)) return;
+  const uint64_t j = t.j, ul = t.leaf, w = t.at;
   const uint16_t rank = leafInherited[ul];
   if (claimCount[ul] < 2 || rank == kNoRank) return;
   claimVoxels(planeOf(combined[j], kInsidePlane),
@@ -233,9 +259,9 @@ __global__ void paletteIndicesKernel(uint64_t total, uint32_t wordsPerLeaf, cons
                                      const uint32_t* paletteFlag, const uint32_t* paletteBlock,
                                      const LeafPalette* multiPalette, const uint16_t* voxelRanks,
                                      const uint16_t* labelOfRank, uint32_t* out) {
-  const uint64_t j = threadIndex();
-  if (j >= total) return;
-  const uint64_t m = j / wordsPerLeaf, w = j % wordsPerLeaf;
+  LeafItem t;
+  if (!leafItemOfThread(total, wordsPerLeaf, t)) return;
+  const uint64_t j = t.j, m = t.leaf, w = t.at;
   const uint32_t leaf = multiLeaf[m];
   if (!paletteFlag[leaf]) return;
   const LeafPalette palette = multiPalette[m];
@@ -249,9 +275,9 @@ __global__ void paletteIndicesKernel(uint64_t total, uint32_t wordsPerLeaf, cons
 __global__ void wideLabelsKernel(uint64_t total, uint32_t voxelsPerLeaf, const uint32_t* multiLeaf,
                                  const uint32_t* wideFlag, const uint32_t* wideBlock, const uint16_t* voxelRanks,
                                  const uint16_t* labelOfRank, uint16_t* out) {
-  const uint64_t j = threadIndex();
-  if (j >= total) return;
-  const uint64_t m = j / voxelsPerLeaf, v = j % voxelsPerLeaf;
+  LeafItem t;
+  if (!leafItemOfThread(total, voxelsPerLeaf, t)) return;
+  const uint64_t j = t.j, m = t.leaf, v = t.at;
   const uint32_t leaf = multiLeaf[m];
   if (!wideFlag[leaf]) return;
   out[uint64_t(wideBlock[leaf]) * voxelsPerLeaf + v] = uint16_t(labelOfVoxel(voxelRanks[j], labelOfRank));
@@ -273,6 +299,31 @@ __global__ void finalizeElementsKernel(ElementWord* words, uint32_t count, uint6
     label = r == kNoRank ? uint16_t(0) : labelOfRank[r];
   }
   elementLabels[start + i] = label;
+}
+
+// Adds a warp's sum of v to *out (all lanes take part).
+__device__ __forceinline__ void warpAdd(unsigned long long v, unsigned long long* out) {
+  for (int o = 16; o > 0; o >>= 1) v += __shfl_xor_sync(kFullMask, v, o);
+  if (threadIdx.x % 32 == 0 && v) atomicAdd(out, v);
+}
+
+__global__ void countFullVoxelsKernel(const ElementWord* words, uint32_t count, uint64_t voxelsPerElement,
+                                      unsigned long long* counts) {
+  const uint64_t i = threadIndex();
+  const bool full = i < count && elementState(words[i]) == ElementState::Full;
+  warpAdd(full ? voxelsPerElement : 0ull, counts + 1);
+}
+
+// Grid-stride: a thread sums many words before its warp adds once.
+__global__ void countLeafVoxelsKernel(const uint32_t* words, uint64_t total, unsigned long long* counts) {
+  unsigned long long surface = 0, inside = 0;
+  for (uint64_t j = threadIndex(); j < total; j += uint64_t(gridDim.x) * blockDim.x) {
+    const uint32_t w = words[j];
+    surface += planeCount(w, kSurfacePlane);
+    inside += planeCount(w, kInsidePlane);
+  }
+  warpAdd(surface, counts);
+  warpAdd(inside, counts + 1);
 }
 
 template <class... Args, class... Params>
@@ -384,6 +435,18 @@ void finalizeElements(cudaStream_t s, ElementWord* words, uint32_t count, uint64
                       const uint16_t* leafLabel, const uint16_t* labelOfRank, uint16_t* elementLabels) {
   launch("finalizeElements", s, count, finalizeElementsKernel, words, count, start, fullRank, leafLabel, labelOfRank,
          elementLabels);
+}
+
+void countFullVoxels(cudaStream_t s, const ElementWord* words, uint32_t count, uint64_t voxelsPerElement,
+                     unsigned long long* counts) {
+  launch("countFullVoxels", s, count, countFullVoxelsKernel, words, count, voxelsPerElement, counts);
+}
+
+void countLeafVoxels(cudaStream_t s, const uint32_t* words, uint64_t total, unsigned long long* counts) {
+  if (total == 0) return;
+  const uint64_t threads = std::min<uint64_t>(total, uint64_t(kBlock) * 4096); // enough blocks to fill the device
+  countLeafVoxelsKernel<<<blocksFor(threads, kBlock), kBlock, 0, s>>>(words, total, counts);
+  HDT_CUDA_CHECK_LAUNCH("countLeafVoxels");
 }
 
 uint32_t scanFlags(DeviceMemory& mem, const uint32_t* flags, uint32_t* index, uint32_t n) {

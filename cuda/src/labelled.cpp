@@ -178,8 +178,31 @@ MixedOnDevice compactMixedLeaves(Session& s, uint32_t leaves, uint32_t multi, co
   return out;
 }
 
+// Appends "name ms" to `laps` for the time since the last lap, the stream
+// waited for (the log line's breakdown of the combination).
+class Laps {
+public:
+  Laps(const Session& s, std::string& out) : s_(s), out_(out), last_(Clock::now()) {}
+  void operator()(const char* name) {
+    s_.sync();
+    const auto now = Clock::now();
+    out_ += std::string(out_.empty() ? "" : ", ") + name + " " +
+            std::to_string(int(std::chrono::duration<double, std::milli>(now - last_).count()));
+    last_ = now;
+  }
+
+private:
+  const Session& s_;
+  std::string& out_;
+  Clock::time_point last_;
+};
+
+// Steps 3 and the copy back. counts: the volume's surface and inside voxels
+// (its statistics).
 Volume combineOnDevice(Session& s, UnionState& u, std::vector<PartOnDevice>& parts,
-                       const std::vector<uint16_t>& labelOfRankHost) {
+                       const std::vector<uint16_t>& labelOfRankHost, unsigned long long counts[2],
+                       std::string& laps) {
+  Laps lap(s, laps);
   const GridSpec& g = s.grid;
   const cudaStream_t st = s.stream.get();
   const size_t h = size_t(g.height);
@@ -208,32 +231,45 @@ Volume combineOnDevice(Session& s, UnionState& u, std::vector<PartOnDevice>& par
                    u.acc.data(), voxelRanks.data(), p.rank);
   inheritedVoxelRanks(st, leaves, W, u.claimCount.data(), multiIndex.data(), u.leafInherited.data(), u.acc.data(),
                       voxelRanks.data());
-  s.sync();
+  lap("voxel ranks");
   parts.clear();
 
   DeviceBuffer<uint16_t> leafLabel(s.memory, leaves);
   DeviceBuffer<LeafPalette> multiPalette(s.memory, multi);
   leafPalettes(st, leaves, V, u.claimCount.data(), u.claimRank.data(), multiIndex.data(), voxelRanks.data(),
                labelOfRank.data(), leafLabel.data(), multiPalette.data(), e);
+  lap("palettes");
   MixedOnDevice mixed = compactMixedLeaves(s, leaves, multi, u.claimCount, multiIndex, leafLabel, multiPalette, voxelRanks,
                                            labelOfRank);
+  lap("mixed leaves");
   DeviceBuffer<uint16_t> elementLabels(s.memory, u.start.back());
   for (size_t k = 0; k <= h; ++k)
     finalizeElements(st, levels[k].words.data(), levels[k].count, u.start[k], u.fullRank.data(), leafLabel.data(),
                      labelOfRank.data(), elementLabels.data());
+  DeviceBuffer<unsigned long long> voxelCounts(s.memory, 2); // surface, inside
+  fill(s, voxelCounts, 0);
+  for (size_t k = 0; k <= h; ++k) {
+    const uint64_t edge = uint64_t(g.elementVoxels(int(k)));
+    countFullVoxels(st, levels[k].words.data(), levels[k].count, edge * edge * edge, voxelCounts.data());
+  }
+  countLeafVoxels(st, u.acc.data(), u.acc.size(), voxelCounts.data());
   s.clock.mark(kClassify);
+  lap("elements");
 
   uint32_t error = 0;
   download(s, &error, u.error.data(), 1);
   if (error) throw Mismatch("the parts' trees or surfaces do not match the whole mesh's");
+  download(s, counts, voxelCounts.data(), 2);
 
   Volume v;
   v.grid = g;
   v.levelStart = u.start;
   v.elements.resize(u.start.back());
   for (size_t k = 0; k <= h; ++k) download(s, v.elements.data() + u.start[k], levels[k].words.data(), levels[k].count);
+  lap("elements down");
   v.leafWords.resize(size_t(leaves) * W);
   download(s, v.leafWords.data(), u.acc.data(), v.leafWords.size());
+  lap("words down");
   v.labels.elementLabels.resize(u.start.back());
   download(s, v.labels.elementLabels.data(), elementLabels.data(), v.labels.elementLabels.size());
   LabelField& f = v.labels;
@@ -244,6 +280,7 @@ Volume combineOnDevice(Session& s, UnionState& u, std::vector<PartOnDevice>& par
   f.wideLabels.resize(mixed.wideLabels.size());
   download(s, f.wideLabels.data(), mixed.wideLabels.data(), f.wideLabels.size());
   s.clock.mark(kDownload);
+  lap("labels down");
   return v;
 }
 
@@ -267,6 +304,8 @@ Volume buildLabelled(const PreparedMesh& whole, const std::vector<PreparedMesh>&
     u.tree = buildOnDevice(s, s.deviceMesh, true, true, std::move(root));
   }
   s.triangles = DeviceBuffer<LatticeTriangle>();
+  s.sync();
+  const auto parts0 = Clock::now();
   u.start = levelStarts(u.tree.tree);
   const uint32_t leaves = u.tree.tree.leaves.count;
   u.fullRank = DeviceBuffer<uint16_t>(s.memory, u.start.back());
@@ -293,12 +332,15 @@ Volume buildLabelled(const PreparedMesh& whole, const std::vector<PreparedMesh>&
   s.progress(0.0, "combining labels");
   s.sync();
   const auto combine0 = Clock::now();
-  Volume v = combineOnDevice(s, u, onDevice, labelOfRank);
+  std::string laps;
+  unsigned long long voxelCounts[2] = {0, 0}; // surface, inside
+  Volume v = combineOnDevice(s, u, onDevice, labelOfRank, voxelCounts, laps);
   s.sync();
   s.clock.collect(s.ms);
   const auto finish0 = Clock::now();
 
   indexMixedLeaves(v);
+  const auto stats0 = Clock::now();
   v.surfaceOnly = parts[0].surfaceOnly;
   v.closedMesh = true;
   Statistics& st = v.stats;
@@ -308,7 +350,7 @@ Volume buildLabelled(const PreparedMesh& whole, const std::vector<PreparedMesh>&
     st.degenerateTriangles += p.degenerateTriangles;
   }
   v.insideTest = InsideTest::Parity;
-  computeStructureStatistics(v);
+  computeStructureStatistics(v, voxelCounts[0], voxelCounts[1]);
   st.backend = "cuda";
   st.threads = 0;
   st.time.mapping = s.ms[kMapping];
@@ -325,9 +367,11 @@ Volume buildLabelled(const PreparedMesh& whole, const std::vector<PreparedMesh>&
       return std::to_string(int(std::chrono::duration<double, std::milli>(b - a).count()));
     };
     options.log("CUDA labelled build: " + std::to_string(parts.size()) + " parts combined on the device: " +
-                ms(wall0, combine0) + " ms the whole mesh and the parts, " + ms(combine0, finish0) +
-                " ms the combination and the copy back (" + std::to_string(s.copyBackBytes >> 20) + " MiB in " +
-                std::to_string(int(s.copyBackMs)) + " ms), " + ms(finish0, Clock::now()) + " ms the statistics");
+                ms(wall0, combine0) + " ms the whole mesh and the parts (" + ms(wall0, parts0) + " + " +
+                ms(parts0, combine0) + "), " + ms(combine0, finish0) + " ms the combination and the copy back (" +
+                std::to_string(s.copyBackBytes >> 20) + " MiB in " + std::to_string(int(s.copyBackMs)) + " ms), " +
+                ms(finish0, stats0) + " ms the index of mixed leaves, " + ms(stats0, Clock::now()) +
+                " ms the statistics; the combination's steps: " + laps);
   }
   return v;
 }

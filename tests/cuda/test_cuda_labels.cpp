@@ -53,6 +53,11 @@ BuildConfig grid(int n, int r, int l) {
   if (g.palettes != c.palettes || g.paletteIndices != c.paletteIndices || g.wideLabels != c.wideLabels)
     return ::testing::AssertionFailure() << "voxel labels differ (palettes, palette indices or wide labels)";
   if (unpackVoxelLabels(gpu) != unpackVoxelLabels(cpu)) return ::testing::AssertionFailure() << "voxel labels differ";
+  // The device combination counts its voxels on the device; the CPU's come from the host pass.
+  if (gpu.stats.activeVoxels != cpu.stats.activeVoxels || gpu.stats.insideVoxels != cpu.stats.insideVoxels)
+    return ::testing::AssertionFailure() << "voxel counts differ: surface " << gpu.stats.activeVoxels << " vs "
+                                         << cpu.stats.activeVoxels << ", inside " << gpu.stats.insideVoxels << " vs "
+                                         << cpu.stats.insideVoxels;
   return ::testing::AssertionSuccess();
 }
 

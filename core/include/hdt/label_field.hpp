@@ -81,9 +81,9 @@ struct LabelField {
   std::map<Label, std::string> names;                                   // optional names of labels (>= 1)
   // Derived (indexMixedLeaves): per leaf, its place k among the mixed
   // leaves or kNotMixed; per mixed leaf, its block in paletteIndices or in
-  // wideLabels (as palettes[k] says).
-  std::vector<uint32_t> mixedIndex;
-  std::vector<uint32_t> mixedBlock;
+  // wideLabels (as palettes[k] says). Filled in parallel (resize() leaves them unwritten).
+  std::vector<uint32_t, DefaultInitAllocator<uint32_t>> mixedIndex;
+  std::vector<uint32_t, DefaultInitAllocator<uint32_t>> mixedBlock;
 
   bool empty() const { return elementLabels.empty(); }
 };

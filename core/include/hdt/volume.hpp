@@ -69,6 +69,9 @@ struct Volume {
 // Recomputes the structural statistics (elements, leaves, voxel counts,
 // bytes) from a volume's contents; timings and backend are left alone.
 void computeStructureStatistics(Volume& volume);
+// The same with the voxel counts given (surface; inside: leaf voxels and
+// Full elements' voxels), by a driver that counted them on the device.
+void computeStructureStatistics(Volume& volume, uint64_t surfaceVoxels, uint64_t insideVoxels);
 
 // Checks everything a consumer relies on: the grid (N = R 2^h L, finite
 // placement), the level table, the canonical level-order layout of the
