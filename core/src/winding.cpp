@@ -614,6 +614,10 @@ void classifyLeavesByCrossings(const WindingTree& tree, Volume& volume,
 } // namespace
 
 WindingOutcome classifyByWindingNumber(const WindingTree& tree, Volume& volume) {
+  return classifyByWindingNumber(tree, volume, WindingLeafPass());
+}
+
+WindingOutcome classifyByWindingNumber(const WindingTree& tree, Volume& volume, const WindingLeafPass& leafPass) {
   const WindingTreeView t = tree.view();
   const int L = volume.grid.leafSize;
   std::vector<uint8_t> split(volume.elements.size(), 0);
@@ -639,18 +643,30 @@ WindingOutcome classifyByWindingNumber(const WindingTree& tree, Volume& volume) 
     case ElementState::Branch: break;
     }
   });
-  classifyLeavesByCrossings(tree, volume, leafOrigins);
+  std::vector<uint32_t> left;
+  if (leafPass && leafPass(tree, volume, leafOrigins, left)) {
+    tbb::parallel_for(size_t(0), left.size(), [&](size_t i) {
+      const uint32_t leaf = left[i];
+      classifyLeaf(t, volume.leafWords.data() + leafWordOffset(leaf, L), L, leafOrigins[leaf]);
+    });
+  } else {
+    classifyLeavesByCrossings(tree, volume, leafOrigins);
+  }
   WindingOutcome out;
   if (anySplit.load()) out.refinedElements = refineSplitElements(t, volume, split);
   return out;
 }
 
 double applyInsideTest(const PreparedMesh& mesh, Volume& volume) {
+  return applyInsideTest(mesh, volume, WindingLeafPass());
+}
+
+double applyInsideTest(const PreparedMesh& mesh, Volume& volume, const WindingLeafPass& leafPass) {
   volume.insideTest = mesh.surfaceOnly ? InsideTest::Parity : mesh.insideTest;
   if (mesh.surfaceOnly || mesh.insideTest != InsideTest::WindingNumber) return 0;
   const auto t0 = std::chrono::steady_clock::now();
   const WindingTree tree = buildWindingTree(mesh.triangles);
-  volume.stats.windingRefinedElements = classifyByWindingNumber(tree, volume).refinedElements;
+  volume.stats.windingRefinedElements = classifyByWindingNumber(tree, volume, leafPass).refinedElements;
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }
 
