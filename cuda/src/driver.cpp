@@ -6,6 +6,7 @@
 #include "host_copy.hpp"
 #include "pipeline.hpp"
 #include "session.hpp"
+#include "winding_device.hpp"
 
 #include "hdt/cuda_build.hpp"
 #include "hdt/error.hpp"
@@ -78,9 +79,27 @@ Volume build(const PreparedMesh& mesh, const BuildOptions& options, CudaBuildRep
   }
 
   const auto host0 = Clock::now();
-  // The winding number runs on the host over the copied-back volume, with
-  // the same code and tree as the CPU driver (winding_tree.hpp).
-  const double windingMs = keepResult ? applyInsideTest(mesh, v) : 0.0;
+  // The winding number over the copied-back volume, with the same tree and
+  // per-leaf decision as the CPU driver (winding_tree.hpp, winding_leaf.hpp):
+  // the leaves on the device (winding_device.hpp), the uniform elements and
+  // any leaf the device leaves (counts beyond 16 bits) on the host; the
+  // whole pass on the host when the device has no room for it.
+  const WindingLeafPass devicePass = [&](const WindingTree& tree, Volume& vol,
+                                         const std::vector<std::array<int, 3>>& origins,
+                                         std::vector<uint32_t>& left) {
+    WindingDeviceTimes t;
+    const bool ran = decideWindingLeavesOnDevice(tree, vol, origins, left, &t);
+    if (options.log) {
+      options.log(ran ? "CUDA driver: winding leaves on the device (ms): upload " + std::to_string(t.upload) +
+                            ", crossings " + std::to_string(t.crossings) + ", lines " + std::to_string(t.lines) +
+                            ", counts " + std::to_string(t.counts) + ", decide " + std::to_string(t.decide) +
+                            ", download " + std::to_string(t.download) + "; " + std::to_string(left.size()) +
+                            " of " + std::to_string(origins.size()) + " leaves left to the host"
+                      : "CUDA driver: no device memory for the winding leaf pass; it runs on the host");
+    }
+    return ran;
+  };
+  const double windingMs = keepResult ? applyInsideTest(mesh, v, devicePass) : 0.0;
   if (keepResult || !whole || windingMs > 0) computeStructureStatistics(v);
   Statistics& st = v.stats;
   st.triangles = mesh.triangles.size();
