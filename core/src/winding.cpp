@@ -617,7 +617,8 @@ WindingOutcome classifyByWindingNumber(const WindingTree& tree, Volume& volume) 
   return classifyByWindingNumber(tree, volume, WindingLeafPass());
 }
 
-WindingOutcome classifyByWindingNumber(const WindingTree& tree, Volume& volume, const WindingLeafPass& leafPass) {
+WindingOutcome classifyByWindingNumber(const WindingTree& tree, Volume& volume, const WindingLeafPass& leafPass,
+                                       const WindingUniformPass& uniformPass) {
   const WindingTreeView t = tree.view();
   const int L = volume.grid.leafSize;
   std::vector<uint8_t> split(volume.elements.size(), 0);
@@ -625,24 +626,42 @@ WindingOutcome classifyByWindingNumber(const WindingTree& tree, Volume& volume, 
   const int deepest = int(volume.levelStart.size()) - 2;
   const size_t leafCount = volume.leafWords.size() / leafWordCount(L);
   std::vector<std::array<int, 3>> leafOrigins(leafCount);
-  parallelWalkVolume(volume, deepest, [&](const WalkedElement& e) {
-    switch (e.state()) {
-    case ElementState::Boundary:
-      leafOrigins[e.payload()] = e.origin;
-      break;
-    case ElementState::Empty:
-    case ElementState::Full: {
-      const UniformVerdict u = classifyUniform(t, e.origin, e.edge);
-      volume.elements[e.index] = makeElement(u.inside ? ElementState::Full : ElementState::Empty, 0);
-      if (u.split) {
-        split[e.index] = 1;
-        anySplit.store(true, std::memory_order_relaxed);
+  auto setUniform = [&](uint64_t index, const UniformVerdict& u) {
+    volume.elements[index] = makeElement(u.inside ? ElementState::Full : ElementState::Empty, 0);
+    if (u.split) {
+      split[index] = 1;
+      anySplit.store(true, std::memory_order_relaxed);
+    }
+  };
+  bool uniformDone = false;
+  if (uniformPass) { // the elements listed (in walk order) and decided by the pass
+    std::vector<WindingUniformJob> jobs;
+    walkVolume(volume, deepest, [&](const WalkedElement& e) {
+      if (e.state() == ElementState::Boundary) leafOrigins[e.payload()] = e.origin;
+      if (e.state() == ElementState::Empty || e.state() == ElementState::Full)
+        jobs.push_back({e.index, e.origin, e.edge});
+    });
+    std::vector<uint8_t> verdicts;
+    if (uniformPass(tree, jobs, verdicts)) {
+      for (size_t i = 0; i < jobs.size(); ++i)
+        setUniform(jobs[i].index, UniformVerdict{(verdicts[i] & 1) != 0, (verdicts[i] & 2) != 0});
+      uniformDone = true;
+    }
+  }
+  if (!uniformDone) {
+    parallelWalkVolume(volume, deepest, [&](const WalkedElement& e) {
+      switch (e.state()) {
+      case ElementState::Boundary:
+        leafOrigins[e.payload()] = e.origin;
+        break;
+      case ElementState::Empty:
+      case ElementState::Full:
+        setUniform(e.index, classifyUniform(t, e.origin, e.edge));
+        break;
+      case ElementState::Branch: break;
       }
-      break;
-    }
-    case ElementState::Branch: break;
-    }
-  });
+    });
+  }
   std::vector<uint32_t> left;
   if (leafPass && leafPass(tree, volume, leafOrigins, left)) {
     tbb::parallel_for(size_t(0), left.size(), [&](size_t i) {
@@ -661,12 +680,13 @@ double applyInsideTest(const PreparedMesh& mesh, Volume& volume) {
   return applyInsideTest(mesh, volume, WindingLeafPass());
 }
 
-double applyInsideTest(const PreparedMesh& mesh, Volume& volume, const WindingLeafPass& leafPass) {
+double applyInsideTest(const PreparedMesh& mesh, Volume& volume, const WindingLeafPass& leafPass,
+                       const WindingUniformPass& uniformPass) {
   volume.insideTest = mesh.surfaceOnly ? InsideTest::Parity : mesh.insideTest;
   if (mesh.surfaceOnly || mesh.insideTest != InsideTest::WindingNumber) return 0;
   const auto t0 = std::chrono::steady_clock::now();
   const WindingTree tree = buildWindingTree(mesh.triangles);
-  volume.stats.windingRefinedElements = classifyByWindingNumber(tree, volume, leafPass).refinedElements;
+  volume.stats.windingRefinedElements = classifyByWindingNumber(tree, volume, leafPass, uniformPass).refinedElements;
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }
 

@@ -84,22 +84,28 @@ Volume build(const PreparedMesh& mesh, const BuildOptions& options, CudaBuildRep
   // the leaves on the device (winding_device.hpp), the uniform elements and
   // any leaf the device leaves (counts beyond 16 bits) on the host; the
   // whole pass on the host when the device has no room for it.
-  const WindingLeafPass devicePass = [&](const WindingTree& tree, Volume& vol,
-                                         const std::vector<std::array<int, 3>>& origins,
-                                         std::vector<uint32_t>& left) {
+  WindingDevicePass device;
+  double uniformMs = 0;
+  const WindingUniformPass uniformPass = [&](const WindingTree& tree, const std::vector<WindingUniformJob>& jobs,
+                                             std::vector<uint8_t>& verdicts) {
+    return device.uniform(tree, jobs, verdicts, &uniformMs);
+  };
+  const WindingLeafPass leafPass = [&](const WindingTree& tree, Volume& vol,
+                                       const std::vector<std::array<int, 3>>& origins, std::vector<uint32_t>& left) {
     WindingDeviceTimes t;
-    const bool ran = decideWindingLeavesOnDevice(tree, vol, origins, left, &t);
+    const bool ran = device.leaves(tree, vol, origins, left, &t);
     if (options.log) {
-      options.log(ran ? "CUDA driver: winding leaves on the device (ms): upload " + std::to_string(t.upload) +
-                            ", crossings " + std::to_string(t.crossings) + ", lines " + std::to_string(t.lines) +
-                            ", counts " + std::to_string(t.counts) + ", decide " + std::to_string(t.decide) +
-                            ", download " + std::to_string(t.download) + "; " + std::to_string(left.size()) +
-                            " of " + std::to_string(origins.size()) + " leaves left to the host"
+      options.log(ran ? "CUDA driver: winding pass on the device (ms): uniform " + std::to_string(uniformMs) +
+                            ", leaves: upload " + std::to_string(t.upload) + ", crossings " +
+                            std::to_string(t.crossings) + ", lines " + std::to_string(t.lines) + ", counts " +
+                            std::to_string(t.counts) + ", decide " + std::to_string(t.decide) + ", download " +
+                            std::to_string(t.download) + "; " + std::to_string(left.size()) + " of " +
+                            std::to_string(origins.size()) + " leaves left to the host"
                       : "CUDA driver: no device memory for the winding leaf pass; it runs on the host");
     }
     return ran;
   };
-  const double windingMs = keepResult ? applyInsideTest(mesh, v, devicePass) : 0.0;
+  const double windingMs = keepResult ? applyInsideTest(mesh, v, leafPass, uniformPass) : 0.0;
   if (keepResult || !whole || windingMs > 0) computeStructureStatistics(v);
   Statistics& st = v.stats;
   st.triangles = mesh.triangles.size();

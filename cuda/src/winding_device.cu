@@ -12,9 +12,10 @@
 //              the row totals along the line is the count at the row's exit
 //              (between the leaves of a line lie only uniform elements,
 //              which hold no triangle);
-//   counts     one thread per leaf: N at each voxel = exit + suffix of the
+//   counts     one thread per row: N at each voxel = exit + suffix of the
 //              deltas, in place as int16; a leaf whose row hit counts or N do
 //              not fit 16 bits is marked for the host;
+//   uniform    one thread per uniform element: classifyUniform's walk.
 //   decide     kSplit^2 threads per leaf, each windingDecideLeaf's loop
 //              (winding_leaf.hpp) over its block of rows, in place.
 #include "winding_device.hpp"
@@ -187,27 +188,24 @@ __global__ void lineSuffixKernel(const uint32_t* lineStarts, uint32_t lines, uin
 
 // ---- counts and decisions -----------------------------------------------------------
 
+// One thread per (leaf, row); fits[leaf] starts at 1 and any row that does
+// not fit writes 0 (the same value whatever the order).
 __global__ void countsKernel(uint32_t leafCount, int L, const int32_t* exits, const int32_t* rowHits, int16_t* counts,
                              uint8_t* fits) {
-  const uint32_t leaf = blockIdx.x * blockDim.x + threadIdx.x;
-  if (leaf >= leafCount) return;
-  const size_t rows = size_t(L) * size_t(L);
-  const int32_t* exit = exits + leaf * rows;
-  const int32_t* hits = rowHits + leaf * rows;
-  int16_t* c = counts + leaf * rows * size_t(L);
-  bool fit = true;
-  for (size_t r = 0; r < rows && fit; ++r) {
-    fit = hits[r] <= INT16_MAX; // the deltas could not wrap
-    int32_t suffix = 0;
-    for (int x = L - 1; x >= 0 && fit; --x) {
-      int16_t& v = c[r * size_t(L) + size_t(x)];
-      suffix += v;
-      const int32_t n = exit[r] + suffix;
-      fit = n >= INT16_MIN && n <= INT16_MAX;
-      v = int16_t(n);
-    }
+  const uint64_t k = uint64_t(blockIdx.x) * blockDim.x + threadIdx.x;
+  const uint64_t rows = uint64_t(L) * uint64_t(L);
+  if (k >= uint64_t(leafCount) * rows) return; // k = leaf * rows + row
+  bool fit = rowHits[k] <= INT16_MAX; // the deltas could not wrap
+  int16_t* c = counts + k * uint64_t(L);
+  const int32_t exit = exits[k];
+  int32_t suffix = 0;
+  for (int x = L - 1; x >= 0 && fit; --x) {
+    suffix += c[x];
+    const int32_t n = exit + suffix;
+    fit = n >= INT16_MIN && n <= INT16_MAX;
+    c[x] = int16_t(n);
   }
-  fits[leaf] = fit ? 1 : 0;
+  if (!fit) fits[k / rows] = 0;
 }
 
 // The inside plane of every leaf that fits cleared (decideRowsKernel sets it).
@@ -277,6 +275,24 @@ __global__ void decideRowsKernel(WindingTreeView t, const LeafOrigin* origins, u
   const int s = L / kSplit, y0 = int(part % kSplit) * s, z0 = int(part / kSplit) * s;
   decideRows(t, L, origins[leaf].o, WindingRowBox{y0, y0 + s, z0, z0 + s},
              counts + size_t(leaf) * size_t(L) * size_t(L) * size_t(L), words + leafWordOffset(leaf, L));
+}
+
+// classifyUniform (core/src/winding.cpp) for one element: bit 0 inside, bit 1
+// split (voxel centres on both sides of w = 1/2).
+__global__ void uniformKernel(WindingTreeView t, const WindingUniformJob* jobs, uint32_t count, uint8_t* verdicts) {
+  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= count) return;
+  const WindingUniformJob job = jobs[i];
+  VoxelBox box;
+  for (int a = 0; a < 3; ++a) {
+    box.lo[a] = job.origin[a];
+    box.hi[a] = job.origin[a] + job.edge;
+  }
+  bool seen[2] = {false, false};
+  windingDecideBox(
+      t, box, [](const VoxelBox&) { return false; }, [](const VoxelBox&) { return false; },
+      [&](const VoxelBox&, bool inside) { seen[inside] = true; }, [&] { return seen[0] && seen[1]; });
+  verdicts[i] = (seen[0] && seen[1]) ? 2 : seen[1] ? 1 : 0;
 }
 
 void checkLaunch(const char* name) {
@@ -359,7 +375,8 @@ void computeCounts(const WindingTreeView& t, const std::vector<std::array<int, 3
     ev.mark(3);
     HDT_CUDA_CHECK(cudaDeviceSynchronize()); // before the temporaries go
   }
-  countsKernel<<<blocks(leaves), kBlock>>>(leaves, L, d.totals.data(), d.hits.data(), d.counts.data(),
+  HDT_CUDA_CHECK(cudaMemset(d.fits.data(), 1, leaves));
+  countsKernel<<<blocks(uint64_t(leaves) * rows), kBlock>>>(leaves, L, d.totals.data(), d.hits.data(), d.counts.data(),
                                            d.fits.data());
   checkLaunch("countsKernel");
   ev.mark(4);
@@ -367,9 +384,26 @@ void computeCounts(const WindingTreeView& t, const std::vector<std::array<int, 3
 
 } // namespace
 
-bool decideWindingLeavesOnDevice(const WindingTree& tree, Volume& volume,
-                                 const std::vector<std::array<int, 3>>& origins, std::vector<uint32_t>& leftLeaves,
-                                 WindingDeviceTimes* times) {
+struct WindingDevicePass::Impl {
+  const WindingTree* host = nullptr;
+  DeviceTree* tree = nullptr;
+  ~Impl() { delete tree; }
+  const DeviceTree& upload(const WindingTree& t) {
+    if (host != &t) {
+      delete tree;
+      tree = nullptr;
+      tree = new DeviceTree(t);
+      host = &t;
+    }
+    return *tree;
+  }
+};
+
+WindingDevicePass::WindingDevicePass() : impl_(new Impl) {}
+WindingDevicePass::~WindingDevicePass() { delete impl_; }
+
+bool WindingDevicePass::leaves(const WindingTree& tree, Volume& volume, const std::vector<std::array<int, 3>>& origins,
+                               std::vector<uint32_t>& leftLeaves, WindingDeviceTimes* times) {
   leftLeaves.clear();
   const int L = volume.grid.leafSize;
   const uint32_t leaves = uint32_t(origins.size());
@@ -377,7 +411,7 @@ bool decideWindingLeavesOnDevice(const WindingTree& tree, Volume& volume,
   try {
     Events ev;
     ev.mark(0);
-    DeviceTree t(tree);
+    const DeviceTree& t = impl_->upload(tree);
     CountsOnDevice d(leaves, L);
     Array<uint32_t> words(volume.leafWords.size());
     words.upload(volume.leafWords.data());
@@ -404,6 +438,30 @@ bool decideWindingLeavesOnDevice(const WindingTree& tree, Volume& volume,
       times->decide = ev.ms(4, 5);
       times->download = ev.ms(5, 6);
     }
+    return true;
+  } catch (const std::bad_alloc&) {
+    return false;
+  }
+}
+
+bool WindingDevicePass::uniform(const WindingTree& tree, const std::vector<WindingUniformJob>& jobs,
+                                std::vector<uint8_t>& verdicts, double* ms) {
+  verdicts.assign(jobs.size(), 0);
+  if (jobs.empty()) return true;
+  try {
+    Events ev;
+    ev.mark(0);
+    const DeviceTree& t = impl_->upload(tree);
+    Array<WindingUniformJob> d(jobs.size());
+    Array<uint8_t> v(jobs.size());
+    d.upload(jobs.data());
+    constexpr unsigned kUniformBlock = 32;
+    uniformKernel<<<unsigned((jobs.size() + kUniformBlock - 1) / kUniformBlock), kUniformBlock>>>(
+        t.view(), d.data(), uint32_t(jobs.size()), v.data());
+    checkLaunch("uniformKernel");
+    v.download(verdicts.data());
+    ev.mark(1);
+    if (ms) *ms = ev.ms(0, 1);
     return true;
   } catch (const std::bad_alloc&) {
     return false;

@@ -19,14 +19,31 @@ struct WindingDeviceTimes {
   double upload = 0, crossings = 0, lines = 0, counts = 0, decide = 0, download = 0;
 };
 
-// A WindingLeafPass: the tree uploaded once, then per leaf (one thread each)
-// the signed crossings of its rows with the candidate triangles, their
-// suffix sums along each line of leaves, N per voxel, windingDecideLeaf.
-// Leaves whose counts do not fit 16 bits go to leftLeaves. False (nothing
-// written) when the device has no room: the caller runs the host pass.
-bool decideWindingLeavesOnDevice(const WindingTree& tree, Volume& volume,
-                                 const std::vector<std::array<int, 3>>& origins, std::vector<uint32_t>& leftLeaves,
-                                 WindingDeviceTimes* times = nullptr);
+// The device passes of one build; the tree is uploaded once, on first use.
+class WindingDevicePass {
+public:
+  WindingDevicePass();
+  ~WindingDevicePass();
+  WindingDevicePass(const WindingDevicePass&) = delete;
+  WindingDevicePass& operator=(const WindingDevicePass&) = delete;
+
+  // A WindingLeafPass: per leaf (one thread each) the signed crossings of its
+  // rows with the candidate triangles, their suffix sums along each line of
+  // leaves, N per voxel, then windingDecideLeaf's loop. Leaves whose counts do
+  // not fit 16 bits go to leftLeaves. False (nothing written) when the
+  // device has no room: the caller runs the host pass.
+  bool leaves(const WindingTree& tree, Volume& volume, const std::vector<std::array<int, 3>>& origins,
+              std::vector<uint32_t>& leftLeaves, WindingDeviceTimes* times = nullptr);
+
+  // A WindingUniformPass: one thread per element, classifyUniform's
+  // windingDecideBox walk (winding.hpp). ms: the kernel and its copies.
+  bool uniform(const WindingTree& tree, const std::vector<WindingUniformJob>& jobs, std::vector<uint8_t>& verdicts,
+               double* ms = nullptr);
+
+private:
+  struct Impl;
+  Impl* impl_;
+};
 
 // N per voxel of every leaf (leaf-major, x fastest, L^3 each) as the pass
 // computes it, and per leaf whether it fits 16 bits (tests: N must equal

@@ -75,7 +75,19 @@ WindingOutcome classifyByWindingNumber(const WindingTree& tree, Volume& volume);
 using WindingLeafPass = std::function<bool(const WindingTree& tree, Volume& volume,
                                            const std::vector<std::array<int, 3>>& origins,
                                            std::vector<uint32_t>& leftLeaves)>;
-WindingOutcome classifyByWindingNumber(const WindingTree& tree, Volume& volume, const WindingLeafPass& leafPass);
+// A uniform element to decide elsewhere, and the pass that decides a list
+// of them: verdicts[i] = bit 0 inside, bit 1 split (w = 1/2 crosses it),
+// exactly classifyUniform's answer (core/src/winding.cpp). False when it could
+// not run: the host decides them.
+struct WindingUniformJob {
+  uint64_t index; // into Volume::elements
+  std::array<int, 3> origin;
+  int edge;
+};
+using WindingUniformPass = std::function<bool(const WindingTree& tree, const std::vector<WindingUniformJob>& jobs,
+                                              std::vector<uint8_t>& verdicts)>;
+WindingOutcome classifyByWindingNumber(const WindingTree& tree, Volume& volume, const WindingLeafPass& leafPass,
+                                       const WindingUniformPass& uniformPass = WindingUniformPass());
 
 // The drivers' last step of a solid build: when the mesh's test is
 // WindingNumber, builds the tree and classifies the volume by it (the parity
@@ -83,6 +95,7 @@ WindingOutcome classifyByWindingNumber(const WindingTree& tree, Volume& volume, 
 // in volume.insideTest and the refined elements in its statistics. Returns the
 // milliseconds spent (0 under Parity). Call before the statistics are computed.
 double applyInsideTest(const PreparedMesh& mesh, Volume& volume);
-double applyInsideTest(const PreparedMesh& mesh, Volume& volume, const WindingLeafPass& leafPass);
+double applyInsideTest(const PreparedMesh& mesh, Volume& volume, const WindingLeafPass& leafPass,
+                        const WindingUniformPass& uniformPass = WindingUniformPass());
 
 } // namespace hdt
