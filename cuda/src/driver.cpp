@@ -86,8 +86,13 @@ Volume build(const PreparedMesh& mesh, const BuildOptions& options, CudaBuildRep
   // whole pass on the host when the device has no room for it.
   WindingDevicePass device;
   double uniformMs = 0;
+  // Host time around the device passes: tree + walk before, then the rest.
+  const auto windingStart = Clock::now();
+  auto msSince = [](Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); };
+  double beforeDeviceMs = 0;
   const WindingUniformPass uniformPass = [&](const WindingTree& tree, const std::vector<WindingUniformJob>& jobs,
                                              std::vector<uint8_t>& verdicts) {
+    beforeDeviceMs = msSince(windingStart);
     return device.uniform(tree, jobs, verdicts, &uniformMs);
   };
   const WindingLeafPass leafPass = [&](const WindingTree& tree, Volume& vol,
@@ -106,6 +111,10 @@ Volume build(const PreparedMesh& mesh, const BuildOptions& options, CudaBuildRep
     return ran;
   };
   const double windingMs = keepResult ? applyInsideTest(mesh, v, leafPass, uniformPass) : 0.0;
+  if (options.log && windingMs > 0)
+    options.log("CUDA driver: winding pass " + std::to_string(msSince(windingStart)) + " ms, of which host tree + walk " +
+                std::to_string(beforeDeviceMs) + " ms, " + std::to_string(v.stats.windingRefinedElements) +
+                " elements refined on the host");
   if (keepResult || !whole || windingMs > 0) computeStructureStatistics(v);
   Statistics& st = v.stats;
   st.triangles = mesh.triangles.size();
