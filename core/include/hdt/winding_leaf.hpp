@@ -18,9 +18,9 @@
 //
 // A sheet contains the x direction, so it meets an x row of voxel centres in
 // the whole row (behind the edge) or not at all: a leaf is split into boxes
-// of whole rows (yz halves) until each box is sheet free and decided, down to
-// single rows; a row that is still not decided takes each voxel on its own
-// (K at the voxel centre with N, then windingInsideAt). Every verdict is
+// of rows (yz halves) until each box is sheet free, and boxes whose
+// threshold fails are halved along every axis, down to single voxels (K at
+// the voxel centre with N, then windingInsideAt). Every verdict is
 // certified (windingVerdict's margins), so the bits equal the brute-force
 // sum's at every voxel centre whichever way a voxel was decided. Fixed
 // stacks, no allocation, only + - * / and sqrt in a fixed order.
@@ -98,29 +98,44 @@ HDT_HD bool windingSheetsMeetBox(const WindingTreeView& t, const double* lo, con
 // every point p of the box with a crossing count N is inside iff N >= T
 // (w clear of 1/2 by the margins either way). False when p's K range holds a
 // possible tie, K cannot be evaluated at the centre, or an edge meets the box.
-HDT_HD bool windingBoxThreshold(const WindingTreeView& t, const double* lo, const double* hi, int& T) {
+// gradient: on entry a bound on |grad K| valid over the box (INFINITY when
+// none is known: an enclosing box's bound holds for its parts); on return
+// the box's own bound when it was computed (its parts may reuse it). The
+// own bound is computed only where the known one cannot decide.
+HDT_HD bool windingBoxThreshold(const WindingTreeView& t, const double* lo, const double* hi, int& T,
+                                double& gradient) {
   double c[3], reach2 = 0;
   for (int a = 0; a < 3; ++a) {
     c[a] = 0.5 * (lo[a] + hi[a]);
     const double h = 0.5 * (hi[a] - lo[a]);
     reach2 = reach2 + h * h;
   }
+  const double reach = sqrt(reach2) * (1 + 1e-12);
+  if (t.edgeCount == 0) gradient = 0;
+  // A range of 4 pi or more always holds a tie: then the own bound first.
+  bool own = false;
+  if (!(reach * gradient < 2.0 * kWindingPi)) {
+    gradient = windingGradientBound(t, lo, hi);
+    own = true;
+    if (!(reach * gradient < 2.0 * kWindingPi)) return false;
+  }
   double K = 0, error = 0;
   if (!windingStripSum(t, c, K, error)) return false;
-  double spread = 0;
-  if (t.edgeCount > 0) {
-    const double gradient = windingGradientBound(t, lo, hi);
-    spread = sqrt(reach2) * (1 + 1e-12) * gradient;
-    if (!(spread < 2.0 * kWindingPi)) return false; // a range of 4 pi or more always holds a tie
-  }
   const double f = 0.5 - K / (4.0 * kWindingPi); // inside iff N >= f(p)
   if (!(fabs(f) < 16384.0)) return false;
   T = int(ceil(f));
   const double whole = 4.0 * kWindingPi * double(T);
-  const WindingSum atT{whole + K, error + spread + 4.0 * kWindingUlp * (fabs(whole) + fabs(K)), true};
-  const WindingSum below{(whole - 4.0 * kWindingPi) + K, atT.error + 4.0 * kWindingUlp * 4.0 * kWindingPi, true};
-  return windingVerdict(atT, t.triangleCount) == kWindingInside &&
-         windingVerdict(below, t.triangleCount) == kWindingOutside;
+  const double rounding = error + 4.0 * kWindingUlp * (fabs(whole) + fabs(K) + 4.0 * kWindingPi);
+  auto holds = [&](double spread) {
+    const WindingSum atT{whole + K, rounding + spread, true};
+    const WindingSum below{(whole - 4.0 * kWindingPi) + K, rounding + spread, true};
+    return windingVerdict(atT, t.triangleCount) == kWindingInside &&
+           windingVerdict(below, t.triangleCount) == kWindingOutside;
+  };
+  if (holds(reach * gradient)) return true;
+  if (own) return false;
+  gradient = windingGradientBound(t, lo, hi);
+  return holds(reach * gradient);
 }
 
 // One voxel centre p with its crossing count N: K at p, else the point
@@ -136,12 +151,7 @@ HDT_HD bool windingInsideWithCount(const WindingTreeView& t, const double* p, in
   return windingInsideAt(t, p[0], p[1], p[2]);
 }
 
-// Boxes of whole rows of a leaf: [y0, y1) x [z0, z1) (leaf coordinates).
-struct WindingRowBox {
-  int y0, y1, z0, z1;
-};
-
-constexpr int kWindingRowStack = 64; // 3 per level of 2 x 5 halvings, and the root
+constexpr int kWindingLeafStack = 64; // 7 per level of 5 halvings, and the root
 
 // Decides one leaf of edge L (8, 16 or 32) at `origin` (voxels).
 // surfaceWords: the leaf's 2-bit words, read for the surface plane only.
@@ -150,6 +160,14 @@ constexpr int kWindingRowStack = 64; // 3 per level of 2 x 5 halvings, and the r
 // windingRayCrossings gives there. insideWords (may be surfaceWords): the
 // surface plane copied, the inside plane of every non-surface voxel set to
 // its verdict (w >= 1/2 at its centre).
+//
+// Boxes (leaf coordinates) are taken from a stack: one with no non-surface
+// voxel is dropped; one that no sheet meets and whose threshold holds is
+// settled; a single voxel takes windingInsideWithCount; otherwise the box is
+// halved, in y and z only where a sheet meets it and it is wider than one row
+// there (a sheet spans x behind its edge, so halving x rarely frees a part),
+// along every axis longer than one voxel otherwise (the gradient bound's
+// spread shrinks with the box).
 HDT_HD void windingDecideLeaf(const WindingTreeView& t, int L, const int* origin, const uint32_t* surfaceWords,
                               const int16_t* N, uint32_t* insideWords) {
   const uint32_t wordCount = leafWordCount(L);
@@ -157,44 +175,61 @@ HDT_HD void windingDecideLeaf(const WindingTreeView& t, int L, const int* origin
   const uint32_t uL = uint32_t(L);
   auto isSurface = [&](uint32_t v) { return ((insideWords[v / kVoxelsPerWord] >> (2 * (v % kVoxelsPerWord) + 1)) & 1u) != 0; };
   auto setInside = [&](uint32_t v) { insideWords[v / kVoxelsPerWord] |= 1u << (2 * (v % kVoxelsPerWord)); };
-  WindingRowBox stack[kWindingRowStack];
+  auto index = [&](int x, int y, int z) { return uint32_t(x) + uL * (uint32_t(y) + uL * uint32_t(z)); };
+  VoxelBox stack[kWindingLeafStack];
+  double known[kWindingLeafStack]; // a gradient bound over each box (its parent's)
   int top = 0;
-  stack[top++] = WindingRowBox{0, L, 0, L};
+  known[top] = INFINITY;
+  stack[top++] = VoxelBox{{0, 0, 0}, {L, L, L}};
   while (top > 0) {
-    const WindingRowBox b = stack[--top];
+    --top;
+    const VoxelBox b = stack[top];
+    double gradient = known[top];
     bool open = false; // a non-surface voxel to decide
-    for (int z = b.z0; z < b.z1 && !open; ++z)
-      for (int y = b.y0; y < b.y1 && !open; ++y)
-        for (uint32_t x = 0; x < uL && !open; ++x) open = !isSurface(x + uL * (uint32_t(y) + uL * uint32_t(z)));
+    for (int z = b.lo[2]; z < b.hi[2] && !open; ++z)
+      for (int y = b.lo[1]; y < b.hi[1] && !open; ++y)
+        for (int x = b.lo[0]; x < b.hi[0] && !open; ++x) open = !isSurface(index(x, y, z));
     if (!open) continue;
-    const double lo[3] = {origin[0] + 0.5, origin[1] + b.y0 + 0.5, origin[2] + b.z0 + 0.5};
-    const double hi[3] = {origin[0] + L - 0.5, origin[1] + b.y1 - 0.5, origin[2] + b.z1 - 0.5};
+    double lo[3], hi[3];
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = origin[a] + b.lo[a] + 0.5;
+      hi[a] = origin[a] + b.hi[a] - 0.5;
+    }
+    if (b.single()) {
+      const uint32_t v = index(b.lo[0], b.lo[1], b.lo[2]);
+      if (windingInsideWithCount(t, lo, int(N[v]))) setInside(v);
+      continue;
+    }
+    const bool sheet = windingSheetsMeetBox(t, lo, hi);
     int T = 0;
-    if (!windingSheetsMeetBox(t, lo, hi) && windingBoxThreshold(t, lo, hi, T)) {
-      for (int z = b.z0; z < b.z1; ++z)
-        for (int y = b.y0; y < b.y1; ++y)
-          for (uint32_t x = 0; x < uL; ++x) {
-            const uint32_t v = x + uL * (uint32_t(y) + uL * uint32_t(z));
+    if (!sheet && windingBoxThreshold(t, lo, hi, T, gradient)) {
+      for (int z = b.lo[2]; z < b.hi[2]; ++z)
+        for (int y = b.lo[1]; y < b.hi[1]; ++y)
+          for (int x = b.lo[0]; x < b.hi[0]; ++x) {
+            const uint32_t v = index(x, y, z);
             if (!isSurface(v) && int(N[v]) >= T) setInside(v);
           }
       continue;
     }
-    const int ny = b.y1 - b.y0, nz = b.z1 - b.z0;
-    if (ny == 1 && nz == 1) { // one row: voxel by voxel
-      for (uint32_t x = 0; x < uL; ++x) {
-        const uint32_t v = x + uL * (uint32_t(b.y0) + uL * uint32_t(b.z0));
-        if (isSurface(v)) continue;
-        const double p[3] = {origin[0] + double(x) + 0.5, lo[1], lo[2]};
-        if (windingInsideWithCount(t, p, int(N[v]))) setInside(v);
+    bool halve[3] = {b.size(0) > 1, b.size(1) > 1, b.size(2) > 1};
+    if (sheet && (halve[1] || halve[2])) halve[0] = false;
+    for (int k = 7; k >= 0; --k) { // child 0 (low x, y, z) is taken first
+      VoxelBox s = b;
+      bool exists = true;
+      for (int a = 0; a < 3; ++a) {
+        const int mid = b.lo[a] + b.size(a) / 2;
+        if ((k >> a) & 1) {
+          if (!halve[a]) exists = false;
+          s.lo[a] = mid;
+        } else if (halve[a]) {
+          s.hi[a] = mid;
+        }
       }
-      continue;
+      if (exists) {
+        known[top] = sheet ? INFINITY : gradient;
+        stack[top++] = s;
+      }
     }
-    const int my = ny > 1 ? b.y0 + ny / 2 : b.y1, mz = nz > 1 ? b.z0 + nz / 2 : b.z1;
-    // Pushed so that the low-y, low-z quarter is taken first.
-    if (nz > 1 && ny > 1) stack[top++] = WindingRowBox{my, b.y1, mz, b.z1};
-    if (nz > 1) stack[top++] = WindingRowBox{b.y0, my, mz, b.z1};
-    if (ny > 1) stack[top++] = WindingRowBox{my, b.y1, b.z0, mz};
-    stack[top++] = WindingRowBox{b.y0, my, b.z0, mz};
   }
 }
 

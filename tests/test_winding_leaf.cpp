@@ -1,0 +1,173 @@
+// windingDecideLeaf (core/include/hdt/winding_leaf.hpp) on its own: every
+// leaf of a parity build (for its surface plane) decided again from crossing
+// counts taken one voxel at a time (windingRayCrossings, independent of the
+// CPU driver's line sums), every non-surface voxel against the brute-force
+// winding number. Shapes whose open rims and strip sheets run through leaves,
+// a flat sheet (w close to 1/2 beside it), nested outward shells (N = 2) and
+// an inverted inner shell; the shared open meshes when present.
+#include "hdt/builder.hpp"
+#include "hdt/mesh_io.hpp"
+#include "hdt/volume_walk.hpp"
+#include "hdt/winding_leaf.hpp"
+#include "hdt/winding_tree.hpp"
+#include "support/mesh_files.hpp"
+#include "support/shapes.hpp"
+#include "support/winding_reference.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+#include <vector>
+
+namespace hdt {
+namespace test {
+namespace {
+
+struct LeafCheck {
+  uint64_t leaves = 0, judged = 0, wrong = 0, ties = 0, inside = 0, outside = 0;
+};
+
+// Builds with Parity (the surface plane is the same under either test), then
+// decides every leaf by windingDecideLeaf with per-voxel ray counts. Judges
+// the voxels whose x + y + z is a multiple of `stride` (large meshes).
+LeafCheck checkLeaves(const TriangleMesh& mesh, int n, int leafSize, int stride = 1) {
+  BuildConfig c;
+  c.resolution = n;
+  c.rootGrid = 4;
+  c.leafSize = leafSize;
+  c.insideTest = InsideTest::Parity;
+  const PreparedMesh m = prepareMesh(mesh, c);
+  BuildOptions o;
+  o.backend = Backend::Cpu;
+  const Volume v = buildCpu(m, o);
+  const WindingTree tree = buildWindingTree(m.triangles);
+  const WindingTreeView t = tree.view();
+  const int L = v.grid.leafSize;
+  LeafCheck out;
+  std::vector<int16_t> counts(size_t(L) * L * L);
+  std::vector<uint32_t> words(leafWordCount(L));
+  walkVolume(v, int(v.levelStart.size()) - 2, [&](const WalkedElement& e) {
+    if (e.state() != ElementState::Boundary) return true;
+    ++out.leaves;
+    const uint32_t* surface = v.leafWords.data() + leafWordOffset(e.payload(), L);
+    const LeafView view{surface, L};
+    for (int z = 0; z < L; ++z)
+      for (int y = 0; y < L; ++y)
+        for (int x = 0; x < L; ++x) {
+          const int64_t P[3] = {latticeOfVoxelCentre(e.origin[0] + x), latticeOfVoxelCentre(e.origin[1] + y),
+                                latticeOfVoxelCentre(e.origin[2] + z)};
+          int N = 0;
+          if (view.voxel(x, y, z) != VoxelState::Surface) EXPECT_TRUE(windingRayCrossings(t, P, N));
+          counts[size_t(x + L * (y + L * z))] = int16_t(N);
+        }
+    windingDecideLeaf(t, L, e.origin.data(), surface, counts.data(), words.data());
+    const LeafView decided{words.data(), L};
+    for (int z = 0; z < L; ++z)
+      for (int y = 0; y < L; ++y)
+        for (int x = 0; x < L; ++x) {
+          const VoxelState s = decided.voxel(x, y, z);
+          EXPECT_EQ(s == VoxelState::Surface, view.voxel(x, y, z) == VoxelState::Surface);
+          if (s == VoxelState::Surface || (e.origin[0] + x + e.origin[1] + y + e.origin[2] + z) % stride != 0) continue;
+          const double w = referenceWinding(m, e.origin[0] + x, e.origin[1] + y, e.origin[2] + z);
+          if (std::fabs(w - 0.5) < 1e-9) {
+            ++out.ties;
+            continue;
+          }
+          ++out.judged;
+          const bool inside = s == VoxelState::Inside;
+          out.inside += inside;
+          out.outside += !inside;
+          if (inside != (w >= 0.5)) {
+            if (out.wrong++ < 5)
+              ADD_FAILURE() << "voxel (" << e.origin[0] + x << "," << e.origin[1] + y << "," << e.origin[2] + z
+                            << "): decided " << (inside ? "inside" : "outside") << ", w = " << w;
+          }
+        }
+    return true;
+  });
+  return out;
+}
+
+void expectAllMatch(const LeafCheck& c, const char* what) {
+  EXPECT_EQ(c.wrong, 0u) << what;
+  EXPECT_GT(c.leaves, 0u) << what;
+  EXPECT_GT(c.inside, 0u) << what;
+  EXPECT_LT(c.ties, 64u) << what;
+}
+
+TriangleMesh flatSquare() {
+  TriangleMesh m;
+  m.points = {-0.7, -0.6, 0.05, 0.8, -0.5, -0.1, 0.7, 0.7, 0.1, -0.6, 0.6, 0.0};
+  m.triangles = {0, 1, 2, 0, 2, 3};
+  return m;
+}
+
+class WindingLeafShape : public ::testing::TestWithParam<int> {};
+
+// The generated shapes of the winding suites (open rims through leaves,
+// overlaps, an inward inner shell, doubled and flipped faces), leaves of 8 at
+// 64^3.
+TEST_P(WindingLeafShape, EveryLeafVoxelMatchesBruteForce) {
+  const WindingShape s = windingShapes()[size_t(GetParam())];
+  expectAllMatch(checkLeaves(s.mesh, 64, 8), s.name.c_str());
+}
+
+INSTANTIATE_TEST_SUITE_P(Shapes, WindingLeafShape, ::testing::Range(0, int(windingShapes().size())),
+                         [](const ::testing::TestParamInfo<int>& i) { return windingShapes()[size_t(i.param)].name; });
+
+// Leaves of 16 at 128^3 on the open cube: larger boxes, so the threshold and
+// the halving both run across the hole's w = 1/2 sheet.
+TEST(WindingLeaf, OpenCubeLeavesOf16At128) {
+  const LeafCheck c = checkLeaves(windingShapes()[0].mesh, 128, 16);
+  expectAllMatch(c, "open cube");
+  EXPECT_GT(c.outside, 0u);
+}
+
+// A single flat sheet: every voxel beside it has w within a few hundredths
+// of 1/2 (the certified margins and the single-voxel fallbacks carry it), and
+// its four rims' strip sheets cross many leaves.
+TEST(WindingLeaf, FlatSheet) {
+  const LeafCheck c = checkLeaves(flatSquare(), 64, 8);
+  EXPECT_EQ(c.wrong, 0u);
+  EXPECT_GT(c.inside, 100u); // the side the normal points away from
+  EXPECT_GT(c.outside, 100u);
+  EXPECT_GT(c.judged, 1000u);
+  EXPECT_LT(c.ties, 64u);
+}
+
+// Two nested outward shells: w = 2 inside the inner one (N = 2 there, the
+// threshold still 1), 1 between; with the inner one inward, a cavity (w = 0).
+TEST(WindingLeaf, NestedShellsBothWays) {
+  TriangleMesh outward = icosphere(2, 1.0);
+  append(outward, icosphere(2, 0.5, {0.05, 0.02, 0}));
+  expectAllMatch(checkLeaves(outward, 64, 8), "nested outward");
+  TriangleMesh cavity = icosphere(2, 1.0);
+  TriangleMesh inner = icosphere(2, 0.5, {0.05, 0.02, 0});
+  flipOrientation(inner);
+  append(cavity, inner);
+  expectAllMatch(checkLeaves(cavity, 64, 8), "inner inward");
+  // An open outer shell around a closed inner one: rims beside an N = 2 region.
+  TriangleMesh open = windingShapes()[1].mesh; // the sphere with a cut cap
+  append(open, icosphere(2, 0.4, {0.0, 0.0, 0.3}));
+  expectAllMatch(checkLeaves(open, 64, 8), "open outer, closed inner");
+}
+
+class WindingLeafSharedMesh : public ::testing::TestWithParam<const char*> {};
+
+TEST_P(WindingLeafSharedMesh, EveryLeafVoxelMatchesBruteForce) {
+  std::string why;
+  const std::string path = sharedMeshPath(GetParam(), &why);
+  if (path.empty()) GTEST_SKIP() << why;
+  const bool large = std::string(GetParam()) == "ogre.obj"; // 10x the teapot's triangles
+  expectAllMatch(checkLeaves(readMesh(path), 64, 8, large ? 17 : 1), GetParam());
+}
+
+INSTANTIATE_TEST_SUITE_P(Files, WindingLeafSharedMesh, ::testing::Values("teapot.obj", "ogre.obj"),
+                         [](const ::testing::TestParamInfo<const char*>& i) {
+                           return std::string(i.param).substr(0, std::string(i.param).find('.'));
+                         });
+
+} // namespace
+} // namespace test
+} // namespace hdt
