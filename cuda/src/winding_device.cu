@@ -222,48 +222,66 @@ __global__ void clearInsideKernel(uint64_t wordCount, int L, const uint8_t* fits
 // with atomicOr: neighbouring rows share words.
 constexpr int kSplit = 4; // row blocks per leaf edge
 
-__device__ void decideRows(const WindingTreeView& t, int L, const int* origin, WindingRowBox start,
+__device__ void decideRows(const WindingTreeView& t, int L, const int* origin, const VoxelBox& start,
                            const int16_t* N, uint32_t* words) {
   const uint32_t uL = uint32_t(L);
   auto isSurface = [&](uint32_t v) { return ((words[v / kVoxelsPerWord] >> (2 * (v % kVoxelsPerWord) + 1)) & 1u) != 0; };
   auto setInside = [&](uint32_t v) { atomicOr(&words[v / kVoxelsPerWord], 1u << (2 * (v % kVoxelsPerWord))); };
-  WindingRowBox stack[kWindingRowStack];
+  auto index = [&](int x, int y, int z) { return uint32_t(x) + uL * (uint32_t(y) + uL * uint32_t(z)); };
+  VoxelBox stack[kWindingLeafStack];
+  double known[kWindingLeafStack]; // a gradient bound over each box (its parent's)
   int top = 0;
+  known[top] = INFINITY;
   stack[top++] = start;
   while (top > 0) {
-    const WindingRowBox b = stack[--top];
+    --top;
+    const VoxelBox b = stack[top];
+    double gradient = known[top];
     bool open = false; // a non-surface voxel to decide
-    for (int z = b.z0; z < b.z1 && !open; ++z)
-      for (int y = b.y0; y < b.y1 && !open; ++y)
-        for (uint32_t x = 0; x < uL && !open; ++x) open = !isSurface(x + uL * (uint32_t(y) + uL * uint32_t(z)));
+    for (int z = b.lo[2]; z < b.hi[2] && !open; ++z)
+      for (int y = b.lo[1]; y < b.hi[1] && !open; ++y)
+        for (int x = b.lo[0]; x < b.hi[0] && !open; ++x) open = !isSurface(index(x, y, z));
     if (!open) continue;
-    const double lo[3] = {origin[0] + 0.5, origin[1] + b.y0 + 0.5, origin[2] + b.z0 + 0.5};
-    const double hi[3] = {origin[0] + L - 0.5, origin[1] + b.y1 - 0.5, origin[2] + b.z1 - 0.5};
+    double lo[3], hi[3];
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = origin[a] + b.lo[a] + 0.5;
+      hi[a] = origin[a] + b.hi[a] - 0.5;
+    }
+    if (b.single()) {
+      const uint32_t v = index(b.lo[0], b.lo[1], b.lo[2]);
+      if (windingInsideWithCount(t, lo, int(N[v]))) setInside(v);
+      continue;
+    }
+    const bool sheet = windingSheetsMeetBox(t, lo, hi);
     int T = 0;
-    if (!windingSheetsMeetBox(t, lo, hi) && windingBoxThreshold(t, lo, hi, T)) {
-      for (int z = b.z0; z < b.z1; ++z)
-        for (int y = b.y0; y < b.y1; ++y)
-          for (uint32_t x = 0; x < uL; ++x) {
-            const uint32_t v = x + uL * (uint32_t(y) + uL * uint32_t(z));
+    if (!sheet && windingBoxThreshold(t, lo, hi, T, gradient)) {
+      for (int z = b.lo[2]; z < b.hi[2]; ++z)
+        for (int y = b.lo[1]; y < b.hi[1]; ++y)
+          for (int x = b.lo[0]; x < b.hi[0]; ++x) {
+            const uint32_t v = index(x, y, z);
             if (!isSurface(v) && int(N[v]) >= T) setInside(v);
           }
       continue;
     }
-    const int ny = b.y1 - b.y0, nz = b.z1 - b.z0;
-    if (ny == 1 && nz == 1) { // one row: voxel by voxel
-      for (uint32_t x = 0; x < uL; ++x) {
-        const uint32_t v = x + uL * (uint32_t(b.y0) + uL * uint32_t(b.z0));
-        if (isSurface(v)) continue;
-        const double p[3] = {origin[0] + double(x) + 0.5, lo[1], lo[2]};
-        if (windingInsideWithCount(t, p, int(N[v]))) setInside(v);
+    bool halve[3] = {b.size(0) > 1, b.size(1) > 1, b.size(2) > 1};
+    if (sheet && (halve[1] || halve[2])) halve[0] = false;
+    for (int k = 7; k >= 0; --k) {
+      VoxelBox c = b;
+      bool exists = true;
+      for (int a = 0; a < 3; ++a) {
+        const int mid = b.lo[a] + b.size(a) / 2;
+        if ((k >> a) & 1) {
+          if (!halve[a]) exists = false;
+          c.lo[a] = mid;
+        } else if (halve[a]) {
+          c.hi[a] = mid;
+        }
       }
-      continue;
+      if (exists) {
+        known[top] = sheet ? INFINITY : gradient;
+        stack[top++] = c;
+      }
     }
-    const int my = ny > 1 ? b.y0 + ny / 2 : b.y1, mz = nz > 1 ? b.z0 + nz / 2 : b.z1;
-    if (nz > 1 && ny > 1) stack[top++] = WindingRowBox{my, b.y1, mz, b.z1};
-    if (nz > 1) stack[top++] = WindingRowBox{b.y0, my, mz, b.z1};
-    if (ny > 1) stack[top++] = WindingRowBox{my, b.y1, b.z0, mz};
-    stack[top++] = WindingRowBox{b.y0, my, b.z0, mz};
   }
 }
 
@@ -273,7 +291,7 @@ __global__ void decideRowsKernel(WindingTreeView t, const LeafOrigin* origins, u
   const uint32_t leaf = uint32_t(k / (kSplit * kSplit)), part = uint32_t(k % (kSplit * kSplit));
   if (leaf >= leafCount || !fits[leaf]) return;
   const int s = L / kSplit, y0 = int(part % kSplit) * s, z0 = int(part / kSplit) * s;
-  decideRows(t, L, origins[leaf].o, WindingRowBox{y0, y0 + s, z0, z0 + s},
+  decideRows(t, L, origins[leaf].o, VoxelBox{{0, y0, z0}, {L, y0 + s, z0 + s}},
              counts + size_t(leaf) * size_t(L) * size_t(L) * size_t(L), words + leafWordOffset(leaf, L));
 }
 
