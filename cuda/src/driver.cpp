@@ -89,16 +89,21 @@ Volume build(const PreparedMesh& mesh, const BuildOptions& options, CudaBuildRep
   // Host time around the device passes: tree + walk before, then the rest.
   const auto windingStart = Clock::now();
   auto msSince = [](Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); };
-  double beforeDeviceMs = 0;
+  double beforeDeviceMs = 0, uniformWallMs = 0, leavesWallMs = 0;
   const WindingUniformPass uniformPass = [&](const WindingTree& tree, const std::vector<WindingUniformJob>& jobs,
                                              std::vector<uint8_t>& verdicts) {
     beforeDeviceMs = msSince(windingStart);
-    return device.uniform(tree, jobs, verdicts, &uniformMs);
+    const auto t0 = Clock::now();
+    const bool ran = device.uniform(tree, jobs, verdicts, &uniformMs);
+    uniformWallMs = msSince(t0);
+    return ran;
   };
   const WindingLeafPass leafPass = [&](const WindingTree& tree, Volume& vol,
                                        const std::vector<std::array<int, 3>>& origins, std::vector<uint32_t>& left) {
     WindingDeviceTimes t;
+    const auto t0 = Clock::now();
     const bool ran = device.leaves(tree, vol, origins, left, &t);
+    leavesWallMs = msSince(t0);
     if (options.log) {
       options.log(ran ? "CUDA driver: winding pass on the device (ms): uniform " + std::to_string(uniformMs) +
                             ", leaves: upload " + std::to_string(t.upload) + ", crossings " +
@@ -113,8 +118,9 @@ Volume build(const PreparedMesh& mesh, const BuildOptions& options, CudaBuildRep
   const double windingMs = keepResult ? applyInsideTest(mesh, v, leafPass, uniformPass) : 0.0;
   if (options.log && windingMs > 0)
     options.log("CUDA driver: winding pass " + std::to_string(msSince(windingStart)) + " ms, of which host tree + walk " +
-                std::to_string(beforeDeviceMs) + " ms, " + std::to_string(v.stats.windingRefinedElements) +
-                " elements refined on the host");
+                std::to_string(beforeDeviceMs) + " ms, uniform pass " + std::to_string(uniformWallMs) +
+                " ms, leaf pass " + std::to_string(leavesWallMs) + " ms (wall, allocations included), " +
+                std::to_string(v.stats.windingRefinedElements) + " elements refined on the host");
   if (keepResult || !whole || windingMs > 0) computeStructureStatistics(v);
   Statistics& st = v.stats;
   st.triangles = mesh.triangles.size();
