@@ -89,13 +89,26 @@ Volume build(const PreparedMesh& mesh, const BuildOptions& options, CudaBuildRep
   // Host time around the device passes: tree + walk before, then the rest.
   const auto windingStart = Clock::now();
   auto msSince = [](Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); };
-  double beforeDeviceMs = 0, uniformWallMs = 0, leavesWallMs = 0;
+  double beforeDeviceMs = -1, uniformWallMs = 0, leavesWallMs = 0, freshMs = 0, freshWallMs = 0;
+  uint64_t freshLeaves = 0;
+  // Called for the volume's elements, then for each level of refinement.
   const WindingUniformPass uniformPass = [&](const WindingTree& tree, const std::vector<WindingUniformJob>& jobs,
                                              std::vector<uint8_t>& verdicts) {
-    beforeDeviceMs = msSince(windingStart);
+    if (beforeDeviceMs < 0) beforeDeviceMs = msSince(windingStart);
     const auto t0 = Clock::now();
-    const bool ran = device.uniform(tree, jobs, verdicts, &uniformMs);
-    uniformWallMs = msSince(t0);
+    double ms = 0;
+    const bool ran = device.uniform(tree, jobs, verdicts, &ms);
+    uniformMs += ms;
+    uniformWallMs += msSince(t0);
+    return ran;
+  };
+  const WindingFreshLeafPass freshPass = [&](const WindingTree& tree, int L,
+                                             const std::vector<std::array<int, 3>>& origins, uint32_t* words,
+                                             std::vector<uint32_t>& left) {
+    const auto t0 = Clock::now();
+    const bool ran = device.fresh(tree, L, origins, words, left, &freshMs);
+    freshWallMs = msSince(t0);
+    freshLeaves = origins.size() - left.size();
     return ran;
   };
   const WindingLeafPass leafPass = [&](const WindingTree& tree, Volume& vol,
@@ -115,12 +128,14 @@ Volume build(const PreparedMesh& mesh, const BuildOptions& options, CudaBuildRep
     }
     return ran;
   };
-  const double windingMs = keepResult ? applyInsideTest(mesh, v, leafPass, uniformPass) : 0.0;
+  const double windingMs = keepResult ? applyInsideTest(mesh, v, leafPass, uniformPass, freshPass) : 0.0;
   if (options.log && windingMs > 0)
     options.log("CUDA driver: winding pass " + std::to_string(msSince(windingStart)) + " ms, of which host tree + walk " +
-                std::to_string(beforeDeviceMs) + " ms, uniform pass " + std::to_string(uniformWallMs) +
-                " ms, leaf pass " + std::to_string(leavesWallMs) + " ms (wall, allocations included), " +
-                std::to_string(v.stats.windingRefinedElements) + " elements refined on the host");
+                std::to_string(beforeDeviceMs) + " ms, uniform passes " + std::to_string(uniformWallMs) +
+                " ms, leaf pass " + std::to_string(leavesWallMs) + " ms, fresh leaves " + std::to_string(freshWallMs) +
+                " ms (wall, allocations included; fresh kernels " + std::to_string(freshMs) + " ms, " +
+                std::to_string(freshLeaves) + " leaves); " + std::to_string(v.stats.windingRefinedElements) +
+                " elements refined");
   if (keepResult || !whole || windingMs > 0) computeStructureStatistics(v);
   Statistics& st = v.stats;
   st.triangles = mesh.triangles.size();

@@ -15,7 +15,10 @@
 //   counts     one thread per row: N at each voxel = exit + suffix of the
 //              deltas, in place as int16; a leaf whose row hit counts or N do
 //              not fit 16 bits is marked for the host;
-//   uniform    one thread per uniform element: classifyUniform's walk.
+//   uniform    one thread per uniform element: classifyUniform's walk
+//              (also the children of split elements);
+//   fresh      the leaves refinement creates: N by one ray walk per voxel,
+//              then the same decision.
 //   decide     kSplit^2 threads per leaf, each windingDecideLeaf's loop
 //              (winding_leaf.hpp) over its block of rows, in place.
 #include "winding_device.hpp"
@@ -313,6 +316,26 @@ __global__ void uniformKernel(WindingTreeView t, const WindingUniformJob* jobs, 
   verdicts[i] = (seen[0] && seen[1]) ? 2 : seen[1] ? 1 : 0;
 }
 
+// N at every voxel centre of a leaf without surface voxels (refinement's
+// fresh leaves): one ray walk per voxel.
+__global__ void freshCountsKernel(WindingTreeView t, const LeafOrigin* origins, uint32_t leafCount, int L,
+                                  int16_t* counts, uint8_t* fits) {
+  const uint64_t k = uint64_t(blockIdx.x) * blockDim.x + threadIdx.x;
+  const uint64_t n = uint64_t(L) * uint64_t(L) * uint64_t(L);
+  if (k >= uint64_t(leafCount) * n) return; // k = leaf * L^3 + voxel
+  const uint32_t leaf = uint32_t(k / n), v = uint32_t(k % n);
+  const LeafOrigin o = origins[leaf];
+  const double p[3] = {o.o[0] + double(v % uint32_t(L)) + 0.5, o.o[1] + double((v / uint32_t(L)) % uint32_t(L)) + 0.5,
+                       o.o[2] + double(v / uint32_t(L * L)) + 0.5};
+  int64_t P[3];
+  int count = 0;
+  if (!windingLatticePoint(p, P) || !windingRayCrossings(t, P, count) || count < INT16_MIN || count > INT16_MAX) {
+    fits[leaf] = 0;
+    return;
+  }
+  counts[k] = int16_t(count);
+}
+
 void checkLaunch(const char* name) {
   HDT_CUDA_CHECK_LAUNCH(name);
 }
@@ -479,6 +502,46 @@ bool WindingDevicePass::uniform(const WindingTree& tree, const std::vector<Windi
     checkLaunch("uniformKernel");
     v.download(verdicts.data());
     ev.mark(1);
+    if (ms) *ms = ev.ms(0, 1);
+    return true;
+  } catch (const std::bad_alloc&) {
+    return false;
+  }
+}
+
+bool WindingDevicePass::fresh(const WindingTree& tree, int L, const std::vector<std::array<int, 3>>& origins,
+                              uint32_t* words, std::vector<uint32_t>& leftLeaves, double* ms) {
+  leftLeaves.clear();
+  const uint32_t leaves = uint32_t(origins.size());
+  if (leaves == 0) return true;
+  try {
+    Events ev;
+    ev.mark(0);
+    const DeviceTree& t = impl_->upload(tree);
+    const uint64_t n = uint64_t(L) * uint64_t(L) * uint64_t(L);
+    Array<LeafOrigin> o(leaves);
+    Array<int16_t> counts(leaves * n);
+    Array<uint8_t> fits(leaves);
+    Array<uint32_t> w(uint64_t(leaves) * leafWordCount(L));
+    std::vector<LeafOrigin> host(leaves);
+    for (size_t i = 0; i < leaves; ++i) host[i] = {{origins[i][0], origins[i][1], origins[i][2]}};
+    o.upload(host.data());
+    w.zero();
+    HDT_CUDA_CHECK(cudaMemset(fits.data(), 1, leaves));
+    freshCountsKernel<<<blocks(uint64_t(leaves) * n), kBlock>>>(t.view(), o.data(), leaves, L, counts.data(),
+                                                                 fits.data());
+    checkLaunch("freshCountsKernel");
+    constexpr unsigned kDecideBlock = 32;
+    const uint64_t parts = uint64_t(leaves) * kSplit * kSplit;
+    decideRowsKernel<<<unsigned((parts + kDecideBlock - 1) / kDecideBlock), kDecideBlock>>>(
+        t.view(), o.data(), leaves, L, counts.data(), fits.data(), w.data());
+    checkLaunch("decideRowsKernel (fresh)");
+    std::vector<uint8_t> hostFits(leaves);
+    fits.download(hostFits.data());
+    w.download(words);
+    ev.mark(1);
+    for (uint32_t i = 0; i < leaves; ++i)
+      if (!hostFits[i]) leftLeaves.push_back(i);
     if (ms) *ms = ev.ms(0, 1);
     return true;
   } catch (const std::bad_alloc&) {

@@ -40,6 +40,12 @@ public:
   bool uniform(const WindingTree& tree, const std::vector<WindingUniformJob>& jobs, std::vector<uint8_t>& verdicts,
                double* ms = nullptr);
 
+  // A WindingFreshLeafPass: the leaves that refinement creates hold no
+  // surface voxel; N at each voxel centre by windingRayCrossings (one thread
+  // per voxel), then the same decision as leaves().
+  bool fresh(const WindingTree& tree, int L, const std::vector<std::array<int, 3>>& origins, uint32_t* words,
+             std::vector<uint32_t>& leftLeaves, double* ms = nullptr);
+
 private:
   struct Impl;
   Impl* impl_;

@@ -116,6 +116,19 @@ TEST_P(CudaWindingShared, SameBytesAsCpu) {
   EXPECT_TRUE(deviceCountsMatch(prepareMesh(m, config(64, 4, 8, InsideTest::Parity)))) << GetParam();
 }
 
+// Refinement on the device (the split elements' children and their fresh
+// leaves, winding_device.cu): teapot at 2048^3 splits elements where w = 1/2
+// spans the lid's opening.
+TEST(CudaWindingRefined, TeapotSameBytesAsCpu) {
+  HDT_REQUIRE_CUDA();
+  const std::string path = sharedMeshesDir() + "/teapot.ply";
+  if (!std::ifstream(path).good()) GTEST_SKIP() << "no " << path;
+  const PreparedMesh mesh = prepareMesh(readMesh(path), config(2048, 8, 16, InsideTest::WindingNumber));
+  const Volume gpu = build(mesh, cudaOptions());
+  EXPECT_GT(gpu.stats.windingRefinedElements, 0u);
+  EXPECT_TRUE(sameVolume(gpu, build(mesh, cpuOptions())));
+}
+
 INSTANTIATE_TEST_SUITE_P(Files, CudaWindingShared,
                          ::testing::Values("teapot", "ogre"),
                          [](const ::testing::TestParamInfo<const char*>& i) {

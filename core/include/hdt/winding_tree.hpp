@@ -86,8 +86,16 @@ struct WindingUniformJob {
 };
 using WindingUniformPass = std::function<bool(const WindingTree& tree, const std::vector<WindingUniformJob>& jobs,
                                               std::vector<uint8_t>& verdicts)>;
+// The leaves that refinement creates (no surface voxel) decided elsewhere:
+// words holds origins.size() leaves of zero words on entry, each decided
+// leaf's inside plane on return; leftLeaves lists those it did not decide
+// (the host then does). False when it could not run.
+using WindingFreshLeafPass = std::function<bool(const WindingTree& tree, int L,
+                                                const std::vector<std::array<int, 3>>& origins, uint32_t* words,
+                                                std::vector<uint32_t>& leftLeaves)>;
 WindingOutcome classifyByWindingNumber(const WindingTree& tree, Volume& volume, const WindingLeafPass& leafPass,
-                                       const WindingUniformPass& uniformPass = WindingUniformPass());
+                                       const WindingUniformPass& uniformPass = WindingUniformPass(),
+                                       const WindingFreshLeafPass& freshPass = WindingFreshLeafPass());
 
 // The drivers' last step of a solid build: when the mesh's test is
 // WindingNumber, builds the tree and classifies the volume by it (the parity
@@ -96,6 +104,7 @@ WindingOutcome classifyByWindingNumber(const WindingTree& tree, Volume& volume, 
 // milliseconds spent (0 under Parity). Call before the statistics are computed.
 double applyInsideTest(const PreparedMesh& mesh, Volume& volume);
 double applyInsideTest(const PreparedMesh& mesh, Volume& volume, const WindingLeafPass& leafPass,
-                        const WindingUniformPass& uniformPass = WindingUniformPass());
+                        const WindingUniformPass& uniformPass = WindingUniformPass(),
+                        const WindingFreshLeafPass& freshPass = WindingFreshLeafPass());
 
 } // namespace hdt
