@@ -153,6 +153,16 @@ TEST(WindingLeaf, NestedShellsBothWays) {
   expectAllMatch(checkLeaves(open, 64, 8), "open outer, closed inner");
 }
 
+// The teapot at 256^3 with leaves of 8: most of its 160 boundary edges lie
+// far from any one leaf, so the leaves along its rims take the near / far
+// split (windingDecideAnchored); every 41st voxel judged.
+TEST(WindingLeaf, TeapotAt256NearAndFarEdges) {
+  std::string why;
+  const std::string path = sharedMeshPath("teapot.obj", &why);
+  if (path.empty()) GTEST_SKIP() << why;
+  expectAllMatch(checkLeaves(readMesh(path), 256, 8, 41), "teapot 256");
+}
+
 class WindingLeafSharedMesh : public ::testing::TestWithParam<const char*> {};
 
 TEST_P(WindingLeafSharedMesh, EveryLeafVoxelMatchesBruteForce) {

@@ -150,11 +150,14 @@ HDT_HD bool windingStripAngle(const WindingEdge& e, const double* p, double& ang
 // two keep it in range, exactly. Returns 0 with K and its error, 1 when a
 // sign is not certain (the caller sums the edges one by one), -1 when p lies
 // in a strip's plane.
-HDT_HD int windingStripProduct(const WindingTreeView& t, const double* p, double& K, double& error) {
+// windingStripProductOf takes the edges edgeAt(0 .. count - 1), in order (a
+// part of the boundary chain); windingStripProduct below takes them all.
+template <class EdgeAt>
+HDT_HD int windingStripProductOf(uint32_t count, EdgeAt&& edgeAt, const double* p, double& K, double& error) {
   double zr = 1, zi = 0, rel = 0;
   int turns = 0;
-  for (uint32_t i = 0; i < t.edgeCount; ++i) {
-    const WindingEdge& e = t.edges[i];
+  for (uint32_t i = 0; i < count; ++i) {
+    const WindingEdge& e = edgeAt(i);
     double det, den, d;
     const int kind = windingStripPair(e, p, det, den, d);
     if (kind < 0) return -1;
@@ -188,6 +191,10 @@ HDT_HD int windingStripProduct(const WindingTreeView& t, const double* p, double
   error = 2.0 * (1.01 * rel + 1e-15 * (1.0 + fabs(angle)) + 1e-15 * double(turns > 0 ? turns : -turns)) +
           4.0 * kWindingUlp * fabs(K);
   return 0;
+}
+
+HDT_HD int windingStripProduct(const WindingTreeView& t, const double* p, double& K, double& error) {
+  return windingStripProductOf(t.edgeCount, [&](uint32_t i) -> const WindingEdge& { return t.edges[i]; }, p, K, error);
 }
 
 // 4 pi w at lattice point P (voxel units * 256) as a bounded sum: ok false

@@ -35,11 +35,14 @@
 
 namespace hdt {
 
-// K at p (voxel units) with its rounding bound: the running product, or edge
-// by edge where the product cannot count its turns; false when p lies in a
-// strip's plane (or on the line of an edge parallel to x).
-HDT_HD bool windingStripSum(const WindingTreeView& t, const double* p, double& K, double& error) {
-  const int product = windingStripProduct(t, p, K, error);
+// K at p (voxel units) from the edges edgeAt(0 .. count - 1) with its
+// rounding bound: the running product, or edge by edge where the product
+// cannot count its turns; false when p lies in one of their strips' planes
+// (or on the line of an edge parallel to x). edgeAt is called with 0, 1, ...
+// in order (once per loop).
+template <class EdgeAt>
+HDT_HD bool windingStripSumOf(uint32_t count, EdgeAt&& edgeAt, const double* p, double& K, double& error) {
+  const int product = windingStripProductOf(count, edgeAt, p, K, error);
   if (product < 0) return false;
   if (product == 0) {
     error = error + 4.0 * kWindingUlp * fabs(K);
@@ -48,8 +51,8 @@ HDT_HD bool windingStripSum(const WindingTreeView& t, const double* p, double& K
   double magnitude = 0;
   K = 0;
   error = 0;
-  for (uint32_t i = 0; i < t.edgeCount; ++i) {
-    const WindingEdge& e = t.edges[i];
+  for (uint32_t i = 0; i < count; ++i) {
+    const WindingEdge& e = edgeAt(i);
     double angle, err;
     if (!windingStripAngle(e, p, angle, err)) return false;
     const double term = e.net * angle;
@@ -57,8 +60,13 @@ HDT_HD bool windingStripSum(const WindingTreeView& t, const double* p, double& K
     magnitude = magnitude + fabs(term);
     error = error + e.weight * err;
   }
-  error = error + double(t.edgeCount + 16) * 2.3e-16 * magnitude;
+  error = error + double(count + 16) * 2.3e-16 * magnitude;
   return true;
+}
+
+// K at p from every boundary edge.
+HDT_HD bool windingStripSum(const WindingTreeView& t, const double* p, double& K, double& error) {
+  return windingStripSumOf(t.edgeCount, [&](uint32_t i) -> const WindingEdge& { return t.edges[i]; }, p, K, error);
 }
 
 // Whether the sheet of edge e can meet the closed box [lo, hi]: its yz
@@ -94,6 +102,22 @@ HDT_HD bool windingSheetsMeetBox(const WindingTreeView& t, const double* lo, con
   return false;
 }
 
+// The threshold from K (at some point) with its rounding `error` and a bound
+// `spread` on how far K moves over the points it stands for: true and T when
+// 4 pi T + K clears 2 pi from above and 4 pi (T - 1) + K from below over the
+// whole range (windingVerdict's margins), so that N >= T decides.
+HDT_HD bool windingThresholdFrom(const WindingTreeView& t, double K, double error, double spread, int& T) {
+  const double f = 0.5 - K / (4.0 * kWindingPi); // inside iff N >= f(p)
+  if (!(fabs(f) < 16384.0) || !(spread < 2.0 * kWindingPi)) return false;
+  T = int(ceil(f));
+  const double whole = 4.0 * kWindingPi * double(T);
+  const double rounding = error + 4.0 * kWindingUlp * (fabs(whole) + fabs(K) + 4.0 * kWindingPi);
+  const WindingSum atT{whole + K, rounding + spread, true};
+  const WindingSum below{(whole - 4.0 * kWindingPi) + K, rounding + spread, true};
+  return windingVerdict(atT, t.triangleCount) == kWindingInside &&
+         windingVerdict(below, t.triangleCount) == kWindingOutside;
+}
+
 // The threshold of a sheet-free box of points [lo, hi]: true and T when
 // every point p of the box with a crossing count N is inside iff N >= T
 // (w clear of 1/2 by the margins either way). False when p's K range holds a
@@ -121,21 +145,10 @@ HDT_HD bool windingBoxThreshold(const WindingTreeView& t, const double* lo, cons
   }
   double K = 0, error = 0;
   if (!windingStripSum(t, c, K, error)) return false;
-  const double f = 0.5 - K / (4.0 * kWindingPi); // inside iff N >= f(p)
-  if (!(fabs(f) < 16384.0)) return false;
-  T = int(ceil(f));
-  const double whole = 4.0 * kWindingPi * double(T);
-  const double rounding = error + 4.0 * kWindingUlp * (fabs(whole) + fabs(K) + 4.0 * kWindingPi);
-  auto holds = [&](double spread) {
-    const WindingSum atT{whole + K, rounding + spread, true};
-    const WindingSum below{(whole - 4.0 * kWindingPi) + K, rounding + spread, true};
-    return windingVerdict(atT, t.triangleCount) == kWindingInside &&
-           windingVerdict(below, t.triangleCount) == kWindingOutside;
-  };
-  if (holds(reach * gradient)) return true;
+  if (windingThresholdFrom(t, K, error, reach * gradient, T)) return true;
   if (own) return false;
   gradient = windingGradientBound(t, lo, hi);
-  return holds(reach * gradient);
+  return windingThresholdFrom(t, K, error, reach * gradient, T);
 }
 
 // One voxel centre p with its crossing count N: K at p, else the point
@@ -153,6 +166,306 @@ HDT_HD bool windingInsideWithCount(const WindingTreeView& t, const double* p, in
 
 constexpr int kWindingLeafStack = 64; // 7 per level of 5 halvings, and the root
 
+// ---- near and far edges of one leaf ------------------------------------------
+//
+// Near an open rim the boxes shrink to about the rim distance, and each box
+// paid K from every boundary edge. Split the edges per leaf: near ones (within
+// kWindingNearReach leaf edges of the leaf's box, or whose sheet meets it) and
+// far ones. No far sheet meets the leaf, so K_far is smooth over it; its
+// gradient is the Biot-Savart field of the far edges plus the side rays (toward
+// -x) at the vertices where the near part of the chain is open (the rays
+// cancel at every other vertex: the whole chain is closed), and the near
+// part's gradient is that of the near edges plus the same rays. A ray's field
+// is at most 2 / d at distance d (as a segment's, with an infinite length).
+// Each box of kWindingAnchorBox^3 voxels evaluates K_far once at its centre;
+// its sub-boxes and voxels evaluate only the near edges.
+constexpr int kWindingNearEdges = 64;
+constexpr int kWindingOpenEnds = 32;
+constexpr double kWindingNearReach = 2.0;
+constexpr int kWindingAnchorBox = 4;
+
+struct WindingLeafSplit {
+  uint32_t near[kWindingNearEdges]; // ascending edge indices
+  int nearCount = 0;
+  double end[kWindingOpenEnds][3]; // the near part's open vertices
+  double endNet[kWindingOpenEnds]; // |net count| there
+  int endCount = 0;
+};
+
+// A lower bound on the distance from the box [lo, hi] to the ray from v
+// toward -x (1e-6 voxels below it for the rounding), <= 0 when they meet.
+HDT_HD double windingRayDistance(const double* v, const double* lo, const double* hi) {
+  const double gx = lo[0] > v[0] ? lo[0] - v[0] : 0.0;
+  const double gy = v[1] < lo[1] ? lo[1] - v[1] : (v[1] > hi[1] ? v[1] - hi[1] : 0.0);
+  const double gz = v[2] < lo[2] ? lo[2] - v[2] : (v[2] > hi[2] ? v[2] - hi[2] : 0.0);
+  return sqrt(gx * gx + gy * gy + gz * gz) - 1e-6;
+}
+
+// The split for the box [lo, hi] (a leaf's voxel centres, edge L voxels);
+// false when there are more near edges or open ends than fit.
+HDT_HD bool windingSplitEdges(const WindingTreeView& t, const double* lo, const double* hi, int L,
+                              WindingLeafSplit& split) {
+  double c[3], rho2 = 0;
+  for (int a = 0; a < 3; ++a) {
+    c[a] = 0.5 * (lo[a] + hi[a]);
+    rho2 = rho2 + 0.25 * (hi[a] - lo[a]) * (hi[a] - lo[a]);
+  }
+  const double rho = sqrt(rho2) * (1 + 1e-12), reach = kWindingNearReach * L;
+  split.nearCount = split.endCount = 0;
+  auto addEnd = [&](const double* v, double net) {
+    for (int k = 0; k < split.endCount; ++k)
+      if (split.end[k][0] == v[0] && split.end[k][1] == v[1] && split.end[k][2] == v[2]) {
+        split.endNet[k] = split.endNet[k] + net;
+        return true;
+      }
+    if (split.endCount == kWindingOpenEnds) return false;
+    for (int a = 0; a < 3; ++a) split.end[split.endCount][a] = v[a];
+    split.endNet[split.endCount++] = net;
+    return true;
+  };
+  for (uint32_t i = 0; i < t.edgeCount; ++i) {
+    const WindingEdge& e = t.edges[i];
+    if (!(windingEdgeDistance(e, lo, hi, c, rho) < reach) && !windingSheetMeetsBox(e, lo, hi)) continue;
+    if (split.nearCount == kWindingNearEdges) return false;
+    split.near[split.nearCount++] = i;
+    if (!addEnd(e.a, -e.net) || !addEnd(e.b, e.net)) return false;
+  }
+  for (int k = 0; k < split.endCount; ++k) split.endNet[k] = fabs(split.endNet[k]);
+  return true;
+}
+
+// The bound on the gradient of K_near (near true) or K_far over the box
+// [lo, hi]: INFINITY when one of the part's edges or an open end's ray meets it.
+HDT_HD double windingPartGradientBound(const WindingTreeView& t, const WindingLeafSplit& split, bool near,
+                                       const double* lo, const double* hi) {
+  double c[3], rho2 = 0;
+  for (int a = 0; a < 3; ++a) {
+    c[a] = 0.5 * (lo[a] + hi[a]);
+    rho2 = rho2 + 0.25 * (hi[a] - lo[a]) * (hi[a] - lo[a]);
+  }
+  const double rho = sqrt(rho2) * (1 + 1e-12);
+  double total = 0;
+  auto add = [&](const WindingEdge& e) {
+    const double d = windingEdgeDistance(e, lo, hi, c, rho);
+    if (!(d > 0)) return false;
+    total = total + windingEdgeBound(e.weight * e.length, e.weight, d);
+    return true;
+  };
+  if (near) {
+    for (int k = 0; k < split.nearCount; ++k)
+      if (!add(t.edges[split.near[k]])) return INFINITY;
+  } else {
+    int k = 0;
+    for (uint32_t i = 0; i < t.edgeCount; ++i) {
+      if (k < split.nearCount && split.near[k] == i) {
+        ++k;
+        continue;
+      }
+      if (!add(t.edges[i])) return INFINITY;
+    }
+  }
+  for (int j = 0; j < split.endCount; ++j) {
+    if (split.endNet[j] == 0) continue;
+    const double d = windingRayDistance(split.end[j], lo, hi);
+    if (!(d > 0)) return INFINITY;
+    total = total + 2.0 * split.endNet[j] / d;
+  }
+  return total;
+}
+
+// K_near (near true) or K_far at p, with its rounding bound.
+HDT_HD bool windingPartStripSum(const WindingTreeView& t, const WindingLeafSplit& split, bool near, const double* p,
+                                double& K, double& error) {
+  if (near) {
+    return windingStripSumOf(uint32_t(split.nearCount),
+                             [&](uint32_t i) -> const WindingEdge& { return t.edges[split.near[i]]; }, p, K, error);
+  }
+  uint32_t cursor = 0;
+  int k = 0;
+  auto farAt = [&](uint32_t i) -> const WindingEdge& { // called with 0, 1, 2, ... in order
+    if (i == 0) {
+      cursor = 0;
+      k = 0;
+    } else {
+      ++cursor;
+    }
+    while (k < split.nearCount && split.near[k] == cursor) {
+      ++cursor;
+      ++k;
+    }
+    return t.edges[cursor];
+  };
+  return windingStripSumOf(t.edgeCount - uint32_t(split.nearCount), farAt, p, K, error);
+}
+
+// ---- the leaf ------------------------------------------------------------------
+
+// Leaf-local helpers over the output words (surface plane already copied).
+struct WindingLeafWords {
+  uint32_t* words;
+  uint32_t L;
+  HDT_HD uint32_t index(int x, int y, int z) const { return uint32_t(x) + L * (uint32_t(y) + L * uint32_t(z)); }
+  HDT_HD bool surface(uint32_t v) const { return ((words[v / kVoxelsPerWord] >> (2 * (v % kVoxelsPerWord) + 1)) & 1u) != 0; }
+  HDT_HD void setInside(uint32_t v) const { words[v / kVoxelsPerWord] |= 1u << (2 * (v % kVoxelsPerWord)); }
+  HDT_HD bool open(const VoxelBox& b) const { // a non-surface voxel to decide
+    for (int z = b.lo[2]; z < b.hi[2]; ++z)
+      for (int y = b.lo[1]; y < b.hi[1]; ++y)
+        for (int x = b.lo[0]; x < b.hi[0]; ++x)
+          if (!surface(index(x, y, z))) return true;
+    return false;
+  }
+  HDT_HD void settle(const VoxelBox& b, const int16_t* N, int T) const {
+    for (int z = b.lo[2]; z < b.hi[2]; ++z)
+      for (int y = b.lo[1]; y < b.hi[1]; ++y)
+        for (int x = b.lo[0]; x < b.hi[0]; ++x) {
+          const uint32_t v = index(x, y, z);
+          if (!surface(v) && int(N[v]) >= T) setInside(v);
+        }
+  }
+};
+
+HDT_HD void windingBoxCentres(const int* origin, const VoxelBox& b, double* lo, double* hi) {
+  for (int a = 0; a < 3; ++a) {
+    lo[a] = origin[a] + b.lo[a] + 0.5;
+    hi[a] = origin[a] + b.hi[a] - 0.5;
+  }
+}
+
+// Pushes the halves of b: in y and z only when `sheet` and b is wider than
+// one row there, along every axis longer than one voxel otherwise; child 0
+// (low x, y, z) is taken first.
+HDT_HD void windingPushHalves(const VoxelBox& b, bool sheet, VoxelBox* stack, double* known, int& top, double gradient) {
+  bool halve[3] = {b.size(0) > 1, b.size(1) > 1, b.size(2) > 1};
+  if (sheet && (halve[1] || halve[2])) halve[0] = false;
+  for (int k = 7; k >= 0; --k) {
+    VoxelBox s = b;
+    bool exists = true;
+    for (int a = 0; a < 3; ++a) {
+      const int mid = b.lo[a] + b.size(a) / 2;
+      if ((k >> a) & 1) {
+        if (!halve[a]) exists = false;
+        s.lo[a] = mid;
+      } else if (halve[a]) {
+        s.hi[a] = mid;
+      }
+    }
+    if (exists) {
+      known[top] = sheet ? INFINITY : gradient;
+      stack[top++] = s;
+    }
+  }
+}
+
+// Every box of `start` with K from every edge: a box with no non-surface
+// voxel is dropped; one that no sheet meets and whose threshold holds is
+// settled; a single voxel takes windingInsideWithCount; otherwise it is
+// halved (windingPushHalves; a child first tries its parent's gradient bound).
+HDT_HD void windingDecideBoxes(const WindingTreeView& t, const int* origin, const int16_t* N,
+                               const WindingLeafWords& w, const VoxelBox& start, double startGradient) {
+  VoxelBox stack[kWindingLeafStack];
+  double known[kWindingLeafStack]; // a gradient bound over each box (its parent's)
+  int top = 0;
+  known[top] = startGradient;
+  stack[top++] = start;
+  while (top > 0) {
+    --top;
+    const VoxelBox b = stack[top];
+    double gradient = known[top];
+    if (!w.open(b)) continue;
+    double lo[3], hi[3];
+    windingBoxCentres(origin, b, lo, hi);
+    if (b.single()) {
+      const uint32_t v = w.index(b.lo[0], b.lo[1], b.lo[2]);
+      if (windingInsideWithCount(t, lo, int(N[v]))) w.setInside(v);
+      continue;
+    }
+    const bool sheet = windingSheetsMeetBox(t, lo, hi);
+    int T = 0;
+    if (!sheet && windingBoxThreshold(t, lo, hi, T, gradient)) {
+      w.settle(b, N, T);
+      continue;
+    }
+    windingPushHalves(b, sheet, stack, known, top, gradient);
+  }
+}
+
+// The boxes of `anchor` (at most kWindingAnchorBox^3 voxels) with K_far taken
+// once at its centre: K(p) = K_near(p) + K_far(p), K_far(p) within G_far |p -
+// centre| of its value there, K_near evaluated per box and bounded over it.
+// Where K_far cannot be evaluated at the centre, windingDecideBoxes.
+HDT_HD void windingDecideAnchored(const WindingTreeView& t, const int* origin, const int16_t* N,
+                                  const WindingLeafWords& w, const VoxelBox& anchor, const WindingLeafSplit& split) {
+  if (!w.open(anchor)) return;
+  double alo[3], ahi[3], ac[3];
+  windingBoxCentres(origin, anchor, alo, ahi);
+  for (int a = 0; a < 3; ++a) ac[a] = 0.5 * (alo[a] + ahi[a]);
+  double farK = 0, farError = 0;
+  const double farGradient = windingPartGradientBound(t, split, false, alo, ahi);
+  if (!(farGradient < INFINITY) || !windingPartStripSum(t, split, false, ac, farK, farError)) {
+    windingDecideBoxes(t, origin, N, w, anchor, INFINITY);
+    return;
+  }
+  // The farthest distance from the anchor's centre to a point of [lo, hi].
+  auto farthest = [&](const double* lo, const double* hi) {
+    double s = 0;
+    for (int a = 0; a < 3; ++a) {
+      const double d = fabs(lo[a] - ac[a]) > fabs(hi[a] - ac[a]) ? fabs(lo[a] - ac[a]) : fabs(hi[a] - ac[a]);
+      s = s + d * d;
+    }
+    return sqrt(s) * (1 + 1e-12);
+  };
+  VoxelBox stack[kWindingLeafStack];
+  double known[kWindingLeafStack]; // unused here: the near bound is cheap
+  int top = 0;
+  stack[top++] = anchor;
+  while (top > 0) {
+    const VoxelBox b = stack[--top];
+    if (!w.open(b)) continue;
+    double lo[3], hi[3];
+    windingBoxCentres(origin, b, lo, hi);
+    const double farSpread = farGradient * farthest(lo, hi);
+    if (b.single()) {
+      const uint32_t v = w.index(b.lo[0], b.lo[1], b.lo[2]);
+      double nearK = 0, nearError = 0;
+      int verdict = kWindingUnsure;
+      if (windingPartStripSum(t, split, true, lo, nearK, nearError)) {
+        const double whole = 4.0 * kWindingPi * double(N[v]);
+        const double K = nearK + farK;
+        const WindingSum s{whole + K,
+                           nearError + farError + farSpread +
+                               4.0 * kWindingUlp * (fabs(whole) + fabs(nearK) + fabs(farK) + fabs(K)),
+                           true};
+        verdict = windingVerdict(s, t.triangleCount);
+      }
+      const bool inside = verdict != kWindingUnsure ? verdict == kWindingInside : windingInsideWithCount(t, lo, int(N[v]));
+      if (inside) w.setInside(v);
+      continue;
+    }
+    bool sheet = false;
+    for (int k = 0; k < split.nearCount && !sheet; ++k) sheet = windingSheetMeetsBox(t.edges[split.near[k]], lo, hi);
+    if (!sheet) {
+      double c[3], reach2 = 0;
+      for (int a = 0; a < 3; ++a) {
+        c[a] = 0.5 * (lo[a] + hi[a]);
+        reach2 = reach2 + 0.25 * (hi[a] - lo[a]) * (hi[a] - lo[a]);
+      }
+      const double nearGradient = windingPartGradientBound(t, split, true, lo, hi);
+      const double spread = sqrt(reach2) * (1 + 1e-12) * nearGradient + farSpread;
+      double nearK = 0, nearError = 0;
+      int T = 0;
+      if (spread < 2.0 * kWindingPi && windingPartStripSum(t, split, true, c, nearK, nearError)) {
+        const double K = nearK + farK;
+        const double error = nearError + farError + 4.0 * kWindingUlp * (fabs(nearK) + fabs(farK));
+        if (windingThresholdFrom(t, K, error, spread, T)) {
+          w.settle(b, N, T);
+          continue;
+        }
+      }
+    }
+    windingPushHalves(b, sheet, stack, known, top, INFINITY);
+  }
+}
+
 // Decides one leaf of edge L (8, 16 or 32) at `origin` (voxels).
 // surfaceWords: the leaf's 2-bit words, read for the surface plane only.
 // N: the signed crossing count of the +x ray from each voxel centre (x
@@ -161,75 +474,42 @@ constexpr int kWindingLeafStack = 64; // 7 per level of 5 halvings, and the root
 // surface plane copied, the inside plane of every non-surface voxel set to
 // its verdict (w >= 1/2 at its centre).
 //
-// Boxes (leaf coordinates) are taken from a stack: one with no non-surface
-// voxel is dropped; one that no sheet meets and whose threshold holds is
-// settled; a single voxel takes windingInsideWithCount; otherwise the box is
-// halved, in y and z only where a sheet meets it and it is wider than one row
-// there (a sheet spans x behind its edge, so halving x rarely frees a part),
-// along every axis longer than one voxel otherwise (the gradient bound's
-// spread shrinks with the box).
+// The whole leaf first (one K, one gradient bound); when that does not
+// decide it and the boundary has many more edges than come near the leaf, its
+// boxes of kWindingAnchorBox^3 voxels go by windingDecideAnchored, otherwise
+// the leaf by windingDecideBoxes.
 HDT_HD void windingDecideLeaf(const WindingTreeView& t, int L, const int* origin, const uint32_t* surfaceWords,
                               const int16_t* N, uint32_t* insideWords) {
   const uint32_t wordCount = leafWordCount(L);
   for (uint32_t i = 0; i < wordCount; ++i) insideWords[i] = surfaceWords[i] & kSurfacePlaneBits;
-  const uint32_t uL = uint32_t(L);
-  auto isSurface = [&](uint32_t v) { return ((insideWords[v / kVoxelsPerWord] >> (2 * (v % kVoxelsPerWord) + 1)) & 1u) != 0; };
-  auto setInside = [&](uint32_t v) { insideWords[v / kVoxelsPerWord] |= 1u << (2 * (v % kVoxelsPerWord)); };
-  auto index = [&](int x, int y, int z) { return uint32_t(x) + uL * (uint32_t(y) + uL * uint32_t(z)); };
-  VoxelBox stack[kWindingLeafStack];
-  double known[kWindingLeafStack]; // a gradient bound over each box (its parent's)
-  int top = 0;
-  known[top] = INFINITY;
-  stack[top++] = VoxelBox{{0, 0, 0}, {L, L, L}};
-  while (top > 0) {
-    --top;
-    const VoxelBox b = stack[top];
-    double gradient = known[top];
-    bool open = false; // a non-surface voxel to decide
-    for (int z = b.lo[2]; z < b.hi[2] && !open; ++z)
-      for (int y = b.lo[1]; y < b.hi[1] && !open; ++y)
-        for (int x = b.lo[0]; x < b.hi[0] && !open; ++x) open = !isSurface(index(x, y, z));
-    if (!open) continue;
-    double lo[3], hi[3];
-    for (int a = 0; a < 3; ++a) {
-      lo[a] = origin[a] + b.lo[a] + 0.5;
-      hi[a] = origin[a] + b.hi[a] - 0.5;
-    }
-    if (b.single()) {
-      const uint32_t v = index(b.lo[0], b.lo[1], b.lo[2]);
-      if (windingInsideWithCount(t, lo, int(N[v]))) setInside(v);
-      continue;
-    }
-    const bool sheet = windingSheetsMeetBox(t, lo, hi);
-    int T = 0;
-    if (!sheet && windingBoxThreshold(t, lo, hi, T, gradient)) {
-      for (int z = b.lo[2]; z < b.hi[2]; ++z)
-        for (int y = b.lo[1]; y < b.hi[1]; ++y)
-          for (int x = b.lo[0]; x < b.hi[0]; ++x) {
-            const uint32_t v = index(x, y, z);
-            if (!isSurface(v) && int(N[v]) >= T) setInside(v);
-          }
-      continue;
-    }
-    bool halve[3] = {b.size(0) > 1, b.size(1) > 1, b.size(2) > 1};
-    if (sheet && (halve[1] || halve[2])) halve[0] = false;
-    for (int k = 7; k >= 0; --k) { // child 0 (low x, y, z) is taken first
-      VoxelBox s = b;
-      bool exists = true;
-      for (int a = 0; a < 3; ++a) {
-        const int mid = b.lo[a] + b.size(a) / 2;
-        if ((k >> a) & 1) {
-          if (!halve[a]) exists = false;
-          s.lo[a] = mid;
-        } else if (halve[a]) {
-          s.hi[a] = mid;
-        }
-      }
-      if (exists) {
-        known[top] = sheet ? INFINITY : gradient;
-        stack[top++] = s;
-      }
-    }
+  const WindingLeafWords w{insideWords, uint32_t(L)};
+  const VoxelBox leaf{{0, 0, 0}, {L, L, L}};
+  if (!w.open(leaf)) return;
+  double lo[3], hi[3];
+  windingBoxCentres(origin, leaf, lo, hi);
+  const bool sheet = windingSheetsMeetBox(t, lo, hi);
+  double gradient = INFINITY;
+  int T = 0;
+  if (!sheet && windingBoxThreshold(t, lo, hi, T, gradient)) {
+    w.settle(leaf, N, T);
+    return;
+  }
+  WindingLeafSplit split;
+  if (t.edgeCount > uint32_t(kWindingNearEdges) && windingSplitEdges(t, lo, hi, L, split) &&
+      4 * uint32_t(split.nearCount) < t.edgeCount) {
+    const int M = kWindingAnchorBox;
+    for (int z = 0; z < L; z += M)
+      for (int y = 0; y < L; y += M)
+        for (int x = 0; x < L; x += M) windingDecideAnchored(t, origin, N, w, VoxelBox{{x, y, z}, {x + M, y + M, z + M}}, split);
+    return;
+  }
+  VoxelBox halves[8];
+  double known[8];
+  int count = 0;
+  windingPushHalves(leaf, sheet, halves, known, count, gradient);
+  while (count > 0) {
+    --count;
+    windingDecideBoxes(t, origin, N, w, halves[count], known[count]);
   }
 }
 
