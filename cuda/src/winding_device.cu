@@ -19,7 +19,7 @@
 //              (also the children of split elements);
 //   fresh      the leaves refinement creates: N by one ray walk per voxel,
 //              then the same decision.
-//   decide     kSplit^2 threads per leaf, each windingDecideLeaf's loop
+//   decide     kSplit^2 threads per leaf, each windingDecideBoxes
 //              (winding_leaf.hpp) over its block of rows, in place.
 #include "winding_device.hpp"
 
@@ -218,74 +218,19 @@ __global__ void clearInsideKernel(uint64_t wordCount, int L, const uint8_t* fits
   words[i] &= kSurfacePlaneBits;
 }
 
-// windingDecideLeaf's loop (winding_leaf.hpp) from one block of rows of the
-// leaf instead of the whole leaf, so that kSplit^2 threads share a leaf (one
-// thread per leaf left most of the GPU idle). Every verdict is certified, so
-// the bits do not depend on where the boxes start. The inside bits are set
-// with atomicOr: neighbouring rows share words.
+// windingDecideLeaf's box loop (winding_leaf.hpp, windingDecideBoxes) from
+// one block of rows of the leaf instead of the whole leaf, so that kSplit^2
+// threads share a leaf (one thread per leaf left most of the GPU idle).
+// Every verdict is certified, so the bits do not depend on where the boxes
+// start. A block is L / kSplit rows in y and z (even for L = 8, 16, 32), and
+// a word holds 16 voxels of x-consecutive rows (two rows y = 2k, 2k + 1 at
+// L = 8, one or half a row otherwise): no two threads write the same word.
 constexpr int kSplit = 4; // row blocks per leaf edge
 
 __device__ void decideRows(const WindingTreeView& t, int L, const int* origin, const VoxelBox& start,
                            const int16_t* N, uint32_t* words) {
-  const uint32_t uL = uint32_t(L);
-  auto isSurface = [&](uint32_t v) { return ((words[v / kVoxelsPerWord] >> (2 * (v % kVoxelsPerWord) + 1)) & 1u) != 0; };
-  auto setInside = [&](uint32_t v) { atomicOr(&words[v / kVoxelsPerWord], 1u << (2 * (v % kVoxelsPerWord))); };
-  auto index = [&](int x, int y, int z) { return uint32_t(x) + uL * (uint32_t(y) + uL * uint32_t(z)); };
-  VoxelBox stack[kWindingLeafStack];
-  double known[kWindingLeafStack]; // a gradient bound over each box (its parent's)
-  int top = 0;
-  known[top] = INFINITY;
-  stack[top++] = start;
-  while (top > 0) {
-    --top;
-    const VoxelBox b = stack[top];
-    double gradient = known[top];
-    bool open = false; // a non-surface voxel to decide
-    for (int z = b.lo[2]; z < b.hi[2] && !open; ++z)
-      for (int y = b.lo[1]; y < b.hi[1] && !open; ++y)
-        for (int x = b.lo[0]; x < b.hi[0] && !open; ++x) open = !isSurface(index(x, y, z));
-    if (!open) continue;
-    double lo[3], hi[3];
-    for (int a = 0; a < 3; ++a) {
-      lo[a] = origin[a] + b.lo[a] + 0.5;
-      hi[a] = origin[a] + b.hi[a] - 0.5;
-    }
-    if (b.single()) {
-      const uint32_t v = index(b.lo[0], b.lo[1], b.lo[2]);
-      if (windingInsideWithCount(t, lo, int(N[v]))) setInside(v);
-      continue;
-    }
-    const bool sheet = windingSheetsMeetBox(t, lo, hi);
-    int T = 0;
-    if (!sheet && windingBoxThreshold(t, lo, hi, T, gradient)) {
-      for (int z = b.lo[2]; z < b.hi[2]; ++z)
-        for (int y = b.lo[1]; y < b.hi[1]; ++y)
-          for (int x = b.lo[0]; x < b.hi[0]; ++x) {
-            const uint32_t v = index(x, y, z);
-            if (!isSurface(v) && int(N[v]) >= T) setInside(v);
-          }
-      continue;
-    }
-    bool halve[3] = {b.size(0) > 1, b.size(1) > 1, b.size(2) > 1};
-    if (sheet && (halve[1] || halve[2])) halve[0] = false;
-    for (int k = 7; k >= 0; --k) {
-      VoxelBox c = b;
-      bool exists = true;
-      for (int a = 0; a < 3; ++a) {
-        const int mid = b.lo[a] + b.size(a) / 2;
-        if ((k >> a) & 1) {
-          if (!halve[a]) exists = false;
-          c.lo[a] = mid;
-        } else if (halve[a]) {
-          c.hi[a] = mid;
-        }
-      }
-      if (exists) {
-        known[top] = sheet ? INFINITY : gradient;
-        stack[top++] = c;
-      }
-    }
-  }
+  const WindingLeafWords w{words, uint32_t(L)};
+  windingDecideBoxes(t, origin, N, w, start, INFINITY);
 }
 
 __global__ void decideRowsKernel(WindingTreeView t, const LeafOrigin* origins, uint32_t leafCount, int L,
