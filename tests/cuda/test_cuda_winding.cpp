@@ -90,6 +90,17 @@ INSTANTIATE_TEST_SUITE_P(Shapes, CudaWinding, ::testing::Range(0, int(windingSha
   return ::testing::AssertionSuccess() << compared << " voxels";
 }
 
+// The device leaf decision splits each leaf into 4x4 blocks of rows that own
+// their words: leaf sizes 8 and 32 as well (SameBytesAsCpu uses 16).
+TEST_P(CudaWinding, SameBytesAsCpuLeafSizes) {
+  HDT_REQUIRE_CUDA();
+  const WindingShape s = windingShapes()[size_t(GetParam())];
+  for (const auto& rl : {std::pair<int, int>{4, 8}, std::pair<int, int>{2, 32}}) {
+    const PreparedMesh mesh = prepareMesh(s.mesh, config(128, rl.first, rl.second, InsideTest::WindingNumber));
+    EXPECT_TRUE(sameVolume(build(mesh, cudaOptions()), build(mesh, cpuOptions()))) << s.name << " L " << rl.second;
+  }
+}
+
 TEST_P(CudaWinding, DeviceCountsEqualRayCrossings) {
   HDT_REQUIRE_CUDA();
   const WindingShape s = windingShapes()[size_t(GetParam())];
