@@ -226,6 +226,12 @@ int main(int argc, char** argv) {
                       modeName, g.height, (unsigned long long)s.treeElements,
                       (unsigned long long)s.leafGrids, median(t1), median(t2), median(t3), median(tc), median(tt),
                       median(upload), double(s.peakDeviceBytes) / (1 << 20));
+          int shown = 0; // the last run's winding pass breakdown (two lines)
+          for (auto m = log.rbegin(); m != log.rend() && shown < 2; ++m)
+            if (m->find("winding") != std::string::npos) {
+              std::printf("  # %s\n", m->c_str());
+              ++shown;
+            }
           std::fflush(stdout);
         } catch (const std::exception& e) {
           out << "{\"mesh\": " << quoted(label) << ", \"resolution\": " << n

@@ -413,7 +413,9 @@ struct LaidElement {
 // refined: a Branch of 8 fresh children above the last level, a Boundary
 // with a new leaf grid (no surface voxel; every centre decided) at it.
 // Returns the number of elements refined.
-uint64_t refineSplitElements(const WindingTreeView& t, Volume& v, const std::vector<uint8_t>& split) {
+uint64_t refineSplitElements(const WindingTree& tree, Volume& v, const std::vector<uint8_t>& split,
+                             const WindingUniformPass& uniformPass, const WindingFreshLeafPass& freshPass) {
+  const WindingTreeView t = tree.view();
   const GridSpec& g = v.grid;
   const int L = g.leafSize, height = g.height;
   const uint64_t R = uint64_t(g.rootGrid);
@@ -447,12 +449,32 @@ uint64_t refineSplitElements(const WindingTreeView& t, Volume& v, const std::vec
       }
     }
     const int childEdge = g.elementVoxels(k + 1);
-    tbb::parallel_for(size_t(0), next.size(), [&](size_t i) {
-      if (!next[i].fresh) return;
-      const UniformVerdict u = classifyUniform(t, next[i].origin, childEdge);
-      next[i].inside = u.inside;
-      next[i].split = u.split;
-    });
+    bool passed = false;
+    if (uniformPass) { // the fresh children decided by the pass
+      std::vector<WindingUniformJob> jobs;
+      std::vector<size_t> at;
+      for (size_t i = 0; i < next.size(); ++i)
+        if (next[i].fresh) {
+          jobs.push_back({0, next[i].origin, childEdge});
+          at.push_back(i);
+        }
+      std::vector<uint8_t> verdicts;
+      if (uniformPass(tree, jobs, verdicts)) {
+        for (size_t j = 0; j < jobs.size(); ++j) {
+          next[at[j]].inside = (verdicts[j] & 1) != 0;
+          next[at[j]].split = (verdicts[j] & 2) != 0;
+        }
+        passed = true;
+      }
+    }
+    if (!passed) {
+      tbb::parallel_for(size_t(0), next.size(), [&](size_t i) {
+        if (!next[i].fresh) return;
+        const UniformVerdict u = classifyUniform(t, next[i].origin, childEdge);
+        next[i].inside = u.inside;
+        next[i].split = u.split;
+      });
+    }
   }
   for (const LaidElement& e : levels[size_t(height)]) refined += e.split;
 
@@ -489,13 +511,29 @@ uint64_t refineSplitElements(const WindingTreeView& t, Volume& v, const std::vec
   const uint32_t wc = leafWordCount(L);
   LeafWordVector words;
   words.resize(leafSource.size() * wc);
+  // Fresh leaves by the pass first (into their own array), the rest here.
+  std::vector<uint32_t> freshWords;
+  std::vector<uint8_t> freshDone(freshLeaves.size(), 0);
+  if (freshPass && !freshLeaves.empty()) {
+    freshWords.assign(freshLeaves.size() * wc, 0u);
+    std::vector<uint32_t> left;
+    if (freshPass(tree, L, freshLeaves, freshWords.data(), left)) {
+      std::fill(freshDone.begin(), freshDone.end(), uint8_t(1));
+      for (uint32_t i : left) freshDone[i] = 0;
+    }
+  }
   tbb::parallel_for(size_t(0), leafSource.size(), [&](size_t i) {
     uint32_t* to = words.data() + i * wc;
     if (leafSource[i] >= 0) {
       std::copy_n(v.leafWords.data() + uint64_t(leafSource[i]) * wc, wc, to);
+      return;
+    }
+    const size_t f = size_t(-1 - leafSource[i]);
+    if (freshDone[f]) {
+      std::copy_n(freshWords.data() + f * wc, wc, to);
     } else {
       std::fill_n(to, wc, 0u);
-      classifyLeaf(t, to, L, freshLeaves[size_t(-1 - leafSource[i])]);
+      classifyLeaf(t, to, L, freshLeaves[f]);
     }
   });
   v.elements = std::move(elements);
@@ -614,6 +652,11 @@ void classifyLeavesByCrossings(const WindingTree& tree, Volume& volume,
 } // namespace
 
 WindingOutcome classifyByWindingNumber(const WindingTree& tree, Volume& volume) {
+  return classifyByWindingNumber(tree, volume, WindingLeafPass());
+}
+
+WindingOutcome classifyByWindingNumber(const WindingTree& tree, Volume& volume, const WindingLeafPass& leafPass,
+                                       const WindingUniformPass& uniformPass, const WindingFreshLeafPass& freshPass) {
   const WindingTreeView t = tree.view();
   const int L = volume.grid.leafSize;
   std::vector<uint8_t> split(volume.elements.size(), 0);
@@ -621,36 +664,67 @@ WindingOutcome classifyByWindingNumber(const WindingTree& tree, Volume& volume) 
   const int deepest = int(volume.levelStart.size()) - 2;
   const size_t leafCount = volume.leafWords.size() / leafWordCount(L);
   std::vector<std::array<int, 3>> leafOrigins(leafCount);
-  parallelWalkVolume(volume, deepest, [&](const WalkedElement& e) {
-    switch (e.state()) {
-    case ElementState::Boundary:
-      leafOrigins[e.payload()] = e.origin;
-      break;
-    case ElementState::Empty:
-    case ElementState::Full: {
-      const UniformVerdict u = classifyUniform(t, e.origin, e.edge);
-      volume.elements[e.index] = makeElement(u.inside ? ElementState::Full : ElementState::Empty, 0);
-      if (u.split) {
-        split[e.index] = 1;
-        anySplit.store(true, std::memory_order_relaxed);
+  auto setUniform = [&](uint64_t index, const UniformVerdict& u) {
+    volume.elements[index] = makeElement(u.inside ? ElementState::Full : ElementState::Empty, 0);
+    if (u.split) {
+      split[index] = 1;
+      anySplit.store(true, std::memory_order_relaxed);
+    }
+  };
+  bool uniformDone = false;
+  if (uniformPass) { // the elements listed (in walk order) and decided by the pass
+    std::vector<WindingUniformJob> jobs;
+    walkVolume(volume, deepest, [&](const WalkedElement& e) {
+      if (e.state() == ElementState::Boundary) leafOrigins[e.payload()] = e.origin;
+      if (e.state() == ElementState::Empty || e.state() == ElementState::Full)
+        jobs.push_back({e.index, e.origin, e.edge});
+    });
+    std::vector<uint8_t> verdicts;
+    if (uniformPass(tree, jobs, verdicts)) {
+      for (size_t i = 0; i < jobs.size(); ++i)
+        setUniform(jobs[i].index, UniformVerdict{(verdicts[i] & 1) != 0, (verdicts[i] & 2) != 0});
+      uniformDone = true;
+    }
+  }
+  if (!uniformDone) {
+    parallelWalkVolume(volume, deepest, [&](const WalkedElement& e) {
+      switch (e.state()) {
+      case ElementState::Boundary:
+        leafOrigins[e.payload()] = e.origin;
+        break;
+      case ElementState::Empty:
+      case ElementState::Full:
+        setUniform(e.index, classifyUniform(t, e.origin, e.edge));
+        break;
+      case ElementState::Branch: break;
       }
-      break;
-    }
-    case ElementState::Branch: break;
-    }
-  });
-  classifyLeavesByCrossings(tree, volume, leafOrigins);
+    });
+  }
+  std::vector<uint32_t> left;
+  if (leafPass && leafPass(tree, volume, leafOrigins, left)) {
+    tbb::parallel_for(size_t(0), left.size(), [&](size_t i) {
+      const uint32_t leaf = left[i];
+      classifyLeaf(t, volume.leafWords.data() + leafWordOffset(leaf, L), L, leafOrigins[leaf]);
+    });
+  } else {
+    classifyLeavesByCrossings(tree, volume, leafOrigins);
+  }
   WindingOutcome out;
-  if (anySplit.load()) out.refinedElements = refineSplitElements(t, volume, split);
+  if (anySplit.load()) out.refinedElements = refineSplitElements(tree, volume, split, uniformPass, freshPass);
   return out;
 }
 
 double applyInsideTest(const PreparedMesh& mesh, Volume& volume) {
+  return applyInsideTest(mesh, volume, WindingLeafPass());
+}
+
+double applyInsideTest(const PreparedMesh& mesh, Volume& volume, const WindingLeafPass& leafPass,
+                       const WindingUniformPass& uniformPass, const WindingFreshLeafPass& freshPass) {
   volume.insideTest = mesh.surfaceOnly ? InsideTest::Parity : mesh.insideTest;
   if (mesh.surfaceOnly || mesh.insideTest != InsideTest::WindingNumber) return 0;
   const auto t0 = std::chrono::steady_clock::now();
   const WindingTree tree = buildWindingTree(mesh.triangles);
-  volume.stats.windingRefinedElements = classifyByWindingNumber(tree, volume).refinedElements;
+  volume.stats.windingRefinedElements = classifyByWindingNumber(tree, volume, leafPass, uniformPass, freshPass).refinedElements;
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }
 

@@ -7,6 +7,10 @@
 #include "hdt/builder.hpp"
 #include "hdt/mesh.hpp"
 #include "hdt/mesh_io.hpp"
+#include "hdt/volume_walk.hpp"
+#include "hdt/winding_crossings.hpp"
+#include "hdt/winding_tree.hpp"
+#include "winding_device.hpp"
 #include "support/mesh_files.hpp"
 #include "support/winding_reference.hpp"
 
@@ -49,6 +53,61 @@ TEST_P(CudaWinding, SameBytesAsCpu) {
 INSTANTIATE_TEST_SUITE_P(Shapes, CudaWinding, ::testing::Range(0, int(windingShapes().size())),
                          [](const ::testing::TestParamInfo<int>& i) { return windingShapes()[size_t(i.param)].name; });
 
+// The device pass's N (cuda/src/winding_device.cu: crossings, line
+// suffixes, per-voxel counts) against windingRayCrossings on the host at
+// every non-surface voxel centre of a CPU build.
+::testing::AssertionResult deviceCountsMatch(const PreparedMesh& mesh) {
+  const Volume v = build(mesh, cpuOptions());
+  const int L = v.grid.leafSize;
+  std::vector<std::array<int, 3>> origins(v.leafWords.size() / leafWordCount(L));
+  walkVolume(v, int(v.levelStart.size()) - 2, [&](const WalkedElement& e) {
+    if (e.state() == ElementState::Boundary) origins[e.payload()] = e.origin;
+  });
+  const WindingTree tree = buildWindingTree(mesh.triangles);
+  std::vector<int16_t> counts;
+  std::vector<uint8_t> fits;
+  cuda::windingCountsOnDevice(tree, L, origins, counts, fits);
+  const size_t n = size_t(L) * size_t(L) * size_t(L);
+  uint64_t compared = 0;
+  for (size_t leaf = 0; leaf < origins.size(); ++leaf) {
+    if (!fits[leaf]) return ::testing::AssertionFailure() << "leaf " << leaf << " does not fit 16 bits";
+    const LeafView view{v.leafWords.data() + leafWordOffset(leaf, L), L};
+    for (size_t i = 0; i < n; ++i) {
+      const int x = int(i % size_t(L)), y = int((i / size_t(L)) % size_t(L)), z = int(i / (size_t(L) * size_t(L)));
+      if (view.voxel(x, y, z) == VoxelState::Surface) continue;
+      const double p[3] = {origins[leaf][0] + x + 0.5, origins[leaf][1] + y + 0.5, origins[leaf][2] + z + 0.5};
+      int64_t P[3];
+      int expected = 0;
+      if (!windingLatticePoint(p, P) || !windingRayCrossings(tree.view(), P, expected))
+        return ::testing::AssertionFailure() << "no reference count at a non-surface voxel of leaf " << leaf;
+      if (int(counts[leaf * n + i]) != expected)
+        return ::testing::AssertionFailure() << "leaf " << leaf << " voxel " << x << "," << y << "," << z
+                                             << ": device N " << counts[leaf * n + i] << ", host " << expected;
+      ++compared;
+    }
+  }
+  if (compared == 0) return ::testing::AssertionFailure() << "no non-surface leaf voxel";
+  return ::testing::AssertionSuccess() << compared << " voxels";
+}
+
+// The device leaf decision splits each leaf into 4x4 blocks of rows that own
+// their words: leaf sizes 8 and 32 as well (SameBytesAsCpu uses 16).
+TEST_P(CudaWinding, SameBytesAsCpuLeafSizes) {
+  HDT_REQUIRE_CUDA();
+  const WindingShape s = windingShapes()[size_t(GetParam())];
+  for (const auto& rl : {std::pair<int, int>{4, 8}, std::pair<int, int>{2, 32}}) {
+    const PreparedMesh mesh = prepareMesh(s.mesh, config(128, rl.first, rl.second, InsideTest::WindingNumber));
+    EXPECT_TRUE(sameVolume(build(mesh, cudaOptions()), build(mesh, cpuOptions()))) << s.name << " L " << rl.second;
+  }
+}
+
+TEST_P(CudaWinding, DeviceCountsEqualRayCrossings) {
+  HDT_REQUIRE_CUDA();
+  const WindingShape s = windingShapes()[size_t(GetParam())];
+  for (int l : {8, 16}) EXPECT_TRUE(deviceCountsMatch(prepareMesh(s.mesh, config(64, 4, l, InsideTest::Parity))))
+      << s.name << " L " << l;
+}
+
 class CudaWindingShared : public ::testing::TestWithParam<const char*> {};
 
 TEST_P(CudaWindingShared, SameBytesAsCpu) {
@@ -65,6 +124,20 @@ TEST_P(CudaWindingShared, SameBytesAsCpu) {
     const PreparedMesh mesh = prepareMesh(m, config(128, 8, 16, test));
     EXPECT_TRUE(sameVolume(build(mesh, cudaOptions()), build(mesh, cpuOptions()))) << GetParam() << " " << int(test);
   }
+  EXPECT_TRUE(deviceCountsMatch(prepareMesh(m, config(64, 4, 8, InsideTest::Parity)))) << GetParam();
+}
+
+// Refinement on the device (the split elements' children and their fresh
+// leaves, winding_device.cu): teapot at 2048^3 splits elements where w = 1/2
+// spans the lid's opening.
+TEST(CudaWindingRefined, TeapotSameBytesAsCpu) {
+  HDT_REQUIRE_CUDA();
+  const std::string path = sharedMeshesDir() + "/teapot.ply";
+  if (!std::ifstream(path).good()) GTEST_SKIP() << "no " << path;
+  const PreparedMesh mesh = prepareMesh(readMesh(path), config(2048, 8, 16, InsideTest::WindingNumber));
+  const Volume gpu = build(mesh, cudaOptions());
+  EXPECT_GT(gpu.stats.windingRefinedElements, 0u);
+  EXPECT_TRUE(sameVolume(gpu, build(mesh, cpuOptions())));
 }
 
 INSTANTIATE_TEST_SUITE_P(Files, CudaWindingShared,

@@ -8,7 +8,9 @@
 #include "hdt/mesh.hpp" // LatticeTriangles
 #include "hdt/winding.hpp"
 
+#include <array>
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -65,11 +67,44 @@ struct WindingOutcome {
 // the thread count.
 WindingOutcome classifyByWindingNumber(const WindingTree& tree, Volume& volume);
 
+// A leaf pass run elsewhere (the CUDA driver's, cuda/src/winding_device.hpp):
+// decides the leaves at `origins` (leaf i's low corner, voxels) in
+// volume.leafWords exactly like the host's pass and lists the leaves it left
+// (counts that do not fit 16 bits), which the host then decides. Returns
+// false when it could not run (device memory, ...): the host pass runs.
+using WindingLeafPass = std::function<bool(const WindingTree& tree, Volume& volume,
+                                           const std::vector<std::array<int, 3>>& origins,
+                                           std::vector<uint32_t>& leftLeaves)>;
+// A uniform element to decide elsewhere, and the pass that decides a list
+// of them: verdicts[i] = bit 0 inside, bit 1 split (w = 1/2 crosses it),
+// exactly classifyUniform's answer (core/src/winding.cpp). False when it could
+// not run: the host decides them.
+struct WindingUniformJob {
+  uint64_t index; // into Volume::elements
+  std::array<int, 3> origin;
+  int edge;
+};
+using WindingUniformPass = std::function<bool(const WindingTree& tree, const std::vector<WindingUniformJob>& jobs,
+                                              std::vector<uint8_t>& verdicts)>;
+// The leaves that refinement creates (no surface voxel) decided elsewhere:
+// words holds origins.size() leaves of zero words on entry, each decided
+// leaf's inside plane on return; leftLeaves lists those it did not decide
+// (the host then does). False when it could not run.
+using WindingFreshLeafPass = std::function<bool(const WindingTree& tree, int L,
+                                                const std::vector<std::array<int, 3>>& origins, uint32_t* words,
+                                                std::vector<uint32_t>& leftLeaves)>;
+WindingOutcome classifyByWindingNumber(const WindingTree& tree, Volume& volume, const WindingLeafPass& leafPass,
+                                       const WindingUniformPass& uniformPass = WindingUniformPass(),
+                                       const WindingFreshLeafPass& freshPass = WindingFreshLeafPass());
+
 // The drivers' last step of a solid build: when the mesh's test is
 // WindingNumber, builds the tree and classifies the volume by it (the parity
 // classification it replaces may have run or not); records the test that ran
 // in volume.insideTest and the refined elements in its statistics. Returns the
 // milliseconds spent (0 under Parity). Call before the statistics are computed.
 double applyInsideTest(const PreparedMesh& mesh, Volume& volume);
+double applyInsideTest(const PreparedMesh& mesh, Volume& volume, const WindingLeafPass& leafPass,
+                        const WindingUniformPass& uniformPass = WindingUniformPass(),
+                        const WindingFreshLeafPass& freshPass = WindingFreshLeafPass());
 
 } // namespace hdt

@@ -1,0 +1,512 @@
+// The winding-number leaf pass on the device (winding_device.hpp), the
+// host pass of core/src/winding.cpp (classifyLeavesByCrossings) step by step:
+//
+//   crossings  one thread per leaf: the tree's triangles whose node boxes
+//              meet the leaf's closed box, each one's crossings with the
+//              leaf's +x rays (forEachPairCrossing, the parity pass's exact
+//              steps), signed by the normal's x component: a row total, a
+//              row hit count and a per-voxel delta at the last voxel centre
+//              before the crossing (all integer sums: order cannot show);
+//   lines      the leaves sorted by line (z, y, then x descending, CUB radix
+//              sort), one thread per (line, row): the exclusive suffix sum of
+//              the row totals along the line is the count at the row's exit
+//              (between the leaves of a line lie only uniform elements,
+//              which hold no triangle);
+//   counts     one thread per row: N at each voxel = exit + suffix of the
+//              deltas, in place as int16; a leaf whose row hit counts or N do
+//              not fit 16 bits is marked for the host;
+//   uniform    one thread per uniform element: classifyUniform's walk
+//              (also the children of split elements);
+//   fresh      the leaves refinement creates: N by one ray walk per voxel,
+//              then the same decision.
+//   decide     kSplit^2 threads per leaf, each windingDecideBoxes
+//              (winding_leaf.hpp) over its block of rows, in place.
+#include "winding_device.hpp"
+
+#include "check.hpp"
+
+#include "hdt/build_steps.hpp"
+#include "hdt/geometry.hpp"
+#include "hdt/volume.hpp"
+#include "hdt/winding_leaf.hpp"
+
+#include <cub/device/device_radix_sort.cuh>
+#include <cub/device/device_select.cuh>
+
+#include <new>
+
+namespace hdt {
+namespace cuda {
+namespace {
+
+constexpr unsigned kBlock = 128;
+
+unsigned blocks(uint64_t n) { return unsigned((n + kBlock - 1) / kBlock); }
+
+// A device array freed on scope exit; allocation failure throws bad_alloc
+// (the pass then returns false and the host pass runs).
+template <class T>
+class Array {
+public:
+  explicit Array(size_t n) : n_(n) {
+    if (n == 0) return;
+    const cudaError_t e = cudaMalloc(&p_, n * sizeof(T));
+    if (e == cudaErrorMemoryAllocation) {
+      (void)cudaGetLastError(); // not sticky: clear it
+      throw std::bad_alloc();
+    }
+    HDT_CUDA_CHECK(e);
+  }
+  ~Array() {
+    if (p_) cudaFree(p_);
+  }
+  Array(const Array&) = delete;
+  Array& operator=(const Array&) = delete;
+  T* data() const { return p_; }
+  size_t size() const { return n_; }
+  void zero() const {
+    if (n_) HDT_CUDA_CHECK(cudaMemset(p_, 0, n_ * sizeof(T)));
+  }
+  void upload(const T* host) const {
+    if (n_) HDT_CUDA_CHECK(cudaMemcpy(p_, host, n_ * sizeof(T), cudaMemcpyHostToDevice));
+  }
+  void download(T* host) const {
+    if (n_) HDT_CUDA_CHECK(cudaMemcpy(host, p_, n_ * sizeof(T), cudaMemcpyDeviceToHost));
+  }
+
+private:
+  T* p_ = nullptr;
+  size_t n_ = 0;
+};
+
+// The tree's arrays on the device, uploaded once per pass.
+struct DeviceTree {
+  Array<WindingNode> nodes;
+  Array<WindingTriangle> triangles;
+  Array<WindingEdge> edges;
+  Array<WindingEdgeGroup> groups;
+  Array<LatticeTriangle> lattice;
+  explicit DeviceTree(const WindingTree& t)
+      : nodes(t.nodes.size()), triangles(t.triangles.size()), edges(t.edges.size()), groups(t.edgeGroups.size()),
+        lattice(t.lattice.size()) {
+    nodes.upload(t.nodes.data());
+    triangles.upload(t.triangles.data());
+    edges.upload(t.edges.data());
+    groups.upload(t.edgeGroups.data());
+    lattice.upload(t.lattice.data());
+  }
+  WindingTreeView view() const {
+    return {nodes.data(), triangles.data(), uint32_t(triangles.size()), edges.data(), groups.data(),
+            uint32_t(groups.size()), lattice.data(), uint32_t(edges.size())};
+  }
+};
+
+struct LeafOrigin {
+  int o[3];
+};
+
+// ---- crossings ------------------------------------------------------------------
+
+__global__ void signedCrossingsKernel(WindingTreeView t, const LeafOrigin* origins, uint32_t leafCount, int L,
+                                      int32_t* rowTotals, int32_t* rowHits, int16_t* deltas) {
+  const uint32_t leaf = blockIdx.x * blockDim.x + threadIdx.x;
+  if (leaf >= leafCount) return;
+  const size_t rows = size_t(L) * size_t(L);
+  int32_t* total = rowTotals + leaf * rows;
+  int32_t* hits = rowHits + leaf * rows;
+  int16_t* delta = deltas + leaf * rows * size_t(L);
+  const LeafOrigin o = origins[leaf];
+  const int64_t v0[3] = {o.o[0], o.o[1], o.o[2]};
+  double lo[3], hi[3];
+  for (int a = 0; a < 3; ++a) {
+    lo[a] = o.o[a];
+    hi[a] = o.o[a] + L;
+  }
+  uint32_t stack[kWindingStack];
+  int top = 0;
+  stack[top++] = 0;
+  while (top > 0) {
+    const WindingNode& n = t.nodes[stack[--top]];
+    bool meets = true;
+    for (int a = 0; a < 3; ++a) meets = meets && n.lo[a] <= hi[a] && n.hi[a] >= lo[a];
+    if (!meets) continue;
+    if (n.count == 0) {
+      stack[top++] = n.first + 1;
+      stack[top++] = n.first;
+      continue;
+    }
+    for (uint32_t i = n.first; i < n.first + n.count; ++i) {
+      const LatticeTriangle tri = t.lattice[i];
+      int64_t normal[3];
+      triangleNormal(tri, normal);
+      if (normal[0] == 0) continue; // parallel to x: no ray crosses it
+      const int sign = normal[0] > 0 ? 1 : -1;
+      forEachPairCrossing(tri, 0, v0, L, [&](int row, int before) {
+        total[row] += sign;
+        hits[row] += 1;
+        if (before > 0) delta[size_t(row) * size_t(L) + size_t(before - 1)] += int16_t(sign);
+      });
+    }
+  }
+}
+
+// ---- lines ----------------------------------------------------------------------
+
+__global__ void lineKeysKernel(const LeafOrigin* origins, uint32_t leafCount, uint64_t* keys, uint32_t* order) {
+  const uint32_t leaf = blockIdx.x * blockDim.x + threadIdx.x;
+  if (leaf >= leafCount) return;
+  const LeafOrigin o = origins[leaf];
+  keys[leaf] = (uint64_t(uint32_t(o.o[2])) << 42) | (uint64_t(uint32_t(o.o[1])) << 21) |
+               uint64_t(0x1FFFFFu - uint32_t(o.o[0]));
+  order[leaf] = leaf;
+}
+
+// 1 where a sorted leaf starts a line (a new y, z).
+__global__ void lineStartKernel(const uint64_t* sortedKeys, uint32_t leafCount, uint8_t* start) {
+  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= leafCount) return;
+  start[i] = (i == 0 || (sortedKeys[i] >> 21) != (sortedKeys[i - 1] >> 21)) ? 1 : 0;
+}
+
+__global__ void indexKernel(uint32_t n, uint32_t* index) {
+  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i < n) index[i] = i;
+}
+
+// One thread per (line, row): totals become the counts beyond each leaf.
+__global__ void lineSuffixKernel(const uint32_t* lineStarts, uint32_t lines, uint32_t leafCount,
+                                 const uint32_t* order, uint32_t rows, int32_t* rowTotals) {
+  const uint64_t k = uint64_t(blockIdx.x) * blockDim.x + threadIdx.x;
+  if (k >= uint64_t(lines) * rows) return;
+  const uint32_t line = uint32_t(k / rows), r = uint32_t(k % rows);
+  const uint32_t end = line + 1 < lines ? lineStarts[line + 1] : leafCount;
+  int32_t running = 0;
+  for (uint32_t i = lineStarts[line]; i < end; ++i) {
+    int32_t& e = rowTotals[size_t(order[i]) * rows + r];
+    const int32_t own = e;
+    e = running;
+    running += own;
+  }
+}
+
+// ---- counts and decisions -----------------------------------------------------------
+
+// One thread per (leaf, row); fits[leaf] starts at 1 and any row that does
+// not fit writes 0 (the same value whatever the order).
+__global__ void countsKernel(uint32_t leafCount, int L, const int32_t* exits, const int32_t* rowHits, int16_t* counts,
+                             uint8_t* fits) {
+  const uint64_t k = uint64_t(blockIdx.x) * blockDim.x + threadIdx.x;
+  const uint64_t rows = uint64_t(L) * uint64_t(L);
+  if (k >= uint64_t(leafCount) * rows) return; // k = leaf * rows + row
+  bool fit = rowHits[k] <= INT16_MAX; // the deltas could not wrap
+  int16_t* c = counts + k * uint64_t(L);
+  const int32_t exit = exits[k];
+  int32_t suffix = 0;
+  for (int x = L - 1; x >= 0 && fit; --x) {
+    suffix += c[x];
+    const int32_t n = exit + suffix;
+    fit = n >= INT16_MIN && n <= INT16_MAX;
+    c[x] = int16_t(n);
+  }
+  if (!fit) fits[k / rows] = 0;
+}
+
+// The inside plane of every leaf that fits cleared (decideRowsKernel sets it).
+__global__ void clearInsideKernel(uint64_t wordCount, int L, const uint8_t* fits, uint32_t* words) {
+  const uint64_t i = uint64_t(blockIdx.x) * blockDim.x + threadIdx.x;
+  if (i >= wordCount || !fits[i / leafWordCount(L)]) return;
+  words[i] &= kSurfacePlaneBits;
+}
+
+// windingDecideLeaf's box loop (winding_leaf.hpp, windingDecideBoxes) from
+// one block of rows of the leaf instead of the whole leaf, so that kSplit^2
+// threads share a leaf (one thread per leaf left most of the GPU idle).
+// Every verdict is certified, so the bits do not depend on where the boxes
+// start. A block is L / kSplit rows in y and z (even for L = 8, 16, 32), and
+// a word holds 16 voxels of x-consecutive rows (two rows y = 2k, 2k + 1 at
+// L = 8, one or half a row otherwise): no two threads write the same word.
+constexpr int kSplit = 4; // row blocks per leaf edge
+
+__device__ void decideRows(const WindingTreeView& t, int L, const int* origin, const VoxelBox& start,
+                           const int16_t* N, uint32_t* words) {
+  const WindingLeafWords w{words, uint32_t(L)};
+  windingDecideBoxes(t, origin, N, w, start, INFINITY);
+}
+
+__global__ void decideRowsKernel(WindingTreeView t, const LeafOrigin* origins, uint32_t leafCount, int L,
+                                 const int16_t* counts, const uint8_t* fits, uint32_t* words) {
+  const uint64_t k = uint64_t(blockIdx.x) * blockDim.x + threadIdx.x;
+  const uint32_t leaf = uint32_t(k / (kSplit * kSplit)), part = uint32_t(k % (kSplit * kSplit));
+  if (leaf >= leafCount || !fits[leaf]) return;
+  const int s = L / kSplit, y0 = int(part % kSplit) * s, z0 = int(part / kSplit) * s;
+  decideRows(t, L, origins[leaf].o, VoxelBox{{0, y0, z0}, {L, y0 + s, z0 + s}},
+             counts + size_t(leaf) * size_t(L) * size_t(L) * size_t(L), words + leafWordOffset(leaf, L));
+}
+
+// classifyUniform (core/src/winding.cpp) for one element: bit 0 inside, bit 1
+// split (voxel centres on both sides of w = 1/2).
+__global__ void uniformKernel(WindingTreeView t, const WindingUniformJob* jobs, uint32_t count, uint8_t* verdicts) {
+  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= count) return;
+  const WindingUniformJob job = jobs[i];
+  VoxelBox box;
+  for (int a = 0; a < 3; ++a) {
+    box.lo[a] = job.origin[a];
+    box.hi[a] = job.origin[a] + job.edge;
+  }
+  bool seen[2] = {false, false};
+  windingDecideBox(
+      t, box, [](const VoxelBox&) { return false; }, [](const VoxelBox&) { return false; },
+      [&](const VoxelBox&, bool inside) { seen[inside] = true; }, [&] { return seen[0] && seen[1]; });
+  verdicts[i] = (seen[0] && seen[1]) ? 2 : seen[1] ? 1 : 0;
+}
+
+// N at every voxel centre of a leaf without surface voxels (refinement's
+// fresh leaves): one ray walk per voxel.
+__global__ void freshCountsKernel(WindingTreeView t, const LeafOrigin* origins, uint32_t leafCount, int L,
+                                  int16_t* counts, uint8_t* fits) {
+  const uint64_t k = uint64_t(blockIdx.x) * blockDim.x + threadIdx.x;
+  const uint64_t n = uint64_t(L) * uint64_t(L) * uint64_t(L);
+  if (k >= uint64_t(leafCount) * n) return; // k = leaf * L^3 + voxel
+  const uint32_t leaf = uint32_t(k / n), v = uint32_t(k % n);
+  const LeafOrigin o = origins[leaf];
+  const double p[3] = {o.o[0] + double(v % uint32_t(L)) + 0.5, o.o[1] + double((v / uint32_t(L)) % uint32_t(L)) + 0.5,
+                       o.o[2] + double(v / uint32_t(L * L)) + 0.5};
+  int64_t P[3];
+  int count = 0;
+  if (!windingLatticePoint(p, P) || !windingRayCrossings(t, P, count) || count < INT16_MIN || count > INT16_MAX) {
+    fits[leaf] = 0;
+    return;
+  }
+  counts[k] = int16_t(count);
+}
+
+void checkLaunch(const char* name) {
+  HDT_CUDA_CHECK_LAUNCH(name);
+}
+
+// The device's state between the steps.
+struct CountsOnDevice {
+  Array<LeafOrigin> origins;
+  Array<int32_t> totals, hits;
+  Array<int16_t> counts;
+  Array<uint8_t> fits;
+  CountsOnDevice(size_t leaves, int L)
+      : origins(leaves), totals(leaves * size_t(L) * size_t(L)), hits(totals.size()),
+        counts(totals.size() * size_t(L)), fits(leaves) {}
+};
+
+class Events {
+public:
+  Events() {
+    for (cudaEvent_t& e : e_) HDT_CUDA_CHECK(cudaEventCreate(&e));
+  }
+  ~Events() {
+    for (cudaEvent_t& e : e_) cudaEventDestroy(e);
+  }
+  void mark(int i) { HDT_CUDA_CHECK(cudaEventRecord(e_[i])); }
+  double ms(int a, int b) {
+    float m = 0;
+    HDT_CUDA_CHECK(cudaEventSynchronize(e_[b]));
+    HDT_CUDA_CHECK(cudaEventElapsedTime(&m, e_[a], e_[b]));
+    return m;
+  }
+
+private:
+  cudaEvent_t e_[8];
+};
+
+// crossings, lines, counts: N per voxel in d.counts.
+void computeCounts(const WindingTreeView& t, const std::vector<std::array<int, 3>>& origins, int L,
+                   CountsOnDevice& d, Events& ev) {
+  const uint32_t leaves = uint32_t(origins.size());
+  const uint32_t rows = uint32_t(L * L);
+  std::vector<LeafOrigin> host(leaves);
+  for (size_t i = 0; i < leaves; ++i) host[i] = {{origins[i][0], origins[i][1], origins[i][2]}};
+  d.origins.upload(host.data());
+  d.totals.zero();
+  d.hits.zero();
+  d.counts.zero();
+  ev.mark(1);
+  signedCrossingsKernel<<<blocks(leaves), kBlock>>>(t, d.origins.data(), leaves, L, d.totals.data(), d.hits.data(),
+                                                    d.counts.data());
+  checkLaunch("signedCrossingsKernel");
+  ev.mark(2);
+  {
+    Array<uint64_t> keys(leaves), sortedKeys(leaves);
+    Array<uint32_t> order(leaves), sortedOrder(leaves), index(leaves), starts(leaves), lineCount(1);
+    Array<uint8_t> start(leaves);
+    lineKeysKernel<<<blocks(leaves), kBlock>>>(d.origins.data(), leaves, keys.data(), order.data());
+    checkLaunch("lineKeysKernel");
+    size_t bytes = 0;
+    HDT_CUDA_CHECK(cub::DeviceRadixSort::SortPairs(nullptr, bytes, keys.data(), sortedKeys.data(), order.data(),
+                                                   sortedOrder.data(), int(leaves)));
+    size_t selectBytes = 0;
+    HDT_CUDA_CHECK(cub::DeviceSelect::Flagged(nullptr, selectBytes, index.data(), start.data(), starts.data(),
+                                              lineCount.data(), int(leaves)));
+    Array<uint8_t> temp(std::max<size_t>(std::max(bytes, selectBytes), 16));
+    HDT_CUDA_CHECK(cub::DeviceRadixSort::SortPairs(temp.data(), bytes, keys.data(), sortedKeys.data(), order.data(),
+                                                   sortedOrder.data(), int(leaves)));
+    lineStartKernel<<<blocks(leaves), kBlock>>>(sortedKeys.data(), leaves, start.data());
+    checkLaunch("lineStartKernel");
+    indexKernel<<<blocks(leaves), kBlock>>>(leaves, index.data());
+    checkLaunch("indexKernel");
+    HDT_CUDA_CHECK(cub::DeviceSelect::Flagged(temp.data(), selectBytes, index.data(), start.data(), starts.data(),
+                                              lineCount.data(), int(leaves)));
+    uint32_t lines = 0;
+    lineCount.download(&lines);
+    lineSuffixKernel<<<blocks(uint64_t(lines) * rows), kBlock>>>(starts.data(), lines, leaves,
+                                                                  sortedOrder.data(), rows, d.totals.data());
+    checkLaunch("lineSuffixKernel");
+    ev.mark(3);
+    HDT_CUDA_CHECK(cudaDeviceSynchronize()); // before the temporaries go
+  }
+  HDT_CUDA_CHECK(cudaMemset(d.fits.data(), 1, leaves));
+  countsKernel<<<blocks(uint64_t(leaves) * rows), kBlock>>>(leaves, L, d.totals.data(), d.hits.data(), d.counts.data(),
+                                           d.fits.data());
+  checkLaunch("countsKernel");
+  ev.mark(4);
+}
+
+} // namespace
+
+struct WindingDevicePass::Impl {
+  const WindingTree* host = nullptr;
+  DeviceTree* tree = nullptr;
+  ~Impl() { delete tree; }
+  const DeviceTree& upload(const WindingTree& t) {
+    if (host != &t) {
+      delete tree;
+      tree = nullptr;
+      tree = new DeviceTree(t);
+      host = &t;
+    }
+    return *tree;
+  }
+};
+
+WindingDevicePass::WindingDevicePass() : impl_(new Impl) {}
+WindingDevicePass::~WindingDevicePass() { delete impl_; }
+
+bool WindingDevicePass::leaves(const WindingTree& tree, Volume& volume, const std::vector<std::array<int, 3>>& origins,
+                               std::vector<uint32_t>& leftLeaves, WindingDeviceTimes* times) {
+  leftLeaves.clear();
+  const int L = volume.grid.leafSize;
+  const uint32_t leaves = uint32_t(origins.size());
+  if (leaves == 0) return true;
+  try {
+    Events ev;
+    ev.mark(0);
+    const DeviceTree& t = impl_->upload(tree);
+    CountsOnDevice d(leaves, L);
+    Array<uint32_t> words(volume.leafWords.size());
+    words.upload(volume.leafWords.data());
+    computeCounts(t.view(), origins, L, d, ev);
+    clearInsideKernel<<<blocks(words.size()), kBlock>>>(words.size(), L, d.fits.data(), words.data());
+    checkLaunch("clearInsideKernel");
+    constexpr unsigned kDecideBlock = 32; // few leaves at low resolutions: spread them over the SMs
+    const uint64_t parts = uint64_t(leaves) * kSplit * kSplit;
+    decideRowsKernel<<<unsigned((parts + kDecideBlock - 1) / kDecideBlock), kDecideBlock>>>(
+        t.view(), d.origins.data(), leaves, L, d.counts.data(), d.fits.data(), words.data());
+    checkLaunch("decideRowsKernel");
+    ev.mark(5);
+    std::vector<uint8_t> fits(leaves);
+    d.fits.download(fits.data());
+    words.download(volume.leafWords.data());
+    ev.mark(6);
+    for (uint32_t i = 0; i < leaves; ++i)
+      if (!fits[i]) leftLeaves.push_back(i);
+    if (times) {
+      times->upload = ev.ms(0, 1);
+      times->crossings = ev.ms(1, 2);
+      times->lines = ev.ms(2, 3);
+      times->counts = ev.ms(3, 4);
+      times->decide = ev.ms(4, 5);
+      times->download = ev.ms(5, 6);
+    }
+    return true;
+  } catch (const std::bad_alloc&) {
+    return false;
+  }
+}
+
+bool WindingDevicePass::uniform(const WindingTree& tree, const std::vector<WindingUniformJob>& jobs,
+                                std::vector<uint8_t>& verdicts, double* ms) {
+  verdicts.assign(jobs.size(), 0);
+  if (jobs.empty()) return true;
+  try {
+    Events ev;
+    ev.mark(0);
+    const DeviceTree& t = impl_->upload(tree);
+    Array<WindingUniformJob> d(jobs.size());
+    Array<uint8_t> v(jobs.size());
+    d.upload(jobs.data());
+    constexpr unsigned kUniformBlock = 32;
+    uniformKernel<<<unsigned((jobs.size() + kUniformBlock - 1) / kUniformBlock), kUniformBlock>>>(
+        t.view(), d.data(), uint32_t(jobs.size()), v.data());
+    checkLaunch("uniformKernel");
+    v.download(verdicts.data());
+    ev.mark(1);
+    if (ms) *ms = ev.ms(0, 1);
+    return true;
+  } catch (const std::bad_alloc&) {
+    return false;
+  }
+}
+
+bool WindingDevicePass::fresh(const WindingTree& tree, int L, const std::vector<std::array<int, 3>>& origins,
+                              uint32_t* words, std::vector<uint32_t>& leftLeaves, double* ms) {
+  leftLeaves.clear();
+  const uint32_t leaves = uint32_t(origins.size());
+  if (leaves == 0) return true;
+  try {
+    Events ev;
+    ev.mark(0);
+    const DeviceTree& t = impl_->upload(tree);
+    const uint64_t n = uint64_t(L) * uint64_t(L) * uint64_t(L);
+    Array<LeafOrigin> o(leaves);
+    Array<int16_t> counts(leaves * n);
+    Array<uint8_t> fits(leaves);
+    Array<uint32_t> w(uint64_t(leaves) * leafWordCount(L));
+    std::vector<LeafOrigin> host(leaves);
+    for (size_t i = 0; i < leaves; ++i) host[i] = {{origins[i][0], origins[i][1], origins[i][2]}};
+    o.upload(host.data());
+    w.zero();
+    HDT_CUDA_CHECK(cudaMemset(fits.data(), 1, leaves));
+    freshCountsKernel<<<blocks(uint64_t(leaves) * n), kBlock>>>(t.view(), o.data(), leaves, L, counts.data(),
+                                                                 fits.data());
+    checkLaunch("freshCountsKernel");
+    constexpr unsigned kDecideBlock = 32;
+    const uint64_t parts = uint64_t(leaves) * kSplit * kSplit;
+    decideRowsKernel<<<unsigned((parts + kDecideBlock - 1) / kDecideBlock), kDecideBlock>>>(
+        t.view(), o.data(), leaves, L, counts.data(), fits.data(), w.data());
+    checkLaunch("decideRowsKernel (fresh)");
+    std::vector<uint8_t> hostFits(leaves);
+    fits.download(hostFits.data());
+    w.download(words);
+    ev.mark(1);
+    for (uint32_t i = 0; i < leaves; ++i)
+      if (!hostFits[i]) leftLeaves.push_back(i);
+    if (ms) *ms = ev.ms(0, 1);
+    return true;
+  } catch (const std::bad_alloc&) {
+    return false;
+  }
+}
+
+void windingCountsOnDevice(const WindingTree& tree, int L, const std::vector<std::array<int, 3>>& origins,
+                           std::vector<int16_t>& counts, std::vector<uint8_t>& fits) {
+  const size_t leaves = origins.size();
+  counts.assign(leaves * size_t(L) * size_t(L) * size_t(L), 0);
+  fits.assign(leaves, 0);
+  if (leaves == 0) return;
+  Events ev;
+  DeviceTree t(tree);
+  CountsOnDevice d(leaves, L);
+  computeCounts(t.view(), origins, L, d, ev);
+  d.counts.download(counts.data());
+  d.fits.download(fits.data());
+}
+
+} // namespace cuda
+} // namespace hdt

@@ -1,0 +1,61 @@
+// The winding-number leaf pass on the device (issue 16): the leaves of a
+// copied-back solid volume decided by windingDecideLeaf (winding_leaf.hpp)
+// from the signed +x crossing count N at each voxel centre, the same
+// algorithm and bits as the host pass (core/src/winding.cpp,
+// classifyLeavesByCrossings). Uniform elements stay on the host.
+#pragma once
+
+#include "hdt/winding_tree.hpp"
+
+#include <array>
+#include <cstdint>
+#include <vector>
+
+namespace hdt {
+namespace cuda {
+
+// CUDA-event times of the device pass (milliseconds).
+struct WindingDeviceTimes {
+  double upload = 0, crossings = 0, lines = 0, counts = 0, decide = 0, download = 0;
+};
+
+// The device passes of one build; the tree is uploaded once, on first use.
+class WindingDevicePass {
+public:
+  WindingDevicePass();
+  ~WindingDevicePass();
+  WindingDevicePass(const WindingDevicePass&) = delete;
+  WindingDevicePass& operator=(const WindingDevicePass&) = delete;
+
+  // A WindingLeafPass: per leaf (one thread each) the signed crossings of its
+  // rows with the candidate triangles, their suffix sums along each line of
+  // leaves, N per voxel, then windingDecideLeaf's loop. Leaves whose counts do
+  // not fit 16 bits go to leftLeaves. False (nothing written) when the
+  // device has no room: the caller runs the host pass.
+  bool leaves(const WindingTree& tree, Volume& volume, const std::vector<std::array<int, 3>>& origins,
+              std::vector<uint32_t>& leftLeaves, WindingDeviceTimes* times = nullptr);
+
+  // A WindingUniformPass: one thread per element, classifyUniform's
+  // windingDecideBox walk (winding.hpp). ms: the kernel and its copies.
+  bool uniform(const WindingTree& tree, const std::vector<WindingUniformJob>& jobs, std::vector<uint8_t>& verdicts,
+               double* ms = nullptr);
+
+  // A WindingFreshLeafPass: the leaves that refinement creates hold no
+  // surface voxel; N at each voxel centre by windingRayCrossings (one thread
+  // per voxel), then the same decision as leaves().
+  bool fresh(const WindingTree& tree, int L, const std::vector<std::array<int, 3>>& origins, uint32_t* words,
+             std::vector<uint32_t>& leftLeaves, double* ms = nullptr);
+
+private:
+  struct Impl;
+  Impl* impl_;
+};
+
+// N per voxel of every leaf (leaf-major, x fastest, L^3 each) as the pass
+// computes it, and per leaf whether it fits 16 bits (tests: N must equal
+// windingRayCrossings at every non-surface voxel centre).
+void windingCountsOnDevice(const WindingTree& tree, int L, const std::vector<std::array<int, 3>>& origins,
+                           std::vector<int16_t>& counts, std::vector<uint8_t>& fits);
+
+} // namespace cuda
+} // namespace hdt
