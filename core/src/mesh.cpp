@@ -9,6 +9,7 @@
 #include "hdt/winding_tree.hpp"
 
 #include "scratch.hpp"
+#include "host_arena.hpp"
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -195,7 +196,20 @@ size_t prepareMeshWarmBytes(size_t triangles, size_t points) {
          + 2 * countTable;
 }
 
+namespace {
+PreparedMesh prepareInArena(const TriangleMesh& mesh, const BuildConfig& config, PrepareTimes* times);
+} // namespace
+
+// In the arena startHostThreads filled (host_arena.hpp): the first call of a
+// process finds the workers there. A caller in an arena of fewer threads
+// keeps its limit.
 PreparedMesh prepareMesh(const TriangleMesh& mesh, const BuildConfig& config, PrepareTimes* times) {
+  if (tbb::this_task_arena::max_concurrency() < hostArena().max_concurrency()) return prepareInArena(mesh, config, times);
+  return hostArena().execute([&] { return prepareInArena(mesh, config, times); });
+}
+
+namespace {
+PreparedMesh prepareInArena(const TriangleMesh& mesh, const BuildConfig& config, PrepareTimes* times) {
   auto t = std::chrono::steady_clock::now();
   auto lap = [&t, times](double PrepareTimes::*field) {
     const auto now = std::chrono::steady_clock::now();
@@ -258,5 +272,6 @@ PreparedMesh prepareMesh(const TriangleMesh& mesh, const BuildConfig& config, Pr
   out.insideTest = resolveInsideTest(config.insideTest, out.closed);
   return out;
 }
+} // namespace
 
 } // namespace hdt
