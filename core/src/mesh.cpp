@@ -239,8 +239,11 @@ PreparedMesh prepareInArena(const TriangleMesh& mesh, const BuildConfig& config,
   // drivers see. Points lie in [s, (N - 1) s] of the grid, so below 2^24.
   const GridSpec& g = out.grid;
   Scratch<int32_t> snapped(mesh.points.size());
-  tbb::parallel_for(size_t(0), mesh.pointCount(), [&](size_t p) {
-    for (int a = 0; a < 3; ++a) snapped[3 * p + a] = snapToLattice(mesh.points[3 * p + a], g, a);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, mesh.pointCount(), 1 << 12), [&](const tbb::blocked_range<size_t>& r) {
+    const double* points = mesh.points.data();
+    int32_t* out = snapped.data();
+    for (size_t p = r.begin(); p != r.end(); ++p)
+      for (int a = 0; a < 3; ++a) out[3 * p + a] = snapToLattice(points[3 * p + a], g, a);
   });
 
   lap(&PrepareTimes::snap);
