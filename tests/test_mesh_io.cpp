@@ -443,6 +443,34 @@ size_t duplicatesByCornerCounts(const LatticeTriangles& tris) {
   return tris.size() - seen.size();
 }
 
+// snapToLattice rounds as std::llround of the clamped lattice coordinate
+// (halves away from zero): at every half of a small lattice, a double either
+// side of it, at the ends and beyond them.
+TEST(PrepareMesh, SnapRoundsAsLlround) {
+  GridSpec g;
+  g.resolution = 64;
+  g.origin = {-1.0, 0.25, 3.0};
+  g.voxelSize = 0.125;
+  const double limit = double(int64_t(g.resolution) * kLatticePerVoxel);
+  for (int a = 0; a < 3; ++a) {
+    for (int64_t k = -2; k <= int64_t(limit) + 2; k += 7) {
+      for (double step : {0.0, 0.25, 0.5, 0.75}) {
+        const double q = double(k) + step; // lattice coordinate
+        for (double qq : {std::nextafter(q, -1e30), q, std::nextafter(q, 1e30)}) {
+          const double x = g.origin[size_t(a)] + qq * (g.voxelSize / double(kLatticePerVoxel));
+          const double exact = (x - g.origin[size_t(a)]) * (double(kLatticePerVoxel) / g.voxelSize);
+          const int32_t want = int32_t(std::llround(std::min(std::max(exact, 0.0), limit)));
+          ASSERT_EQ(snapToLattice(x, g, a), want) << "axis " << a << " x " << x;
+        }
+      }
+    }
+    const double halfBelowOne = std::nextafter(0.5, 0.0); // + 0.5 rounds up to 1 in doubles
+    const double x = g.origin[size_t(a)] + halfBelowOne * (g.voxelSize / double(kLatticePerVoxel));
+    const double exact = (x - g.origin[size_t(a)]) * (double(kLatticePerVoxel) / g.voxelSize);
+    EXPECT_EQ(snapToLattice(x, g, a), int32_t(std::llround(exact)));
+  }
+}
+
 // prepareMesh's closedness test and duplicate count (hash buckets, several
 // blocks) against the
 // brute force: a closed sphere, the sphere with triangles taken away or

@@ -11,10 +11,12 @@
 #include "support/shapes.hpp"
 
 #include <gtest/gtest.h>
+#include <tbb/task_arena.h>
 
 #include <cstdint>
 #include <cstring>
 #include <numeric>
+#include <thread>
 #include <vector>
 
 namespace hdt {
@@ -106,6 +108,30 @@ TEST_F(WarmPages, PrepareMeshGivesTheSameBytes) {
   EXPECT_EQ(std::memcmp(warm.triangles.data(), cold.triangles.data(), cold.triangles.size() * sizeof(LatticeTriangle)), 0);
   EXPECT_EQ(warm.closed, cold.closed);
   EXPECT_EQ(warm.duplicateTriangles, cold.duplicateTriangles);
+}
+
+bool sameTriangles(const PreparedMesh& a, const PreparedMesh& b) {
+  return a.triangles.size() == b.triangles.size() &&
+         std::memcmp(a.triangles.data(), b.triangles.data(), a.triangles.size() * sizeof(LatticeTriangle)) == 0 &&
+         a.closed == b.closed && a.duplicateTriangles == b.duplicateTriangles;
+}
+
+// prepareMesh runs in the arena startHostThreads fills, whichever thread
+// started it; a caller in a one-thread arena runs it there instead. The
+// same preparation every way.
+TEST_F(WarmPages, PrepareMeshGivesTheSameBytesInEveryArena) {
+  const TriangleMesh mesh = icosphere(5, 1.0); // 20480 triangles: several blocks a pass
+  BuildConfig config;
+  config.resolution = 1024;
+  const PreparedMesh first = prepareMesh(mesh, config);
+  std::thread([] { startHostThreads(); }).join();
+  const PreparedMesh afterStart = prepareMesh(mesh, config);
+  PreparedMesh single;
+  tbb::task_arena one(1);
+  one.execute([&] { single = prepareMesh(mesh, config); });
+  EXPECT_TRUE(sameTriangles(first, afterStart));
+  EXPECT_TRUE(sameTriangles(first, single));
+  EXPECT_EQ(first.triangles.size(), mesh.triangleCount());
 }
 
 TEST_F(WarmPages, StartHostThreadsReturns) {

@@ -9,6 +9,7 @@
 #include "hdt/winding_tree.hpp"
 
 #include "scratch.hpp"
+#include "host_arena.hpp"
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -195,7 +196,20 @@ size_t prepareMeshWarmBytes(size_t triangles, size_t points) {
          + 2 * countTable;
 }
 
+namespace {
+PreparedMesh prepareInArena(const TriangleMesh& mesh, const BuildConfig& config, PrepareTimes* times);
+} // namespace
+
+// In the arena startHostThreads filled (host_arena.hpp): the first call of a
+// process finds the workers there. A caller in an arena of fewer threads
+// keeps its limit.
 PreparedMesh prepareMesh(const TriangleMesh& mesh, const BuildConfig& config, PrepareTimes* times) {
+  if (tbb::this_task_arena::max_concurrency() < hostArena().max_concurrency()) return prepareInArena(mesh, config, times);
+  return hostArena().execute([&] { return prepareInArena(mesh, config, times); });
+}
+
+namespace {
+PreparedMesh prepareInArena(const TriangleMesh& mesh, const BuildConfig& config, PrepareTimes* times) {
   auto t = std::chrono::steady_clock::now();
   auto lap = [&t, times](double PrepareTimes::*field) {
     const auto now = std::chrono::steady_clock::now();
@@ -225,8 +239,11 @@ PreparedMesh prepareMesh(const TriangleMesh& mesh, const BuildConfig& config, Pr
   // drivers see. Points lie in [s, (N - 1) s] of the grid, so below 2^24.
   const GridSpec& g = out.grid;
   Scratch<int32_t> snapped(mesh.points.size());
-  tbb::parallel_for(size_t(0), mesh.pointCount(), [&](size_t p) {
-    for (int a = 0; a < 3; ++a) snapped[3 * p + a] = snapToLattice(mesh.points[3 * p + a], g, a);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, mesh.pointCount(), 1 << 12), [&](const tbb::blocked_range<size_t>& r) {
+    const double* points = mesh.points.data();
+    int32_t* out = snapped.data();
+    for (size_t p = r.begin(); p != r.end(); ++p)
+      for (int a = 0; a < 3; ++a) out[3 * p + a] = snapToLattice(points[3 * p + a], g, a);
   });
 
   lap(&PrepareTimes::snap);
@@ -258,5 +275,6 @@ PreparedMesh prepareMesh(const TriangleMesh& mesh, const BuildConfig& config, Pr
   out.insideTest = resolveInsideTest(config.insideTest, out.closed);
   return out;
 }
+} // namespace
 
 } // namespace hdt

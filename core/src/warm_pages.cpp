@@ -2,6 +2,8 @@
 
 #include "hdt/huge_pages.hpp" // kHugePageBytes, adviseHugePages
 
+#include "host_arena.hpp"
+
 #include <tbb/parallel_for.h>
 #include <tbb/partitioner.h>
 #include <tbb/task_arena.h>
@@ -26,17 +28,24 @@
 
 namespace hdt {
 
+tbb::task_arena& hostArena() {
+  static tbb::task_arena arena; // all cores, one slot kept for the calling thread
+  return arena;
+}
+
 void startHostThreads() {
-  const int lanes = tbb::this_task_arena::max_concurrency();
-  std::atomic<int> arrived{0};
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(20);
-  tbb::parallel_for(
-      0, lanes,
-      [&](int) {
-        arrived.fetch_add(1);
-        while (arrived.load() < lanes && std::chrono::steady_clock::now() < deadline) std::this_thread::yield();
-      },
-      tbb::static_partitioner());
+  hostArena().execute([] {
+    const int lanes = tbb::this_task_arena::max_concurrency();
+    std::atomic<int> arrived{0};
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(20);
+    tbb::parallel_for(
+        0, lanes,
+        [&](int) {
+          arrived.fetch_add(1);
+          while (arrived.load() < lanes && std::chrono::steady_clock::now() < deadline) std::this_thread::yield();
+        },
+        tbb::static_partitioner());
+  });
 }
 
 #if defined(__linux__)

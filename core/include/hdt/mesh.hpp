@@ -61,7 +61,10 @@ struct PreparedMesh {
 inline int32_t snapToLattice(double x, const GridSpec& g, int axis) {
   const double q = (x - g.origin[size_t(axis)]) * (double(kLatticePerVoxel) / g.voxelSize);
   const double limit = double(int64_t(g.resolution) * kLatticePerVoxel);
-  return int32_t(std::llround(std::min(std::max(q, 0.0), limit)));
+  // std::llround of c >= 0 (halves away from zero), without its library call
+  // so that loops of it vectorise: c - trunc(c) is exact.
+  const double c = std::min(std::max(q, 0.0), limit), whole = std::trunc(c);
+  return int32_t(whole) + int32_t(c - whole >= 0.5);
 }
 
 // Bounds of all points referenced by triangles. Throws Error(BadInput) for an

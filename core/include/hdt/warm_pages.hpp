@@ -21,9 +21,9 @@
 
 namespace hdt {
 
-// Starts the default oneTBB arena's worker threads now (each one that comes
-// waits for the others, at most 20 ms): the first parallel loop afterwards
-// does not wait for threads to be created.
+// Starts oneTBB's worker threads now (each one that comes waits for the
+// others, at most 20 ms), in the arena prepareMesh runs in: its first call
+// afterwards does not wait for threads to be created or moved.
 void startHostThreads();
 
 // Reserves `bytes` (rounded up to 2 MiB) of faulted-in memory, in parallel.
