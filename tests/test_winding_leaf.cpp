@@ -18,6 +18,7 @@
 
 #include <cmath>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace hdt {
@@ -103,6 +104,58 @@ TriangleMesh flatSquare() {
   return m;
 }
 
+// The far part's gradient bound (windingPartGradientBound) against K_far
+// itself: over every anchor box the near/far split serves, K_far at each voxel
+// centre stays within the bound times the distance from the box centre, plus
+// both rounding bounds. Returns the number of voxel centres compared.
+uint64_t checkFarGradientBounds(const TriangleMesh& mesh, int n, int leafSize) {
+  BuildConfig c;
+  c.resolution = n;
+  c.rootGrid = 4;
+  c.leafSize = leafSize;
+  c.insideTest = InsideTest::Parity;
+  const PreparedMesh m = prepareMesh(mesh, c);
+  BuildOptions o;
+  o.backend = Backend::Cpu;
+  const Volume v = buildCpu(m, o);
+  const WindingTree tree = buildWindingTree(m.triangles);
+  const WindingTreeView t = tree.view();
+  const int L = v.grid.leafSize, M = kWindingAnchorBox;
+  uint64_t compared = 0;
+  walkVolume(v, int(v.levelStart.size()) - 2, [&](const WalkedElement& e) {
+    if (e.state() != ElementState::Boundary) return true;
+    double lo[3], hi[3];
+    windingBoxCentres(e.origin.data(), VoxelBox{{0, 0, 0}, {L, L, L}}, lo, hi);
+    WindingLeafSplit split;
+    if (!windingSplitEdges(t, lo, hi, L, split) || 4 * uint32_t(split.nearCount) >= t.edgeCount) return true;
+    for (int az = 0; az < L; az += M)
+      for (int ay = 0; ay < L; ay += M)
+        for (int ax = 0; ax < L; ax += M) {
+          double alo[3], ahi[3], ac[3];
+          windingBoxCentres(e.origin.data(), VoxelBox{{ax, ay, az}, {ax + M, ay + M, az + M}}, alo, ahi);
+          for (int a = 0; a < 3; ++a) ac[a] = 0.5 * (alo[a] + ahi[a]);
+          const double G = windingPartGradientBound(t, split, false, alo, ahi);
+          double Kc = 0, errorC = 0;
+          if (!(G < INFINITY) || !windingPartStripSum(t, split, false, ac, Kc, errorC)) continue;
+          for (int z = 0; z < M; ++z)
+            for (int y = 0; y < M; ++y)
+              for (int x = 0; x < M; ++x) {
+                const double p[3] = {alo[0] + x, alo[1] + y, alo[2] + z};
+                double K = 0, error = 0;
+                if (!windingPartStripSum(t, split, false, p, K, error)) continue;
+                const double r = std::sqrt((p[0] - ac[0]) * (p[0] - ac[0]) + (p[1] - ac[1]) * (p[1] - ac[1]) +
+                                           (p[2] - ac[2]) * (p[2] - ac[2]));
+                EXPECT_LE(std::fabs(K - Kc), G * r + error + errorC + 1e-12)
+                    << "leaf at " << e.origin[0] << "," << e.origin[1] << "," << e.origin[2] << ", voxel "
+                    << p[0] << "," << p[1] << "," << p[2];
+                ++compared;
+              }
+        }
+    return true;
+  });
+  return compared;
+}
+
 class WindingLeafShape : public ::testing::TestWithParam<int> {};
 
 // The generated shapes of the winding suites (open rims through leaves,
@@ -122,6 +175,25 @@ TEST(WindingLeaf, OpenCubeLeavesOf16At128) {
   const LeafCheck c = checkLeaves(windingShapes()[0].mesh, 128, 16);
   expectAllMatch(c, "open cube");
   EXPECT_GT(c.outside, 0u);
+}
+
+
+// Hemispheres whose rims have more edges than a leaf keeps near, so leaves
+// split their edges: the rays at the near chain's open ends pass beside many
+// anchor boxes (the bound must carry them), in every orientation of the rim.
+TEST(WindingLeaf, FarGradientBoundHoldsBesideTheOpenEnds) {
+  uint64_t compared = 0;
+  for (int axis = 0; axis < 3; ++axis)
+    for (int flip = 0; flip < 2; ++flip) {
+      TriangleMesh h = uvHemisphere(12, 96, 1.0);
+      for (size_t i = 0; i < h.pointCount(); ++i) {
+        double* q = &h.points[3 * i];
+        std::swap(q[2], q[axis]); // the opening faces along `axis`
+        if (flip) q[axis] = -q[axis];
+      }
+      compared += checkFarGradientBounds(h, 64, 8);
+    }
+  EXPECT_GT(compared, 1000u);
 }
 
 // A single flat sheet: every voxel beside it has w within a few hundredths
