@@ -544,44 +544,6 @@ uint64_t refineSplitElements(const WindingTree& tree, Volume& v, const std::vect
 
 // ---- leaves from signed crossing counts (winding_leaf.hpp) --------------------
 
-// fn(row, before, sign) for every crossing of a +x ray of the leaf at
-// `origin` with a triangle inside the leaf's half-open x extent (the parity
-// pass's exact crossings, forEachPairCrossing; row = y + L z, before = the
-// row's voxel centres strictly before it), sign = that of the triangle's
-// normal x component. The candidates: the tree's triangles whose node boxes
-// meet the leaf's closed box (a crossing in the leaf lies in it).
-template <class Fn>
-void forEachSignedLeafCrossing(const WindingTree& tree, const std::array<int, 3>& origin, int L, Fn&& fn) {
-  const int64_t v0[3] = {origin[0], origin[1], origin[2]};
-  double lo[3], hi[3];
-  for (int a = 0; a < 3; ++a) {
-    lo[a] = origin[size_t(a)];
-    hi[a] = origin[size_t(a)] + L;
-  }
-  uint32_t stack[kWindingStack];
-  int top = 0;
-  stack[top++] = 0;
-  while (top > 0) {
-    const WindingNode& n = tree.nodes[stack[--top]];
-    bool meets = true;
-    for (int a = 0; a < 3; ++a) meets = meets && n.lo[a] <= hi[a] && n.hi[a] >= lo[a];
-    if (!meets) continue;
-    if (n.count == 0) {
-      stack[top++] = n.first + 1;
-      stack[top++] = n.first;
-      continue;
-    }
-    for (uint32_t i = n.first; i < n.first + n.count; ++i) {
-      const LatticeTriangle& tri = tree.lattice[i];
-      int64_t normal[3];
-      triangleNormal(tri, normal);
-      if (normal[0] == 0) continue; // parallel to x: no ray crosses it
-      const int sign = normal[0] > 0 ? 1 : -1;
-      forEachPairCrossing(tri, 0, v0, L, [&](int row, int before) { fn(row, before, sign); });
-    }
-  }
-}
-
 // Every leaf of the volume by windingDecideLeaf: the signed crossings of each
 // leaf's rows summed per row, their suffix sums along each line of leaves
 // (between two leaves of a line lie only uniform elements, which hold no
@@ -596,7 +558,7 @@ void classifyLeavesByCrossings(const WindingTree& tree, Volume& volume,
   std::vector<int32_t> exits(leaves * rows, 0); // the leaf's own row totals, then the counts beyond it
   tbb::parallel_for(size_t(0), leaves, [&](size_t leaf) {
     int32_t* total = exits.data() + leaf * rows;
-    forEachSignedLeafCrossing(tree, origins[leaf], L, [&](int row, int, int sign) { total[row] += sign; });
+    windingForEachLeafCrossing(t, origins[leaf].data(), L, [&](int row, int, int sign) { total[row] += sign; });
   });
   // Lines of leaves (same y, z), each walked from its +x end.
   std::vector<uint32_t> order(leaves);
@@ -632,7 +594,7 @@ void classifyLeavesByCrossings(const WindingTree& tree, Volume& volume,
     const int32_t* exit = exits.data() + leaf * rows;
     for (size_t r = 0; r < rows; ++r)
       for (int x = 0; x < L; ++x) wide[r * size_t(L) + size_t(x)] = exit[r];
-    forEachSignedLeafCrossing(tree, origins[leaf], L, [&](int row, int before, int sign) {
+    windingForEachLeafCrossing(t, origins[leaf].data(), L, [&](int row, int before, int sign) {
       for (int x = 0; x < before; ++x) wide[size_t(row) * size_t(L) + size_t(x)] += sign;
     });
     uint32_t* words = volume.leafWords.data() + leafWordOffset(leaf, L);

@@ -116,38 +116,11 @@ __global__ void signedCrossingsKernel(WindingTreeView t, const LeafOrigin* origi
   int32_t* hits = rowHits + leaf * rows;
   int16_t* delta = deltas + leaf * rows * size_t(L);
   const LeafOrigin o = origins[leaf];
-  const int64_t v0[3] = {o.o[0], o.o[1], o.o[2]};
-  double lo[3], hi[3];
-  for (int a = 0; a < 3; ++a) {
-    lo[a] = o.o[a];
-    hi[a] = o.o[a] + L;
-  }
-  uint32_t stack[kWindingStack];
-  int top = 0;
-  stack[top++] = 0;
-  while (top > 0) {
-    const WindingNode& n = t.nodes[stack[--top]];
-    bool meets = true;
-    for (int a = 0; a < 3; ++a) meets = meets && n.lo[a] <= hi[a] && n.hi[a] >= lo[a];
-    if (!meets) continue;
-    if (n.count == 0) {
-      stack[top++] = n.first + 1;
-      stack[top++] = n.first;
-      continue;
-    }
-    for (uint32_t i = n.first; i < n.first + n.count; ++i) {
-      const LatticeTriangle tri = t.lattice[i];
-      int64_t normal[3];
-      triangleNormal(tri, normal);
-      if (normal[0] == 0) continue; // parallel to x: no ray crosses it
-      const int sign = normal[0] > 0 ? 1 : -1;
-      forEachPairCrossing(tri, 0, v0, L, [&](int row, int before) {
-        total[row] += sign;
-        hits[row] += 1;
-        if (before > 0) delta[size_t(row) * size_t(L) + size_t(before - 1)] += int16_t(sign);
-      });
-    }
-  }
+  windingForEachLeafCrossing(t, o.o, L, [&](int row, int before, int sign) {
+    total[row] += sign;
+    hits[row] += 1;
+    if (before > 0) delta[size_t(row) * size_t(L) + size_t(before - 1)] += int16_t(sign);
+  });
 }
 
 // ---- lines ----------------------------------------------------------------------

@@ -26,6 +26,7 @@
 // stacks, no allocation, only + - * / and sqrt in a fixed order.
 #pragma once
 
+#include "hdt/build_steps.hpp"
 #include "hdt/platform.hpp"
 #include "hdt/types.hpp"
 #include "hdt/winding.hpp"
@@ -296,6 +297,47 @@ HDT_HD bool windingPartStripSum(const WindingTreeView& t, const WindingLeafSplit
     return t.edges[cursor];
   };
   return windingStripSumOf(t.edgeCount - uint32_t(split.nearCount), farAt, p, K, error);
+}
+
+// ---- a leaf's signed crossings --------------------------------------------------
+
+// fn(row, before, sign) for every crossing of a +x ray of the leaf at
+// `origin` (voxels) with a triangle inside the leaf's half-open x extent (the
+// parity pass's exact crossings, forEachPairCrossing; row = y + L z, before =
+// the row's voxel centres strictly before it), sign = that of the triangle's
+// normal x component. The candidates: the tree's triangles whose node boxes
+// meet the leaf's closed box (a crossing in the leaf lies in it). Both
+// drivers sum these into the counts N that windingDecideLeaf reads.
+template <class Fn>
+HDT_HD void windingForEachLeafCrossing(const WindingTreeView& t, const int* origin, int L, Fn&& fn) {
+  const int64_t v0[3] = {origin[0], origin[1], origin[2]};
+  double lo[3], hi[3];
+  for (int a = 0; a < 3; ++a) {
+    lo[a] = origin[a];
+    hi[a] = origin[a] + L;
+  }
+  uint32_t stack[kWindingStack];
+  int top = 0;
+  stack[top++] = 0;
+  while (top > 0) {
+    const WindingNode& n = t.nodes[stack[--top]];
+    bool meets = true;
+    for (int a = 0; a < 3; ++a) meets = meets && n.lo[a] <= hi[a] && n.hi[a] >= lo[a];
+    if (!meets) continue;
+    if (n.count == 0) {
+      stack[top++] = n.first + 1;
+      stack[top++] = n.first;
+      continue;
+    }
+    for (uint32_t i = n.first; i < n.first + n.count; ++i) {
+      const LatticeTriangle& tri = t.lattice[i];
+      int64_t normal[3];
+      triangleNormal(tri, normal);
+      if (normal[0] == 0) continue; // parallel to x: no ray crosses it
+      const int sign = normal[0] > 0 ? 1 : -1;
+      forEachPairCrossing(tri, 0, v0, L, [&](int row, int before) { fn(row, before, sign); });
+    }
+  }
 }
 
 // ---- the leaf ------------------------------------------------------------------
