@@ -29,21 +29,37 @@ struct LeafCheck {
   uint64_t leaves = 0, judged = 0, wrong = 0, ties = 0, inside = 0, outside = 0;
 };
 
-// Builds with Parity (the surface plane is the same under either test), then
-// decides every leaf by windingDecideLeaf with per-voxel ray counts. Judges
-// the voxels whose x + y + z is a multiple of `stride` (large meshes).
-LeafCheck checkLeaves(const TriangleMesh& mesh, int n, int leafSize, int stride = 1) {
+// A CPU build with Parity (the surface plane is the same under either test)
+// and the winding tree of its triangles.
+struct ParityBuild {
+  PreparedMesh mesh;
+  Volume volume;
+  WindingTree tree;
+};
+
+ParityBuild parityBuild(const TriangleMesh& mesh, int n, int leafSize) {
   BuildConfig c;
   c.resolution = n;
   c.rootGrid = 4;
   c.leafSize = leafSize;
   c.insideTest = InsideTest::Parity;
-  const PreparedMesh m = prepareMesh(mesh, c);
+  ParityBuild b;
+  b.mesh = prepareMesh(mesh, c);
   BuildOptions o;
   o.backend = Backend::Cpu;
-  const Volume v = buildCpu(m, o);
-  const WindingTree tree = buildWindingTree(m.triangles);
-  const WindingTreeView t = tree.view();
+  b.volume = buildCpu(b.mesh, o);
+  b.tree = buildWindingTree(b.mesh.triangles);
+  return b;
+}
+
+// Decides every leaf of a parity build by windingDecideLeaf with per-voxel
+// ray counts. Judges the voxels whose x + y + z is a multiple of `stride`
+// (large meshes).
+LeafCheck checkLeaves(const TriangleMesh& mesh, int n, int leafSize, int stride = 1) {
+  const ParityBuild b = parityBuild(mesh, n, leafSize);
+  const PreparedMesh& m = b.mesh;
+  const Volume& v = b.volume;
+  const WindingTreeView t = b.tree.view();
   const int L = v.grid.leafSize;
   LeafCheck out;
   std::vector<int16_t> counts(size_t(L) * L * L);
@@ -109,17 +125,9 @@ TriangleMesh flatSquare() {
 // centre stays within the bound times the distance from the box centre, plus
 // both rounding bounds. Returns the number of voxel centres compared.
 uint64_t checkFarGradientBounds(const TriangleMesh& mesh, int n, int leafSize) {
-  BuildConfig c;
-  c.resolution = n;
-  c.rootGrid = 4;
-  c.leafSize = leafSize;
-  c.insideTest = InsideTest::Parity;
-  const PreparedMesh m = prepareMesh(mesh, c);
-  BuildOptions o;
-  o.backend = Backend::Cpu;
-  const Volume v = buildCpu(m, o);
-  const WindingTree tree = buildWindingTree(m.triangles);
-  const WindingTreeView t = tree.view();
+  const ParityBuild b = parityBuild(mesh, n, leafSize);
+  const Volume& v = b.volume;
+  const WindingTreeView t = b.tree.view();
   const int L = v.grid.leafSize, M = kWindingAnchorBox;
   uint64_t compared = 0;
   walkVolume(v, int(v.levelStart.size()) - 2, [&](const WalkedElement& e) {

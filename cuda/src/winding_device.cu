@@ -358,8 +358,8 @@ struct WindingDevicePass::Impl {
   }
 };
 
-WindingDevicePass::WindingDevicePass() : impl_(new Impl) {}
-WindingDevicePass::~WindingDevicePass() { delete impl_; }
+WindingDevicePass::WindingDevicePass() : impl_(std::make_unique<Impl>()) {}
+WindingDevicePass::~WindingDevicePass() = default;
 
 bool WindingDevicePass::leaves(const WindingTree& tree, Volume& volume, const std::vector<std::array<int, 3>>& origins,
                                std::vector<uint32_t>& leftLeaves, WindingDeviceTimes* times) {

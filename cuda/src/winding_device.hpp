@@ -1,14 +1,17 @@
-// The winding-number leaf pass on the device (issue 16): the leaves of a
+// The winding-number pass on the device (issue 16): the leaves of a
 // copied-back solid volume decided by windingDecideLeaf (winding_leaf.hpp)
 // from the signed +x crossing count N at each voxel centre, the same
 // algorithm and bits as the host pass (core/src/winding.cpp,
-// classifyLeavesByCrossings). Uniform elements stay on the host.
+// classifyLeavesByCrossings); the uniform elements and the leaves that
+// refinement creates likewise. The host keeps the tree's build, the walk of
+// the elements and the re-laying of refined ones.
 #pragma once
 
 #include "hdt/winding_tree.hpp"
 
 #include <array>
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 namespace hdt {
@@ -48,7 +51,7 @@ public:
 
 private:
   struct Impl;
-  Impl* impl_;
+  std::unique_ptr<Impl> impl_;
 };
 
 // N per voxel of every leaf (leaf-major, x fastest, L^3 each) as the pass
