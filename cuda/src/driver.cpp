@@ -31,6 +31,68 @@ using Clock = std::chrono::steady_clock;
 
 uint64_t mib(uint64_t bytes) { return (bytes + (uint64_t(1) << 20) - 1) >> 20; }
 
+// The inside test over the copied-back volume (applyInsideTest): for the
+// winding number the same tree and per-leaf decision as the CPU driver
+// (winding_tree.hpp, winding_leaf.hpp), with the leaves, the uniform elements
+// and the children of refined elements decided on the device
+// (winding_device.hpp); a leaf whose counts exceed 16 bits, and any pass the
+// device has no room for, on the host. Logs where the time went.
+double applyInsideTestOnDevice(const PreparedMesh& mesh, Volume& v, const BuildOptions& options) {
+  cuda::WindingDevicePass device;
+  double uniformMs = 0;
+  // Host time around the device passes: tree + walk before, then the rest.
+  const auto windingStart = Clock::now();
+  auto msSince = [](Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); };
+  double beforeDeviceMs = -1, uniformWallMs = 0, leavesWallMs = 0, freshMs = 0, freshWallMs = 0;
+  uint64_t freshLeaves = 0;
+  // Called for the volume's elements, then for each level of refinement.
+  const WindingUniformPass uniformPass = [&](const WindingTree& tree, const std::vector<WindingUniformJob>& jobs,
+                                             std::vector<uint8_t>& verdicts) {
+    if (beforeDeviceMs < 0) beforeDeviceMs = msSince(windingStart);
+    const auto t0 = Clock::now();
+    double ms = 0;
+    const bool ran = device.uniform(tree, jobs, verdicts, &ms);
+    uniformMs += ms;
+    uniformWallMs += msSince(t0);
+    return ran;
+  };
+  const WindingFreshLeafPass freshPass = [&](const WindingTree& tree, int L,
+                                             const std::vector<std::array<int, 3>>& origins, uint32_t* words,
+                                             std::vector<uint32_t>& left) {
+    const auto t0 = Clock::now();
+    const bool ran = device.fresh(tree, L, origins, words, left, &freshMs);
+    freshWallMs = msSince(t0);
+    freshLeaves = origins.size() - left.size();
+    return ran;
+  };
+  const WindingLeafPass leafPass = [&](const WindingTree& tree, Volume& vol,
+                                       const std::vector<std::array<int, 3>>& origins, std::vector<uint32_t>& left) {
+    cuda::WindingDeviceTimes t;
+    const auto t0 = Clock::now();
+    const bool ran = device.leaves(tree, vol, origins, left, &t);
+    leavesWallMs = msSince(t0);
+    if (options.log) {
+      options.log(ran ? "CUDA driver: winding pass on the device (ms): uniform " + std::to_string(uniformMs) +
+                            ", leaves: upload " + std::to_string(t.upload) + ", crossings " +
+                            std::to_string(t.crossings) + ", lines " + std::to_string(t.lines) + ", counts " +
+                            std::to_string(t.counts) + ", decide " + std::to_string(t.decide) + ", download " +
+                            std::to_string(t.download) + "; " + std::to_string(left.size()) + " of " +
+                            std::to_string(origins.size()) + " leaves left to the host"
+                      : "CUDA driver: no device memory for the winding leaf pass; it runs on the host");
+    }
+    return ran;
+  };
+  const double windingMs = applyInsideTest(mesh, v, leafPass, uniformPass, freshPass);
+  if (options.log && windingMs > 0)
+    options.log("CUDA driver: winding pass " + std::to_string(msSince(windingStart)) + " ms, of which host tree + walk " +
+                std::to_string(beforeDeviceMs) + " ms, uniform passes " + std::to_string(uniformWallMs) +
+                " ms, leaf pass " + std::to_string(leavesWallMs) + " ms, fresh leaves " + std::to_string(freshWallMs) +
+                " ms (wall, allocations included; fresh kernels " + std::to_string(freshMs) + " ms, " +
+                std::to_string(freshLeaves) + " leaves); " + std::to_string(v.stats.windingRefinedElements) +
+                " elements refined");
+  return windingMs;
+}
+
 Volume build(const PreparedMesh& mesh, const BuildOptions& options, CudaBuildReport& report, bool keepResult) {
   using namespace cuda;
   const auto wall0 = Clock::now();
@@ -79,63 +141,7 @@ Volume build(const PreparedMesh& mesh, const BuildOptions& options, CudaBuildRep
   }
 
   const auto host0 = Clock::now();
-  // The winding number over the copied-back volume, with the same tree and
-  // per-leaf decision as the CPU driver (winding_tree.hpp, winding_leaf.hpp):
-  // the leaves on the device (winding_device.hpp), the uniform elements and
-  // any leaf the device leaves (counts beyond 16 bits) on the host; the
-  // whole pass on the host when the device has no room for it.
-  WindingDevicePass device;
-  double uniformMs = 0;
-  // Host time around the device passes: tree + walk before, then the rest.
-  const auto windingStart = Clock::now();
-  auto msSince = [](Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); };
-  double beforeDeviceMs = -1, uniformWallMs = 0, leavesWallMs = 0, freshMs = 0, freshWallMs = 0;
-  uint64_t freshLeaves = 0;
-  // Called for the volume's elements, then for each level of refinement.
-  const WindingUniformPass uniformPass = [&](const WindingTree& tree, const std::vector<WindingUniformJob>& jobs,
-                                             std::vector<uint8_t>& verdicts) {
-    if (beforeDeviceMs < 0) beforeDeviceMs = msSince(windingStart);
-    const auto t0 = Clock::now();
-    double ms = 0;
-    const bool ran = device.uniform(tree, jobs, verdicts, &ms);
-    uniformMs += ms;
-    uniformWallMs += msSince(t0);
-    return ran;
-  };
-  const WindingFreshLeafPass freshPass = [&](const WindingTree& tree, int L,
-                                             const std::vector<std::array<int, 3>>& origins, uint32_t* words,
-                                             std::vector<uint32_t>& left) {
-    const auto t0 = Clock::now();
-    const bool ran = device.fresh(tree, L, origins, words, left, &freshMs);
-    freshWallMs = msSince(t0);
-    freshLeaves = origins.size() - left.size();
-    return ran;
-  };
-  const WindingLeafPass leafPass = [&](const WindingTree& tree, Volume& vol,
-                                       const std::vector<std::array<int, 3>>& origins, std::vector<uint32_t>& left) {
-    WindingDeviceTimes t;
-    const auto t0 = Clock::now();
-    const bool ran = device.leaves(tree, vol, origins, left, &t);
-    leavesWallMs = msSince(t0);
-    if (options.log) {
-      options.log(ran ? "CUDA driver: winding pass on the device (ms): uniform " + std::to_string(uniformMs) +
-                            ", leaves: upload " + std::to_string(t.upload) + ", crossings " +
-                            std::to_string(t.crossings) + ", lines " + std::to_string(t.lines) + ", counts " +
-                            std::to_string(t.counts) + ", decide " + std::to_string(t.decide) + ", download " +
-                            std::to_string(t.download) + "; " + std::to_string(left.size()) + " of " +
-                            std::to_string(origins.size()) + " leaves left to the host"
-                      : "CUDA driver: no device memory for the winding leaf pass; it runs on the host");
-    }
-    return ran;
-  };
-  const double windingMs = keepResult ? applyInsideTest(mesh, v, leafPass, uniformPass, freshPass) : 0.0;
-  if (options.log && windingMs > 0)
-    options.log("CUDA driver: winding pass " + std::to_string(msSince(windingStart)) + " ms, of which host tree + walk " +
-                std::to_string(beforeDeviceMs) + " ms, uniform passes " + std::to_string(uniformWallMs) +
-                " ms, leaf pass " + std::to_string(leavesWallMs) + " ms, fresh leaves " + std::to_string(freshWallMs) +
-                " ms (wall, allocations included; fresh kernels " + std::to_string(freshMs) + " ms, " +
-                std::to_string(freshLeaves) + " leaves); " + std::to_string(v.stats.windingRefinedElements) +
-                " elements refined");
+  const double windingMs = keepResult ? applyInsideTestOnDevice(mesh, v, options) : 0.0;
   if (keepResult || !whole || windingMs > 0) computeStructureStatistics(v);
   Statistics& st = v.stats;
   st.triangles = mesh.triangles.size();
