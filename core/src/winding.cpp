@@ -10,7 +10,6 @@
 #include "hdt/winding_leaf.hpp"
 
 #include <algorithm>
-#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <numeric>
@@ -394,6 +393,22 @@ UniformVerdict classifyUniform(const WindingTreeView& t, const std::array<int, 3
   return {seen[1], false};
 }
 
+// The verdicts of uniform elements: by the pass when there is one and it
+// runs (verdict bit 0 inside, bit 1 split), classifyUniform here otherwise.
+std::vector<UniformVerdict> decideUniformJobs(const WindingTree& tree, const std::vector<WindingUniformJob>& jobs,
+                                              const WindingUniformPass& pass) {
+  std::vector<UniformVerdict> out(jobs.size());
+  std::vector<uint8_t> verdicts;
+  if (pass && pass(tree, jobs, verdicts)) {
+    for (size_t i = 0; i < jobs.size(); ++i) out[i] = UniformVerdict{(verdicts[i] & 1) != 0, (verdicts[i] & 2) != 0};
+    return out;
+  }
+  const WindingTreeView t = tree.view();
+  tbb::parallel_for(size_t(0), jobs.size(),
+                    [&](size_t i) { out[i] = classifyUniform(t, jobs[i].origin, jobs[i].edge); });
+  return out;
+}
+
 std::array<int, 3> childOrigin(const std::array<int, 3>& o, int edge, int c) {
   const int h = edge / 2;
   return {o[0] + (c & 1) * h, o[1] + ((c >> 1) & 1) * h, o[2] + ((c >> 2) & 1) * h};
@@ -449,31 +464,17 @@ uint64_t refineSplitElements(const WindingTree& tree, Volume& v, const std::vect
       }
     }
     const int childEdge = g.elementVoxels(k + 1);
-    bool passed = false;
-    if (uniformPass) { // the fresh children decided by the pass
-      std::vector<WindingUniformJob> jobs;
-      std::vector<size_t> at;
-      for (size_t i = 0; i < next.size(); ++i)
-        if (next[i].fresh) {
-          jobs.push_back({0, next[i].origin, childEdge});
-          at.push_back(i);
-        }
-      std::vector<uint8_t> verdicts;
-      if (uniformPass(tree, jobs, verdicts)) {
-        for (size_t j = 0; j < jobs.size(); ++j) {
-          next[at[j]].inside = (verdicts[j] & 1) != 0;
-          next[at[j]].split = (verdicts[j] & 2) != 0;
-        }
-        passed = true;
+    std::vector<WindingUniformJob> jobs; // the fresh children
+    std::vector<size_t> at;
+    for (size_t i = 0; i < next.size(); ++i)
+      if (next[i].fresh) {
+        jobs.push_back({0, next[i].origin, childEdge});
+        at.push_back(i);
       }
-    }
-    if (!passed) {
-      tbb::parallel_for(size_t(0), next.size(), [&](size_t i) {
-        if (!next[i].fresh) return;
-        const UniformVerdict u = classifyUniform(t, next[i].origin, childEdge);
-        next[i].inside = u.inside;
-        next[i].split = u.split;
-      });
+    const std::vector<UniformVerdict> verdicts = decideUniformJobs(tree, jobs, uniformPass);
+    for (size_t j = 0; j < jobs.size(); ++j) {
+      next[at[j]].inside = verdicts[j].inside;
+      next[at[j]].split = verdicts[j].split;
     }
   }
   for (const LaidElement& e : levels[size_t(height)]) refined += e.split;
@@ -622,45 +623,22 @@ WindingOutcome classifyByWindingNumber(const WindingTree& tree, Volume& volume, 
   const WindingTreeView t = tree.view();
   const int L = volume.grid.leafSize;
   std::vector<uint8_t> split(volume.elements.size(), 0);
-  std::atomic<bool> anySplit{false};
+  bool anySplit = false;
   const int deepest = int(volume.levelStart.size()) - 2;
   const size_t leafCount = volume.leafWords.size() / leafWordCount(L);
   std::vector<std::array<int, 3>> leafOrigins(leafCount);
-  auto setUniform = [&](uint64_t index, const UniformVerdict& u) {
-    volume.elements[index] = makeElement(u.inside ? ElementState::Full : ElementState::Empty, 0);
-    if (u.split) {
-      split[index] = 1;
-      anySplit.store(true, std::memory_order_relaxed);
+  std::vector<WindingUniformJob> jobs; // the uniform elements, in walk order
+  walkVolume(volume, deepest, [&](const WalkedElement& e) {
+    if (e.state() == ElementState::Boundary) leafOrigins[e.payload()] = e.origin;
+    if (e.state() == ElementState::Empty || e.state() == ElementState::Full) jobs.push_back({e.index, e.origin, e.edge});
+  });
+  const std::vector<UniformVerdict> verdicts = decideUniformJobs(tree, jobs, uniformPass);
+  for (size_t i = 0; i < jobs.size(); ++i) {
+    volume.elements[jobs[i].index] = makeElement(verdicts[i].inside ? ElementState::Full : ElementState::Empty, 0);
+    if (verdicts[i].split) {
+      split[jobs[i].index] = 1;
+      anySplit = true;
     }
-  };
-  bool uniformDone = false;
-  if (uniformPass) { // the elements listed (in walk order) and decided by the pass
-    std::vector<WindingUniformJob> jobs;
-    walkVolume(volume, deepest, [&](const WalkedElement& e) {
-      if (e.state() == ElementState::Boundary) leafOrigins[e.payload()] = e.origin;
-      if (e.state() == ElementState::Empty || e.state() == ElementState::Full)
-        jobs.push_back({e.index, e.origin, e.edge});
-    });
-    std::vector<uint8_t> verdicts;
-    if (uniformPass(tree, jobs, verdicts)) {
-      for (size_t i = 0; i < jobs.size(); ++i)
-        setUniform(jobs[i].index, UniformVerdict{(verdicts[i] & 1) != 0, (verdicts[i] & 2) != 0});
-      uniformDone = true;
-    }
-  }
-  if (!uniformDone) {
-    parallelWalkVolume(volume, deepest, [&](const WalkedElement& e) {
-      switch (e.state()) {
-      case ElementState::Boundary:
-        leafOrigins[e.payload()] = e.origin;
-        break;
-      case ElementState::Empty:
-      case ElementState::Full:
-        setUniform(e.index, classifyUniform(t, e.origin, e.edge));
-        break;
-      case ElementState::Branch: break;
-      }
-    });
   }
   std::vector<uint32_t> left;
   if (leafPass && leafPass(tree, volume, leafOrigins, left)) {
@@ -672,7 +650,7 @@ WindingOutcome classifyByWindingNumber(const WindingTree& tree, Volume& volume, 
     classifyLeavesByCrossings(tree, volume, leafOrigins);
   }
   WindingOutcome out;
-  if (anySplit.load()) out.refinedElements = refineSplitElements(tree, volume, split, uniformPass, freshPass);
+  if (anySplit) out.refinedElements = refineSplitElements(tree, volume, split, uniformPass, freshPass);
   return out;
 }
 
