@@ -10,10 +10,12 @@
 #include <tbb/blocked_range.h>
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_scan.h>
 
 #include <algorithm>
 #include <array>
 #include <chrono>
+#include <functional>
 #include <map>
 #include <utility>
 
@@ -276,25 +278,28 @@ Volume combineLabelledParts(const std::vector<Volume>& parts, const std::vector<
 
 namespace {
 
-// Exclusive prefix sums of per-chunk counts (chunks of kIndexChunk items):
-// where each chunk's items start; the last entry is the total.
-constexpr size_t kIndexChunk = size_t(1) << 16;
-
-template <class Count>
-std::vector<uint64_t> chunkStarts(size_t items, const Count& count) {
-  const size_t chunks = (items + kIndexChunk - 1) / kIndexChunk;
-  std::vector<uint64_t> start(chunks + 1, 0);
-  tbb::parallel_for(size_t(0), chunks, [&](size_t c) {
-    start[c + 1] = count(c * kIndexChunk, std::min(items, (c + 1) * kIndexChunk));
-  });
-  for (size_t c = 0; c < chunks; ++c) start[c + 1] += start[c];
-  return start;
+// Numbers the items in [0, items) that `counts` selects, in order, and hands
+// each its number through `visit` (tbb::parallel_scan: a deterministic prefix
+// sum whatever the thread count). Returns how many were numbered.
+template <class Counts, class Visit>
+uint64_t numberInOrder(size_t items, const Counts& counts, const Visit& visit) {
+  return tbb::parallel_scan(
+      tbb::blocked_range<size_t>(0, items, size_t(1) << 14), uint64_t(0),
+      [&](const tbb::blocked_range<size_t>& r, uint64_t before, bool isFinal) {
+        for (size_t i = r.begin(); i < r.end(); ++i) {
+          if (!counts(i)) continue;
+          if (isFinal) visit(i, before);
+          ++before;
+        }
+        return before;
+      },
+      std::plus<uint64_t>());
 }
 
 } // namespace
 
-// Two parallel passes over fixed chunks (count, then write from each chunk's
-// start): the same numbering as one pass in element order.
+// Mixed leaves numbered in element order; their blocks number wide and
+// palette leaves apart, each in mixed order.
 void indexMixedLeaves(Volume& v) {
   LabelField& f = v.labels;
   f.mixedIndex.clear();
@@ -302,42 +307,25 @@ void indexMixedLeaves(Volume& v) {
   if (f.empty()) return;
   const uint64_t first = v.levelStart[size_t(v.grid.height)];
   const size_t leafLevel = v.elements.size() - first;
-  const auto isMixed = [&](uint64_t i) {
-    return elementState(v.elements[i]) == ElementState::Boundary && f.elementLabels[i] == kOutsideLabel;
+  const auto isMixed = [&](size_t i) {
+    return elementState(v.elements[first + i]) == ElementState::Boundary &&
+           f.elementLabels[first + i] == kOutsideLabel;
   };
-  const std::vector<uint64_t> mixedStart = chunkStarts(leafLevel, [&](size_t b, size_t e) {
-    uint64_t n = 0;
-    for (size_t i = b; i < e; ++i) n += isMixed(first + i);
-    return n;
+  f.mixedIndex.assign(v.leafCount(), kNotMixed);
+  const uint64_t mixed = numberInOrder(leafLevel, isMixed, [&](size_t i, uint64_t k) {
+    // Past the palettes' count the numbers are not stored: the check below throws.
+    if (k < f.palettes.size()) f.mixedIndex[elementPayload(v.elements[first + i])] = uint32_t(k);
   });
-  if (mixedStart.back() > f.palettes.size())
-    throw Error(ErrorKind::InvalidArgument, "labels: more mixed leaves than palettes");
-  if (mixedStart.back() != f.palettes.size())
+  if (mixed != f.palettes.size()) {
+    f.mixedIndex.clear();
     throw Error(ErrorKind::InvalidArgument, "labels: " + std::to_string(f.palettes.size()) + " palettes for " +
-                                                std::to_string(mixedStart.back()) + " mixed leaves");
-  f.mixedIndex.resize(v.leafCount());
-  tbb::parallel_for(size_t(0), (f.mixedIndex.size() + kIndexChunk - 1) / kIndexChunk, [&](size_t c) {
-    std::fill(f.mixedIndex.begin() + c * kIndexChunk,
-              f.mixedIndex.begin() + std::min(f.mixedIndex.size(), (c + 1) * kIndexChunk), kNotMixed);
-  });
-  tbb::parallel_for(size_t(0), mixedStart.size() - 1, [&](size_t c) {
-    uint32_t mixed = uint32_t(mixedStart[c]);
-    for (size_t i = c * kIndexChunk; i < std::min(leafLevel, (c + 1) * kIndexChunk); ++i)
-      if (isMixed(first + i)) f.mixedIndex[elementPayload(v.elements[first + i])] = mixed++;
-  });
-  // Blocks: wide and palette leaves numbered apart, in mixed order.
-  const size_t mixed = f.palettes.size();
-  const std::vector<uint64_t> wideStart = chunkStarts(mixed, [&](size_t b, size_t e) {
-    uint64_t n = 0;
-    for (size_t k = b; k < e; ++k) n += f.palettes[k].isWide();
-    return n;
-  });
+                                                std::to_string(mixed) + " mixed leaves");
+  }
   f.mixedBlock.resize(mixed);
-  tbb::parallel_for(size_t(0), wideStart.size() - 1, [&](size_t c) {
-    uint64_t wide = wideStart[c], palette = c * kIndexChunk - wideStart[c];
-    for (size_t k = c * kIndexChunk; k < std::min(mixed, (c + 1) * kIndexChunk); ++k)
-      f.mixedBlock[k] = uint32_t(f.palettes[k].isWide() ? wide++ : palette++);
-  });
+  const auto isWide = [&](size_t k) { return f.palettes[k].isWide(); };
+  const auto numberBlock = [&](size_t k, uint64_t block) { f.mixedBlock[k] = uint32_t(block); };
+  numberInOrder(mixed, isWide, numberBlock);
+  numberInOrder(mixed, [&](size_t k) { return !isWide(k); }, numberBlock);
 }
 
 LeafLabels leafLabels(const Volume& v, uint64_t element) {
