@@ -396,6 +396,21 @@ TEST(Issue12MemoryEstimate, LeafGridCountIsBracketed) {
   EXPECT_LT(estimateHostBytes(prepareMesh(icosphere(6, 1.0), c)), uint64_t(256) << 20);
 }
 
+TEST(Issue12MemoryEstimate, WindingNumberAddsItsTreeAndRowCounts) {
+  // The winding-number pass (winding.cpp) holds the tree over the triangles
+  // and, per leaf, a signed count for each of its L^2 rows beside the leaf
+  // states; parity needs neither.
+  const Shape s = openHemisphereShape();
+  BuildConfig c = s.config(256, 16, 8, false);
+  c.insideTest = InsideTest::Parity;
+  const HostMemoryEstimate parity = estimateHostMemory(prepareMesh(s.mesh, c));
+  c.insideTest = InsideTest::WindingNumber;
+  const HostMemoryEstimate winding = estimateHostMemory(prepareMesh(s.mesh, c));
+  EXPECT_EQ(parity.winding, 0u);
+  EXPECT_GE(double(winding.winding), winding.leafGrids * 8 * 8 * 4);
+  EXPECT_EQ(winding.total - parity.total, winding.winding);
+}
+
 } // namespace
 } // namespace test
 } // namespace hdt

@@ -14,6 +14,9 @@
 //   reading     the mesh file's scene and copies while it is read and snapped
 //   compression writing the .hdt keeps the volume and zstd's output buffer
 //               (resident: the compressed size, taken as 1/4 of the leaf bytes)
+//   winding     under the winding-number test (winding.cpp): the tree over the
+//               triangles, and per leaf its origin and the signed crossing
+//               count at each of its L^2 rows' exits (int32)
 // The leaf and pair counts come from a coarse raster of the triangles at the
 // leaf level (touchedLeafCells): every leaf cube a triangle may meet is marked
 // once in a bitset, so faces that share leaf cubes (thin walls, both sides of
@@ -24,6 +27,7 @@
 #include "hdt/builder.hpp"
 
 #include "hdt/build_steps.hpp"
+#include "hdt/winding_tree.hpp"
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -194,7 +198,11 @@ HostMemoryEstimate estimateHostMemory(const PreparedMesh& mesh) {
   // where written): a quarter of the raw leaf bytes at most on the meshes of
   // bench/results/memory-estimate.md.
   e.compression = uint64_t(0.25 * leaves * leafStates);
-  const double build = double(e.rootGrid + e.tree + e.leaves + e.pairs + e.triangles);
+  if (mesh.insideTest == InsideTest::WindingNumber) {
+    const double treeBytes = sizeof(WindingTriangle) + sizeof(LatticeTriangle) + 2 * sizeof(WindingNode);
+    e.winding = uint64_t(triangles * treeBytes + leaves * (L * L * 4 + 12 + 4));
+  }
+  const double build = double(e.rootGrid + e.tree + e.leaves + e.pairs + e.triangles + e.winding);
   // Memory freed by one phase mostly stays resident (allocator arenas of the
   // worker threads), so the phases add up rather than overlap: reading and
   // preparing the mesh (assimp's scene, the input and lattice copies, the

@@ -112,6 +112,7 @@ struct HostMemoryEstimate {
   uint64_t pairs = 0;       // (element, triangle) pairs and their sort
   uint64_t triangles = 0;   // the prepared mesh
   uint64_t compression = 0; // writing the .hdt: zstd's output buffer
+  uint64_t winding = 0;     // the winding-number test's tree and per-leaf row counts (0 under parity)
   uint64_t total = 0;       // the peak: reading, build and write buffer add up (freed memory stays resident)
 };
 HostMemoryEstimate estimateHostMemory(const PreparedMesh& mesh);
