@@ -142,7 +142,9 @@ Volume build(const PreparedMesh& mesh, const BuildOptions& options, CudaBuildRep
 
   const auto host0 = Clock::now();
   const double windingMs = keepResult ? applyInsideTestOnDevice(mesh, v, options) : 0.0;
-  if (keepResult || !whole || windingMs > 0) computeStructureStatistics(v);
+  // A whole build counted its voxels on the device (buildWhole) unless the
+  // winding-number pass rewrote them on the host.
+  if (!whole || (keepResult && mesh.insideTest == InsideTest::WindingNumber)) computeStructureStatistics(v);
   Statistics& st = v.stats;
   st.triangles = mesh.triangles.size();
   st.degenerateTriangles = mesh.degenerateTriangles;

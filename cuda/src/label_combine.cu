@@ -301,31 +301,6 @@ __global__ void finalizeElementsKernel(ElementWord* words, uint32_t count, uint6
   elementLabels[start + i] = label;
 }
 
-// Adds a warp's sum of v to *out (all lanes take part).
-__device__ __forceinline__ void warpAdd(unsigned long long v, unsigned long long* out) {
-  for (int o = 16; o > 0; o >>= 1) v += __shfl_xor_sync(kFullMask, v, o);
-  if (threadIdx.x % 32 == 0 && v) atomicAdd(out, v);
-}
-
-__global__ void countFullVoxelsKernel(const ElementWord* words, uint32_t count, uint64_t voxelsPerElement,
-                                      unsigned long long* counts) {
-  const uint64_t i = threadIndex();
-  const bool full = i < count && elementState(words[i]) == ElementState::Full;
-  warpAdd(full ? voxelsPerElement : 0ull, counts + 1);
-}
-
-// Grid-stride: a thread sums many words before its warp adds once.
-__global__ void countLeafVoxelsKernel(const uint32_t* words, uint64_t total, unsigned long long* counts) {
-  unsigned long long surface = 0, inside = 0;
-  for (uint64_t j = threadIndex(); j < total; j += uint64_t(gridDim.x) * blockDim.x) {
-    const uint32_t w = words[j];
-    surface += planeCount(w, kSurfacePlane);
-    inside += planeCount(w, kInsidePlane);
-  }
-  warpAdd(surface, counts);
-  warpAdd(inside, counts + 1);
-}
-
 template <class... Args, class... Params>
 void launch(const char* name, cudaStream_t s, uint64_t threads, void (*kernel)(Params...), Args... args) {
   if (threads == 0) return;
@@ -435,18 +410,6 @@ void finalizeElements(cudaStream_t s, ElementWord* words, uint32_t count, uint64
                       const uint16_t* leafLabel, const uint16_t* labelOfRank, uint16_t* elementLabels) {
   launch("finalizeElements", s, count, finalizeElementsKernel, words, count, start, fullRank, leafLabel, labelOfRank,
          elementLabels);
-}
-
-void countFullVoxels(cudaStream_t s, const ElementWord* words, uint32_t count, uint64_t voxelsPerElement,
-                     unsigned long long* counts) {
-  launch("countFullVoxels", s, count, countFullVoxelsKernel, words, count, voxelsPerElement, counts);
-}
-
-void countLeafVoxels(cudaStream_t s, const uint32_t* words, uint64_t total, unsigned long long* counts) {
-  if (total == 0) return;
-  const uint64_t threads = std::min<uint64_t>(total, uint64_t(kBlock) * 4096); // enough blocks to fill the device
-  countLeafVoxelsKernel<<<blocksFor(threads, kBlock), kBlock, 0, s>>>(words, total, counts);
-  HDT_CUDA_CHECK_LAUNCH("countLeafVoxels");
 }
 
 uint32_t scanFlags(DeviceMemory& mem, const uint32_t* flags, uint32_t* index, uint32_t n) {

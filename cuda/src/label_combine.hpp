@@ -104,13 +104,6 @@ void wideLabels(cudaStream_t s, uint32_t multiCount, uint32_t voxelsPerLeaf, con
 void finalizeElements(cudaStream_t s, ElementWord* words, uint32_t count, uint64_t start, const uint16_t* fullRank,
                       const uint16_t* leafLabel, const uint16_t* labelOfRank, uint16_t* elementLabels);
 
-// The volume's voxel counts for its statistics, added into counts[0]
-// (surface) and counts[1] (inside): a level's Full elements (edge^3 voxels
-// each, after finalizeElements) and the final leaf words.
-void countFullVoxels(cudaStream_t s, const ElementWord* words, uint32_t count, uint64_t voxelsPerElement,
-                     unsigned long long* counts);
-void countLeafVoxels(cudaStream_t s, const uint32_t* words, uint64_t total, unsigned long long* counts);
-
 // Exclusive scan of n 0/1 flags into index; returns their sum (waits for it).
 uint32_t scanFlags(DeviceMemory& mem, const uint32_t* flags, uint32_t* index, uint32_t n);
 

@@ -20,6 +20,7 @@
 #include "host_copy.hpp"
 #include "pipeline.hpp"
 #include "session.hpp"
+#include "voxel_counts.hpp"
 
 #include "hdt/error.hpp"
 #include "hdt/host_memory.hpp"

@@ -1,6 +1,7 @@
 #include "pipeline.hpp"
 
 #include "host_copy.hpp"
+#include "voxel_counts.hpp"
 
 #include "hdt/error.hpp"
 
@@ -128,6 +129,19 @@ Volume buildWhole(Session& s, RootMapping root, bool keepResult) {
   }
   v.levelStart.push_back(total);
   v.elements.resize(total);
+  // The statistics' voxel counts, on the device while the copy back runs;
+  // the winding-number pass rewrites the volume on the host, which counts it then.
+  const bool countHere = s.mesh.insideTest != InsideTest::WindingNumber;
+  DeviceBuffer<unsigned long long> voxelCounts(s.memory, 2); // surface, inside
+  if (countHere) {
+    HDT_CUDA_CHECK(cudaMemsetAsync(voxelCounts.data(), 0, voxelCounts.bytes(), s.stream.get()));
+    for (size_t k = 0; k < tree.levels.size(); ++k) {
+      const uint64_t edge = uint64_t(g.elementVoxels(int(k)));
+      countFullVoxels(s.stream.get(), tree.levels[k].words.data(), tree.levels[k].count, edge * edge * edge,
+                      voxelCounts.data());
+    }
+    countLeafVoxels(s.stream.get(), words.data(), wordCount, voxelCounts.data());
+  }
   for (size_t k = 0; k < tree.levels.size(); ++k)
     download(s, v.elements.data() + v.levelStart[k], tree.levels[k].words, tree.levels[k].count);
   v.leafWords.resize(wordCount);
@@ -141,6 +155,11 @@ Volume buildWhole(Session& s, RootMapping root, bool keepResult) {
   }
   download(s, v.leafWords.data(), words, wordCount, copied);
   if (sink && wordCount == 0) sink->arrived(0);
+  if (countHere) {
+    unsigned long long counts[2] = {0, 0};
+    download(s, counts, voxelCounts, 2);
+    computeStructureStatistics(v, counts[0], counts[1]);
+  }
   s.clock.mark(kDownload);
   s.sync();
   s.clock.collect(s.ms);
