@@ -12,7 +12,9 @@
 #include "support/winding_reference.hpp"
 
 #include <gtest/gtest.h>
+#include <tbb/task_arena.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <fstream>
@@ -92,11 +94,30 @@ TEST(WindingFunctions, TreeBoundHoldsTheExactSum) {
 }
 
 TEST(WindingFunctions, TreeIsAFunctionOfTheTriangles) {
-  const PreparedMesh m = prepareMesh(icosphere(3, 1.0), windingConfig(64, InsideTest::WindingNumber));
-  const WindingTree a = buildWindingTree(m.triangles), b = buildWindingTree(m.triangles);
+  // An open mesh of 86,400 triangles: the tree's subtrees and the edge sort
+  // run in parallel above a few thousand triangles.
+  const PreparedMesh m = prepareMesh(uvHemisphere(120, 360, 1.0), windingConfig(256, InsideTest::WindingNumber));
+  const WindingTree a = buildWindingTree(m.triangles);
+  WindingTree b;
+  tbb::task_arena(1).execute([&] { b = buildWindingTree(m.triangles); });
   ASSERT_EQ(a.nodes.size(), b.nodes.size());
   EXPECT_EQ(0, std::memcmp(a.nodes.data(), b.nodes.data(), a.nodes.size() * sizeof(WindingNode)));
+  ASSERT_EQ(a.triangles.size(), m.triangles.size());
   EXPECT_EQ(0, std::memcmp(a.triangles.data(), b.triangles.data(), a.triangles.size() * sizeof(WindingTriangle)));
+  ASSERT_GT(a.edges.size(), 0u);
+  ASSERT_EQ(a.edges.size(), b.edges.size());
+  EXPECT_EQ(0, std::memcmp(a.edges.data(), b.edges.data(), a.edges.size() * sizeof(WindingEdge)));
+  // Every node's children or triangles lie inside the arrays, each triangle in exactly one leaf.
+  std::vector<int> seen(a.triangles.size(), 0);
+  for (const WindingNode& n : a.nodes) {
+    if (n.count == 0) {
+      ASSERT_LT(size_t(n.first) + 1, a.nodes.size());
+    } else {
+      ASSERT_LE(size_t(n.first) + n.count, a.triangles.size());
+      for (uint32_t i = n.first; i < n.first + n.count; ++i) ++seen[i];
+    }
+  }
+  EXPECT_EQ(std::count(seen.begin(), seen.end(), 1), std::ptrdiff_t(seen.size()));
 }
 
 // ---- builds against the brute-force reference -----------------------------------------

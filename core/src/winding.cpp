@@ -15,6 +15,8 @@
 #include <numeric>
 
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_invoke.h>
+#include <tbb/parallel_sort.h>
 
 namespace hdt {
 namespace {
@@ -59,13 +61,35 @@ void halfCross(const WindingTriangle& w, double out[3]) {
   out[2] = 0.5 * (ex * fy - ey * fx);
 }
 
+// Nodes below a node of `count` triangles, with those below count + 1: the
+// median splits make a subtree's layout a function of its count alone.
+std::pair<uint32_t, uint32_t> nodesBelowPair(uint32_t count) {
+  if (count + 1 <= kLeafTriangles) return {0, 0};
+  const uint32_t m = count / 2;
+  const std::pair<uint32_t, uint32_t> below = nodesBelowPair(m); // m and m + 1 triangles
+  const auto nodesBelow = [&](uint32_t n) -> uint32_t {
+    if (n <= kLeafTriangles) return 0;
+    const uint32_t half = n / 2;
+    return 2 + (half == m ? below.first : below.second) + (n - half == m ? below.first : below.second);
+  };
+  return {nodesBelow(count), nodesBelow(count + 1)};
+}
+
+uint32_t nodesBelow(uint32_t count) { return nodesBelowPair(count).first; }
+
+// Fills the tree top-down: a node's children sit at the next free pair of
+// slots and its first child's subtree before its second's (pre-order), as a
+// serial recursion would place them; subtrees of many triangles are filled
+// in parallel at those precomputed places. Each node's sums run over its
+// triangles in order, so the tree is the same whatever the thread count.
 struct TreeBuilder {
-  const LatticeTriangles& tris;
-  std::vector<uint32_t> order;             // triangle indices, partitioned in place
-  std::vector<std::array<int64_t, 3>> key; // 3 x centroid, exact
+  static constexpr uint32_t kParallelTriangles = 4096;
+  const WindingTree::PerTriangle<WindingTriangle>& shapes; // windingTriangle of each input triangle
+  std::vector<uint32_t> order;                              // triangle indices, partitioned in place
+  WindingTree::PerTriangle<std::array<int64_t, 3>> key;     // 3 x centroid, exact
   WindingTree& tree;
 
-  void fill(uint32_t node, uint32_t first, uint32_t count) {
+  void fill(uint32_t node, uint32_t first, uint32_t count, uint32_t freeSlot) {
     WindingNode n{};
     for (int a = 0; a < 3; ++a) {
       n.lo[a] = INFINITY;
@@ -74,7 +98,7 @@ struct TreeBuilder {
     int64_t klo[3] = {INT64_MAX, INT64_MAX, INT64_MAX}, khi[3] = {INT64_MIN, INT64_MIN, INT64_MIN};
     for (uint32_t i = first; i < first + count; ++i) {
       const uint32_t t = order[i];
-      const WindingTriangle w = windingTriangle(tris[t]);
+      const WindingTriangle& w = shapes[t];
       double hc[3];
       halfCross(w, hc);
       for (int a = 0; a < 3; ++a) {
@@ -94,7 +118,7 @@ struct TreeBuilder {
     }
     // The quadrupole moment: integral of n (x - centre)^T = area n (centroid - centre)^T.
     for (uint32_t i = first; i < first + count; ++i) {
-      const WindingTriangle w = windingTriangle(tris[order[i]]);
+      const WindingTriangle& w = shapes[order[i]];
       double hc[3];
       halfCross(w, hc);
       for (int r = 0; r < 3; ++r)
@@ -118,13 +142,19 @@ struct TreeBuilder {
                        const int64_t kx = key[x][size_t(axis)], ky = key[y][size_t(axis)];
                        return kx != ky ? kx < ky : x < y;
                      });
-    const uint32_t child = uint32_t(tree.nodes.size());
-    tree.nodes.resize(tree.nodes.size() + 2);
+    const uint32_t child = freeSlot;
     n.first = child;
     n.count = 0;
     tree.nodes[node] = n;
-    fill(child, first, half);
-    fill(child + 1, first + half, count - half);
+    const uint32_t firstFree = child + 2, secondFree = firstFree + nodesBelow(half);
+    const auto left = [&] { fill(child, first, half, firstFree); };
+    const auto right = [&] { fill(child + 1, first + half, count - half, secondFree); };
+    if (count >= kParallelTriangles) {
+      tbb::parallel_invoke(left, right);
+    } else {
+      left();
+      right();
+    }
   }
 };
 
@@ -133,21 +163,24 @@ struct TreeBuilder {
 WindingTree buildWindingTree(const LatticeTriangles& triangles) {
   WindingTree tree;
   if (triangles.empty()) return tree;
-  TreeBuilder b{triangles, std::vector<uint32_t>(triangles.size()), std::vector<std::array<int64_t, 3>>(triangles.size()),
-                tree};
-  std::iota(b.order.begin(), b.order.end(), 0u);
-  for (size_t t = 0; t < triangles.size(); ++t)
+  const size_t n = triangles.size();
+  WindingTree::PerTriangle<WindingTriangle> shapes(n);
+  WindingTree::PerTriangle<std::array<int64_t, 3>> key(n);
+  tbb::parallel_for(size_t(0), n, [&](size_t t) {
+    shapes[t] = windingTriangle(triangles[t]);
     for (int a = 0; a < 3; ++a)
-      b.key[t][size_t(a)] = int64_t(triangles[t].v[0][a]) + triangles[t].v[1][a] + triangles[t].v[2][a];
-  tree.nodes.reserve(2 * (triangles.size() / kLeafTriangles + 1));
-  tree.nodes.resize(1);
-  b.fill(0, 0, uint32_t(triangles.size()));
-  tree.triangles.resize(triangles.size());
-  tree.lattice.resize(triangles.size());
-  for (size_t i = 0; i < triangles.size(); ++i) {
-    tree.triangles[i] = windingTriangle(triangles[b.order[i]]);
+      key[t][size_t(a)] = int64_t(triangles[t].v[0][a]) + triangles[t].v[1][a] + triangles[t].v[2][a];
+  });
+  TreeBuilder b{shapes, std::vector<uint32_t>(n), std::move(key), tree};
+  std::iota(b.order.begin(), b.order.end(), 0u);
+  tree.nodes.resize(1 + size_t(nodesBelow(uint32_t(n))));
+  b.fill(0, 0, uint32_t(n), 1);
+  tree.triangles.resize(n);
+  tree.lattice.resize(n);
+  tbb::parallel_for(size_t(0), n, [&](size_t i) {
+    tree.triangles[i] = shapes[b.order[i]];
     tree.lattice[i] = triangles[b.order[i]];
-  }
+  });
   buildWindingEdges(triangles, tree);
   return tree;
 }
@@ -179,8 +212,8 @@ void buildWindingEdges(const LatticeTriangles& triangles, WindingTree& tree) {
       all.push_back(from < to ? Directed{from, to, 1} : Directed{to, from, -1});
     }
   }
-  std::sort(all.begin(), all.end(),
-            [](const Directed& x, const Directed& y) { return x.lo != y.lo ? x.lo < y.lo : x.hi < y.hi; });
+  tbb::parallel_sort(all.begin(), all.end(),
+                     [](const Directed& x, const Directed& y) { return x.lo != y.lo ? x.lo < y.lo : x.hi < y.hi; });
   struct Keyed {
     uint64_t key;
     Corner lo, hi;
@@ -198,7 +231,7 @@ void buildWindingEdges(const LatticeTriangles& triangles, WindingTree& tree) {
     }
     i = j;
   }
-  std::sort(open.begin(), open.end(), [](const Keyed& x, const Keyed& y) {
+  tbb::parallel_sort(open.begin(), open.end(), [](const Keyed& x, const Keyed& y) {
     if (x.key != y.key) return x.key < y.key;
     return x.lo != y.lo ? x.lo < y.lo : x.hi < y.hi;
   });

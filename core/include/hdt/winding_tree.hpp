@@ -4,6 +4,7 @@
 #pragma once
 
 #include "hdt/config.hpp"
+#include "hdt/default_init_allocator.hpp"
 #include "hdt/lattice.hpp"
 #include "hdt/mesh.hpp" // LatticeTriangles
 #include "hdt/winding.hpp"
@@ -24,11 +25,13 @@ struct PreparedMesh;
 // integer centroid keys with the triangle index as tie-break, triangles of
 // a leaf in input order.
 struct WindingTree {
+  // Per-triangle arrays are sized, then written in parallel (first touch there).
+  template <class T> using PerTriangle = std::vector<T, DefaultInit<std::allocator<T>>>;
   std::vector<WindingNode> nodes;
-  std::vector<WindingTriangle> triangles;
+  PerTriangle<WindingTriangle> triangles;
   std::vector<WindingEdge> edges;           // the boundary 1-chain, in groups
   std::vector<WindingEdgeGroup> edgeGroups; // of kWindingEdgeGroup consecutive edges
-  std::vector<LatticeTriangle> lattice;     // the triangles in tree order, exact
+  PerTriangle<LatticeTriangle> lattice;     // the triangles in tree order, exact
   WindingTreeView view() const {
     return {nodes.data(),      triangles.data(), uint32_t(triangles.size()), edges.data(), edgeGroups.data(),
             uint32_t(edgeGroups.size()), lattice.data(), uint32_t(edges.size())};
