@@ -26,6 +26,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -165,10 +166,14 @@ public:
     }
     thread_ = JoiningThread([this, &o] {
       deviceSeen_.set_value(cudaDeviceCount() > 0);
-      prepareCuda(o.config, o.build);
+      prepareCuda(o.config, o.build, [this] { return meshClosed_.load(); });
     });
   }
   std::shared_future<bool> hasDevice() const { return hasDevice_; }
+  // The prepared mesh is closed: the set-up, if it has not got there yet,
+  // skips its open-mesh warm-up build (the device's set-up outlasts the read
+  // and prepare, so this usually takes that build off the critical path).
+  void meshIsClosed() { meshClosed_.store(true); }
   WarmUp(const WarmUp&) = delete; // the thread holds `this`
   WarmUp& operator=(const WarmUp&) = delete;
   void join() { thread_.join(); }
@@ -176,6 +181,7 @@ public:
 private:
   std::promise<bool> deviceSeen_;
   std::shared_future<bool> hasDevice_;
+  std::atomic<bool> meshClosed_{false};
   JoiningThread thread_; // last: joined before the promise goes
 };
 
@@ -241,6 +247,7 @@ int run(int argc, const char* const* argv, const MpiSession& session, Clock::tim
   const PreparedMesh prepared = about(options.mesh, [&] { return prepareMesh(mesh, options.config); });
   trimWarmPages(); // what prepareMesh did not use
   const bool labelled = options.labels.kind != MeshLabelSource::Kind::None;
+  if (prepared.closed && !labelled) warmUp.meshIsClosed(); // a labelled build's parts may be open
   if (!labelled && arrays.empty()) mesh = TriangleMesh(); // the lattice copy is all the build needs; labelled builds split the mesh
   report.io.prepare = msSince(t);
   // The report's memory estimate rasterises the mesh (tens to hundreds of ms

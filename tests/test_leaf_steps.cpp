@@ -11,6 +11,7 @@
 // triangles, axis-aligned ones and slivers. The split form the CPU and CUDA
 // drivers use is checked to give the same interval.
 #include "hdt/build_steps.hpp"
+#include "hdt/classify_steps.hpp"
 #include "hdt/geometry.hpp"
 
 #include <gtest/gtest.h>
@@ -18,6 +19,7 @@
 #include <algorithm>
 #include <cstdint>
 #include <random>
+#include <vector>
 
 namespace hdt {
 namespace test {
@@ -50,6 +52,28 @@ TEST(LeafSteps, FieldRangeBitsEqualSpreadRowMasks) {
 
 // A run along any axis lands on its own voxels as x-row runs: every voxel
 // of the permuted run once, nothing else.
+// Closed-mesh pass 2 on the device: each sector of 8 words takes its exit
+// parities from one word of row bits as plane-0 fields; every word of every
+// leaf size classifies as classifiedWord with rowBitsToWordBits does, on
+// random words (all four field states) and random row parities.
+TEST(LeafSteps, ClassifiedWordFromFieldsEqualsClassifiedWord) {
+  std::mt19937 rng(18);
+  for (int L : {8, 16, 32}) {
+    const int words = int(leafWordCount(L)), rowWords = rowWordsFor(L);
+    for (int trial = 0; trial < 200; ++trial) {
+      std::vector<uint32_t> rows(static_cast<size_t>(rowWords));
+      for (uint32_t& r : rows) r = trial % 4 == 0 ? ~0u : rng();
+      for (int w = 0; w < words; ++w) {
+        const uint32_t word = trial % 8 == 1 ? kInsidePlaneBits : rng();
+        const uint32_t sectorRows = rows[size_t(firstRowOfWord(L, w & ~7) >> 5)];
+        ASSERT_EQ(classifiedWordFields(word, exitFieldsOfWord(sectorRows, L, w)),
+                  classifiedWord(word, rowBitsToWordBits(rows.data(), L, w)))
+            << "L " << L << " word " << w << " trial " << trial;
+      }
+    }
+  }
+}
+
 TEST(LeafSteps, RunsAlongEveryAxisBecomeXRowRuns) {
   constexpr int L = 16;
   std::mt19937_64 rng(5);

@@ -34,6 +34,7 @@
 #include <sys/resource.h>
 #include <sys/stat.h>
 
+#include <atomic>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -149,7 +150,8 @@ int main(int argc, char** argv) {
     const Clock::time_point start = Clock::now();
     Clock::time_point t = start;
     std::thread warmUp;
-    if (a.cuda && !a.cold) warmUp = std::thread([&] { prepareCuda(config, options); });
+    std::atomic<bool> meshClosed{false}; // as hdt-voxelize: no open-mesh warm-up once known closed
+    if (a.cuda && !a.cold) warmUp = std::thread([&] { prepareCuda(config, options, [&] { return meshClosed.load(); }); });
     std::thread hostWarmUp;
     if (a.warmHost) {
       std::error_code error;
@@ -168,6 +170,7 @@ int main(int argc, char** argv) {
     const WarmPagesState warmBefore = warmPagesState();
     PrepareTimes prepareParts;
     const PreparedMesh prepared = prepareMesh(mesh, config, &prepareParts);
+    if (prepared.closed) meshClosed.store(true);
     const double prepareOnlyMs = msSince(t);
     trimWarmPages();
     TriangleMesh kept = a.prepareRepeat > 0 ? std::move(mesh) : TriangleMesh();

@@ -21,7 +21,7 @@ Volume buildCuda(const PreparedMesh&, const BuildOptions&) {
   throw Error(ErrorKind::InvalidArgument,
               "backend cuda requested but this build has no CUDA driver (HDT_ENABLE_CUDA=OFF)");
 }
-void prepareCuda(const BuildConfig&, const BuildOptions&) {}
+void prepareCuda(const BuildConfig&, const BuildOptions&, const std::function<bool()>&) {}
 void releaseCuda(const BuildOptions&) {}
 bool buildLabelledCuda(const PreparedMesh&, const std::vector<PreparedMesh>&, const std::vector<Label>&,
                        const LabelOptions&, const BuildOptions&, Volume&) {

@@ -260,14 +260,16 @@ __global__ void leafInsideClosedKernel(uint64_t sectorCount, const uint32_t* exi
   if (g >= sectorCount) return;
   const uint64_t leaf = g / kSectors;
   const int w = int(g % kSectors) * 8;
-  const uint32_t* parity = exitParity + leaf * RW;
+  // The sector's rows lie in one word of row bits (firstRowOfWord), and the
+  // flips are kept as plane-0 fields: one load, a few operations a word.
+  const uint32_t rows = exitParity[leaf * RW + (firstRowOfWord(L, w) >> 5)];
   uint32_t flip[8];
   uint32_t any = 0;
 #pragma unroll
-  for (int k = 0; k < 8; ++k) any |= flip[k] = rowBitsToWordBits(parity, L, w + k);
+  for (int k = 0; k < 8; ++k) any |= flip[k] = exitFieldsOfWord(rows, L, w + k);
   if (!any) return; // all eight words are final
   const uint4 a = words[2 * g], b = words[2 * g + 1];
-  auto update = [&](uint32_t word, int k) { return classifiedWord(word, flip[k]); };
+  auto update = [&](uint32_t word, int k) { return classifiedWordFields(word, flip[k]); };
   const uint4 na = make_uint4(update(a.x, 0), update(a.y, 1), update(a.z, 2), update(a.w, 3));
   const uint4 nb = make_uint4(update(b.x, 4), update(b.y, 5), update(b.z, 6), update(b.w, 7));
   if (na.x != a.x || na.y != a.y || na.z != a.z || na.w != a.w || nb.x != b.x || nb.y != b.y || nb.z != b.z ||

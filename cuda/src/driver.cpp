@@ -221,7 +221,8 @@ TriangleMesh warmUpMesh(bool closed) {
 
 } // namespace
 
-void prepareCuda(const BuildConfig& config, const BuildOptions& options) {
+void prepareCuda(const BuildConfig& config, const BuildOptions& options,
+                 const std::function<bool()>& meshKnownClosed) {
   try {
     if (!cudaAvailable(nullptr)) return;
     cuda::DeviceGuard guard(options.device);
@@ -251,7 +252,11 @@ void prepareCuda(const BuildConfig& config, const BuildOptions& options) {
     small.hasBounds = false;
     BuildOptions quiet;
     quiet.device = options.device;
-    for (bool closed : {true, false}) buildCudaWithReport(prepareMesh(warmUpMesh(closed), small), quiet, nullptr, true);
+    const auto warmUpBuild = [&](bool closed) {
+      buildCudaWithReport(prepareMesh(warmUpMesh(closed), small), quiet, nullptr, true);
+    };
+    warmUpBuild(true);
+    if (!config.surfaceOnly && !(meshKnownClosed && meshKnownClosed())) warmUpBuild(false);
   } catch (...) {
     cudaGetLastError(); // the real build reports what is wrong
   }

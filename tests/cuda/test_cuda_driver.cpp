@@ -56,6 +56,24 @@ TEST(CudaDriver, PreparedDeviceGivesTheCpuBytes) {
   }
 }
 
+// prepareCuda asks whether the mesh is known closed once, after the closed-mesh
+// warm-up, and not for surface-only builds (whose two warm-ups run the same
+// kernels). An open mesh built after a set-up told "closed" (its open-mesh
+// kernels not loaded) still gives the CPU driver's bytes.
+TEST(CudaDriver, PreparedForClosedMeshAsksOnceAndOpenBuildsStillMatch) {
+  HDT_REQUIRE_CUDA();
+  for (bool surfaceOnly : {false, true}) {
+    const Shape s = openHemisphereShape();
+    const BuildConfig config = s.config(1024, 16, 16, surfaceOnly);
+    int asked = 0;
+    prepareCuda(config, cudaOptions(), [&asked] { return ++asked > 0; });
+    EXPECT_EQ(asked, surfaceOnly ? 0 : 1) << "surfaceOnly " << surfaceOnly;
+    const PreparedMesh mesh = prepareMesh(s.mesh, config);
+    ASSERT_FALSE(mesh.closed);
+    EXPECT_TRUE(sameVolume(build(mesh, cudaOptions()), build(mesh, cpuOptions()))) << "surfaceOnly " << surfaceOnly;
+  }
+}
+
 // What hdt-voxelize does around a build: the leaf words' estimate reserved as
 // warm pages (the copy back then lands in them), and releaseCuda after the
 // build. The volume is the CPU driver's, and a build after the release (a new

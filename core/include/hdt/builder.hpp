@@ -80,7 +80,12 @@ Volume buildCuda(const PreparedMesh& mesh, const BuildOptions& options);
 // copy-back staging), so that the first build of a process is as fast as a
 // warm one. Takes tens of milliseconds: call it early, e.g. on a thread while
 // the mesh is read. Does nothing without a usable device; never throws.
-void prepareCuda(const BuildConfig& config, const BuildOptions& options);
+// The open-mesh kernels are loaded after the closed-mesh ones, unless the
+// build is surface-only (both run the same kernels) or meshKnownClosed, asked
+// at that point, says true: a caller that has prepared its mesh by then
+// (PreparedMesh::closed) spares the device's set-up that build.
+void prepareCuda(const BuildConfig& config, const BuildOptions& options,
+                 const std::function<bool()>& meshKnownClosed = {});
 
 // Ends this process's use of the CUDA device options.device now: its memory
 // pool, pinned staging and context (cudaDeviceReset), which the process's exit

@@ -68,6 +68,25 @@ HDT_HD uint32_t exitRowMask(const uint32_t* exitBits, int row, int L) {
 HDT_HD uint32_t classifiedWord(uint32_t word, uint32_t exitBits) {
   return withInsidePlane(word, exitBits ^ planeBits16(word, kInsidePlane));
 }
+// The same with the exit parity given as plane-0 fields (spreadBits16 of
+// exitBits: exitFieldsOfWord): spread(exit ^ planeBits16(word)) is
+// spread(exit) ^ plane 0, so no compaction and spreading per word.
+HDT_HD constexpr uint32_t classifiedWordFields(uint32_t word, uint32_t exitFields) {
+  return (word & kSurfacePlaneBits) | ((word ^ exitFields) & kInsidePlaneBits & ~(word >> 1));
+}
+// The first row that word w of a leaf of size L holds. The rows of eight
+// consecutive words from a multiple of 8 (one 32-byte sector) lie in one
+// 32-bit word of row bits: rows w .. w + 7 (L = 16), 2w .. 2w + 15 (L = 8),
+// w / 2 .. w / 2 + 3 (L = 32).
+HDT_HD constexpr int firstRowOfWord(int L, int w) { return L == 16 ? w : L == 8 ? 2 * w : w >> 1; }
+// rowBitsToWordBits as plane-0 fields (spreadBits16 of it), from the word of
+// row bits that holds word w's rows (rowBits[firstRowOfWord(L, w) / 32]).
+HDT_HD constexpr uint32_t exitFieldsOfWord(uint32_t rowBitsWord, int L, int w) {
+  return L == 16 ? ((rowBitsWord >> (w & 31)) & 1u) * kInsidePlaneBits
+         : L == 8 ? ((rowBitsWord >> ((2 * w) & 31)) & 1u) * 0x00005555u |
+                        ((rowBitsWord >> ((2 * w + 1) & 31)) & 1u) * 0x55550000u
+                  : ((rowBitsWord >> ((w >> 1) & 31)) & 1u) * kInsidePlaneBits; // L == 32
+}
 // Open meshes: the majority of the +x answer and the +y and +z answers (16
 // voxel bits each, as x rows: xRowsOfAxisMatrix, wordBitsFromRows).
 HDT_HD uint32_t classifiedWord(uint32_t word, uint32_t exitBits, uint32_t yInside, uint32_t zInside) {
