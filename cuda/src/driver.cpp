@@ -44,14 +44,14 @@ double applyInsideTestOnDevice(const PreparedMesh& mesh, Volume& v, const BuildO
   const auto windingStart = Clock::now();
   auto msSince = [](Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); };
   double beforeDeviceMs = -1, uniformWallMs = 0, leavesWallMs = 0, freshMs = 0, freshWallMs = 0;
-  uint64_t freshLeaves = 0;
+  uint64_t freshLeaves = 0, uniformBoxes = 0;
   // Called for the volume's elements, then for each level of refinement.
   const WindingUniformPass uniformPass = [&](const WindingTree& tree, const std::vector<WindingUniformJob>& jobs,
                                              std::vector<uint8_t>& verdicts) {
     if (beforeDeviceMs < 0) beforeDeviceMs = msSince(windingStart);
     const auto t0 = Clock::now();
     double ms = 0;
-    const bool ran = device.uniform(tree, jobs, verdicts, &ms);
+    const bool ran = device.uniform(tree, jobs, verdicts, &ms, &uniformBoxes);
     uniformMs += ms;
     uniformWallMs += msSince(t0);
     return ran;
@@ -86,7 +86,7 @@ double applyInsideTestOnDevice(const PreparedMesh& mesh, Volume& v, const BuildO
   if (options.log && windingMs > 0)
     options.log("CUDA driver: winding pass " + std::to_string(msSince(windingStart)) + " ms, of which host tree + walk " +
                 std::to_string(beforeDeviceMs) + " ms, uniform passes " + std::to_string(uniformWallMs) +
-                " ms, leaf pass " + std::to_string(leavesWallMs) + " ms, fresh leaves " + std::to_string(freshWallMs) +
+                " ms (" + std::to_string(uniformBoxes) + " boxes), leaf pass " + std::to_string(leavesWallMs) + " ms, fresh leaves " + std::to_string(freshWallMs) +
                 " ms (wall, allocations included; fresh kernels " + std::to_string(freshMs) + " ms, " +
                 std::to_string(freshLeaves) + " leaves); " + std::to_string(v.stats.windingRefinedElements) +
                 " elements refined");

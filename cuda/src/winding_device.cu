@@ -15,9 +15,9 @@
 //   counts     one thread per row: N at each voxel = exit + suffix of the
 //              deltas, in place as int16; a leaf whose row hit counts or N do
 //              not fit 16 bits is marked for the host;
-//   uniform    one thread per uniform element: classifyUniform's walk
-//              (also the children of split elements);
-//   fresh      the leaves refinement creates: N by one ray walk per voxel,
+//   uniform    classifyUniform's verdict per element (also the children of
+//              split elements), its boxes breadth first, one thread per box;
+//   fresh      the leaves refinement creates: N by one ray walk per row,
 //              then the same decision.
 //   decide     kSplit^2 threads per leaf, each windingDecideBoxes
 //              (winding_leaf.hpp) over its block of rows, in place.
@@ -33,7 +33,9 @@
 #include <cub/device/device_radix_sort.cuh>
 #include <cub/device/device_select.cuh>
 
+#include <algorithm>
 #include <new>
+#include <utility>
 
 namespace hdt {
 namespace cuda {
@@ -235,23 +237,108 @@ __global__ void uniformKernel(WindingTreeView t, const WindingUniformJob* jobs, 
 }
 
 // N at every voxel centre of a leaf without surface voxels (refinement's
-// fresh leaves): one ray walk per voxel.
+// fresh leaves): one ray walk per row. No triangle meets the closed box of
+// any of the leaf's voxels, so none lies between two voxel centres of a row
+// and the row's +x rays (the same perturbed line) cross the same triangles
+// ahead: N is the row's first voxel's count at every voxel of the row.
 __global__ void freshCountsKernel(WindingTreeView t, const LeafOrigin* origins, uint32_t leafCount, int L,
                                   int16_t* counts, uint8_t* fits) {
   const uint64_t k = uint64_t(blockIdx.x) * blockDim.x + threadIdx.x;
-  const uint64_t n = uint64_t(L) * uint64_t(L) * uint64_t(L);
-  if (k >= uint64_t(leafCount) * n) return; // k = leaf * L^3 + voxel
-  const uint32_t leaf = uint32_t(k / n), v = uint32_t(k % n);
+  const uint64_t rows = uint64_t(L) * uint64_t(L);
+  if (k >= uint64_t(leafCount) * rows) return; // k = leaf * L^2 + row
+  const uint32_t leaf = uint32_t(k / rows), r = uint32_t(k % rows);
   const LeafOrigin o = origins[leaf];
-  const double p[3] = {o.o[0] + double(v % uint32_t(L)) + 0.5, o.o[1] + double((v / uint32_t(L)) % uint32_t(L)) + 0.5,
-                       o.o[2] + double(v / uint32_t(L * L)) + 0.5};
+  const double p[3] = {o.o[0] + 0.5, o.o[1] + double(r % uint32_t(L)) + 0.5, o.o[2] + double(r / uint32_t(L)) + 0.5};
   int64_t P[3];
   int count = 0;
   if (!windingLatticePoint(p, P) || !windingRayCrossings(t, P, count) || count < INT16_MIN || count > INT16_MAX) {
     fits[leaf] = 0;
     return;
   }
-  counts[k] = int16_t(count);
+  int16_t* row = counts + k * uint64_t(L);
+  for (int x = 0; x < L; ++x) row[x] = int16_t(count);
+}
+
+// ---- uniform elements, breadth first ------------------------------------------
+//
+// classifyUniform's verdict (inside, outside or split) is a function of the
+// exact verdicts at the element's voxel centres, and every box verdict below
+// is certified, so any order of boxes gives the same answer. Instead of one
+// serial windingDecideBox walk per element (a few elements near an open rim
+// took most of the time), every box of every element is one thread of one
+// level: a box is settled by the carried verdict (windingCarriedBoxVerdict)
+// or halved along each axis longer than one voxel into the next level's
+// queue; single voxels take windingInsideAt. seen[job] collects the sides
+// met (atomicOr: order free); an element that met both is split and its
+// remaining boxes are dropped. An element whose children do not fit the
+// queue is marked and decided afterwards by the serial walk (uniformKernel).
+constexpr uint32_t kSeenOutside = 1, kSeenInside = 2, kSeenBoth = 3, kQueueFull = 4;
+constexpr uint32_t kNoJob = 0xFFFFFFFFu;
+constexpr uint32_t kUniformQueue = 1u << 23; // boxes per level (at least twice the jobs)
+
+struct QueuedBox {
+  VoxelBox box;
+  uint32_t job;
+};
+
+__global__ void uniformBoxesKernel(WindingTreeView t, const QueuedBox* in, uint32_t count, QueuedBox* out,
+                                   uint32_t* outCount, uint32_t capacity, uint32_t* seen) {
+  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= count) return;
+  const QueuedBox q = in[i];
+  if (q.job == kNoJob) return;
+  const uint32_t state = *static_cast<volatile uint32_t*>(seen + q.job);
+  if ((state & kSeenBoth) == kSeenBoth || (state & kQueueFull)) return;
+  const VoxelBox& b = q.box;
+  if (b.single()) {
+    const bool inside = windingInsideAt(t, b.lo[0] + 0.5, b.lo[1] + 0.5, b.lo[2] + 0.5);
+    atomicOr(seen + q.job, inside ? kSeenInside : kSeenOutside);
+    return;
+  }
+  const int v = windingCarriedBoxVerdict(t, b);
+  if (v != kWindingUnsure) {
+    atomicOr(seen + q.job, v == kWindingInside ? kSeenInside : kSeenOutside);
+    return;
+  }
+  bool halve[3];
+  uint32_t n = 1;
+  for (int a = 0; a < 3; ++a) {
+    halve[a] = b.size(a) > 1;
+    n *= halve[a] ? 2u : 1u;
+  }
+  const uint32_t at = atomicAdd(outCount, n);
+  if (at + n > capacity) { // the slots it got below capacity are dropped
+    atomicOr(seen + q.job, kQueueFull);
+    for (uint32_t k = at; k < capacity && k < at + n; ++k) out[k].job = kNoJob;
+    return;
+  }
+  uint32_t k = 0;
+  for (int c = 0; c < 8; ++c) {
+    VoxelBox s = b;
+    bool exists = true;
+    for (int a = 0; a < 3; ++a) {
+      const int mid = b.lo[a] + b.size(a) / 2;
+      if ((c >> a) & 1) {
+        exists = exists && halve[a];
+        s.lo[a] = mid;
+      } else if (halve[a]) {
+        s.hi[a] = mid;
+      }
+    }
+    if (exists) out[at + k++] = QueuedBox{s, q.job};
+  }
+}
+
+__global__ void firstBoxesKernel(const WindingUniformJob* jobs, uint32_t count, QueuedBox* boxes) {
+  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= count) return;
+  QueuedBox q;
+  for (int a = 0; a < 3; ++a) {
+    q.box.lo[a] = jobs[i].origin[a];
+    q.box.hi[a] = jobs[i].origin[a] + jobs[i].edge;
+  }
+  q.job = i;
+  boxes[i] = q;
 }
 
 void checkLaunch(const char* name) {
@@ -404,23 +491,63 @@ bool WindingDevicePass::leaves(const WindingTree& tree, Volume& volume, const st
 }
 
 bool WindingDevicePass::uniform(const WindingTree& tree, const std::vector<WindingUniformJob>& jobs,
-                                std::vector<uint8_t>& verdicts, double* ms) {
+                                std::vector<uint8_t>& verdicts, double* ms, uint64_t* boxes) {
   verdicts.assign(jobs.size(), 0);
   if (jobs.empty()) return true;
   try {
     Events ev;
     ev.mark(0);
     const DeviceTree& t = impl_->upload(tree);
+    const uint32_t count = uint32_t(jobs.size());
     Array<WindingUniformJob> d(jobs.size());
-    Array<uint8_t> v(jobs.size());
     d.upload(jobs.data());
-    constexpr unsigned kUniformBlock = 32;
-    uniformKernel<<<unsigned((jobs.size() + kUniformBlock - 1) / kUniformBlock), kUniformBlock>>>(
-        t.view(), d.data(), uint32_t(jobs.size()), v.data());
-    checkLaunch("uniformKernel");
-    v.download(verdicts.data());
+    Array<uint32_t> seen(jobs.size()), outCount(1);
+    seen.zero();
+    const uint32_t capacity = std::max<uint32_t>(2 * count, kUniformQueue);
+    Array<QueuedBox> a(capacity), b(capacity);
+    QueuedBox *in = a.data(), *out = b.data();
+    firstBoxesKernel<<<blocks(count), kBlock>>>(d.data(), count, in);
+    checkLaunch("firstBoxesKernel");
+    constexpr unsigned kBoxBlock = 64;
+    uint64_t total = 0;
+    for (uint32_t n = count; n > 0;) {
+      total += n;
+      outCount.zero();
+      uniformBoxesKernel<<<(n + kBoxBlock - 1) / kBoxBlock, kBoxBlock>>>(t.view(), in, n, out,
+                                                                         outCount.data(), capacity, seen.data());
+      checkLaunch("uniformBoxesKernel");
+      outCount.download(&n);
+      n = std::min(n, capacity);
+      std::swap(in, out);
+    }
+    std::vector<uint32_t> state(jobs.size());
+    seen.download(state.data());
+    std::vector<WindingUniformJob> serial; // whose boxes did not fit the queue
+    std::vector<size_t> at;
+    for (size_t i = 0; i < jobs.size(); ++i) {
+      if (state[i] & kQueueFull) {
+        serial.push_back(jobs[i]);
+        at.push_back(i);
+        continue;
+      }
+      const bool both = (state[i] & kSeenBoth) == kSeenBoth;
+      verdicts[i] = both ? 2 : (state[i] & kSeenInside) ? 1 : 0;
+    }
+    if (!serial.empty()) {
+      Array<WindingUniformJob> sd(serial.size());
+      Array<uint8_t> v(serial.size());
+      sd.upload(serial.data());
+      constexpr unsigned kUniformBlock = 32;
+      uniformKernel<<<unsigned((serial.size() + kUniformBlock - 1) / kUniformBlock), kUniformBlock>>>(
+          t.view(), sd.data(), uint32_t(serial.size()), v.data());
+      checkLaunch("uniformKernel");
+      std::vector<uint8_t> sv(serial.size());
+      v.download(sv.data());
+      for (size_t j = 0; j < serial.size(); ++j) verdicts[at[j]] = sv[j];
+    }
     ev.mark(1);
     if (ms) *ms = ev.ms(0, 1);
+    if (boxes) *boxes += total;
     return true;
   } catch (const std::bad_alloc&) {
     return false;
@@ -446,7 +573,7 @@ bool WindingDevicePass::fresh(const WindingTree& tree, int L, const std::vector<
     o.upload(host.data());
     w.zero();
     HDT_CUDA_CHECK(cudaMemset(fits.data(), 1, leaves));
-    freshCountsKernel<<<blocks(uint64_t(leaves) * n), kBlock>>>(t.view(), o.data(), leaves, L, counts.data(),
+    freshCountsKernel<<<blocks(uint64_t(leaves) * uint64_t(L) * uint64_t(L)), kBlock>>>(t.view(), o.data(), leaves, L, counts.data(),
                                                                  fits.data());
     checkLaunch("freshCountsKernel");
     constexpr unsigned kDecideBlock = 32;

@@ -38,14 +38,17 @@ public:
   bool leaves(const WindingTree& tree, Volume& volume, const std::vector<std::array<int, 3>>& origins,
               std::vector<uint32_t>& leftLeaves, WindingDeviceTimes* times = nullptr);
 
-  // A WindingUniformPass: one thread per element, classifyUniform's
-  // windingDecideBox walk (winding.hpp). ms: the kernel and its copies.
+  // A WindingUniformPass: classifyUniform's verdict per element, its boxes
+  // breadth first (one thread per box and level, carried verdicts, halves);
+  // elements whose boxes overflow the queue take the serial walk
+  // (windingDecideBox, one thread each). ms: the kernels and their copies;
+  // boxes: adds the number of boxes taken.
   bool uniform(const WindingTree& tree, const std::vector<WindingUniformJob>& jobs, std::vector<uint8_t>& verdicts,
-               double* ms = nullptr);
+               double* ms = nullptr, uint64_t* boxes = nullptr);
 
   // A WindingFreshLeafPass: the leaves that refinement creates hold no
   // surface voxel; N at each voxel centre by windingRayCrossings (one thread
-  // per voxel), then the same decision as leaves().
+  // per row: N is constant along a row there), then the same decision as leaves().
   bool fresh(const WindingTree& tree, int L, const std::vector<std::array<int, 3>>& origins, uint32_t* words,
              std::vector<uint32_t>& leftLeaves, double* ms = nullptr);
 
