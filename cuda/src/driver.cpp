@@ -75,7 +75,8 @@ double applyInsideTestOnDevice(const PreparedMesh& mesh, Volume& v, const BuildO
       options.log(ran ? "CUDA driver: winding pass on the device (ms): uniform " + std::to_string(uniformMs) +
                             ", leaves: upload " + std::to_string(t.upload) + ", crossings " +
                             std::to_string(t.crossings) + ", lines " + std::to_string(t.lines) + ", counts " +
-                            std::to_string(t.counts) + ", decide " + std::to_string(t.decide) + ", download " +
+                            std::to_string(t.counts) + ", decide " + std::to_string(t.decide) + " (" +
+                            std::to_string(t.boxes) + " boxes), download " +
                             std::to_string(t.download) + "; " + std::to_string(left.size()) + " of " +
                             std::to_string(origins.size()) + " leaves left to the host"
                       : "CUDA driver: no device memory for the winding leaf pass; it runs on the host");

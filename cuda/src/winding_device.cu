@@ -19,8 +19,8 @@
 //              split elements), its boxes breadth first, one thread per box;
 //   fresh      the leaves refinement creates: N by one ray walk per row,
 //              then the same decision.
-//   decide     kSplit^2 threads per leaf, each windingDecideBoxes
-//              (winding_leaf.hpp) over its block of rows, in place.
+//   decide     the leaves' boxes breadth first (windingDecideBoxes' steps,
+//              winding_leaf.hpp), one thread per box and level, in place.
 #include "winding_device.hpp"
 
 #include "check.hpp"
@@ -186,36 +186,11 @@ __global__ void countsKernel(uint32_t leafCount, int L, const int32_t* exits, co
   if (!fit) fits[k / rows] = 0;
 }
 
-// The inside plane of every leaf that fits cleared (decideRowsKernel sets it).
+// The inside plane of every leaf that fits cleared (leafBoxesKernel sets it).
 __global__ void clearInsideKernel(uint64_t wordCount, int L, const uint8_t* fits, uint32_t* words) {
   const uint64_t i = uint64_t(blockIdx.x) * blockDim.x + threadIdx.x;
   if (i >= wordCount || !fits[i / leafWordCount(L)]) return;
   words[i] &= kSurfacePlaneBits;
-}
-
-// windingDecideLeaf's box loop (winding_leaf.hpp, windingDecideBoxes) from
-// one block of rows of the leaf instead of the whole leaf, so that kSplit^2
-// threads share a leaf (one thread per leaf left most of the GPU idle).
-// Every verdict is certified, so the bits do not depend on where the boxes
-// start. A block is L / kSplit rows in y and z (even for L = 8, 16, 32), and
-// a word holds 16 voxels of x-consecutive rows (two rows y = 2k, 2k + 1 at
-// L = 8, one or half a row otherwise): no two threads write the same word.
-constexpr int kSplit = 4; // row blocks per leaf edge
-
-__device__ void decideRows(const WindingTreeView& t, int L, const int* origin, const VoxelBox& start,
-                           const int16_t* N, uint32_t* words) {
-  const WindingLeafWords w{words, uint32_t(L)};
-  windingDecideBoxes(t, origin, N, w, start, INFINITY);
-}
-
-__global__ void decideRowsKernel(WindingTreeView t, const LeafOrigin* origins, uint32_t leafCount, int L,
-                                 const int16_t* counts, const uint8_t* fits, uint32_t* words) {
-  const uint64_t k = uint64_t(blockIdx.x) * blockDim.x + threadIdx.x;
-  const uint32_t leaf = uint32_t(k / (kSplit * kSplit)), part = uint32_t(k % (kSplit * kSplit));
-  if (leaf >= leafCount || !fits[leaf]) return;
-  const int s = L / kSplit, y0 = int(part % kSplit) * s, z0 = int(part / kSplit) * s;
-  decideRows(t, L, origins[leaf].o, VoxelBox{{0, y0, z0}, {L, y0 + s, z0 + s}},
-             counts + size_t(leaf) * size_t(L) * size_t(L) * size_t(L), words + leafWordOffset(leaf, L));
 }
 
 // classifyUniform (core/src/winding.cpp) for one element: bit 0 inside, bit 1
@@ -341,6 +316,89 @@ __global__ void firstBoxesKernel(const WindingUniformJob* jobs, uint32_t count, 
   boxes[i] = q;
 }
 
+// ---- leaves, breadth first ----------------------------------------------------------
+//
+// windingDecideLeaf's boxes (winding_leaf.hpp: windingDecideBoxes' steps) as
+// a queue over all leaves, one thread per box and level: a box with no
+// non-surface voxel is dropped, a sheet-free box whose threshold holds is
+// settled (one atomicOr per word: boxes of a leaf share words), a single
+// voxel takes windingInsideWithCount, anything else is halved
+// (windingPushHalves, with the gradient bound the children may reuse) into
+// the next level. Every verdict is certified, so the bits do not depend on
+// the boxes taken (the host starts from the whole leaf too). A leaf whose
+// children do not fit the queue is left to the host (fits = 0;
+// classifyLeaf rewrites its inside plane).
+struct LeafBox {
+  VoxelBox box; // leaf-local voxels
+  uint32_t leaf;
+  double gradient; // a bound on |grad K| over the box (INFINITY: none known)
+};
+
+constexpr uint32_t kLeafQueue = 1u << 23; // boxes per level (at least twice the leaves)
+
+// The inside bit of each non-surface voxel of b whose N reaches T.
+__device__ void settleLeafBox(uint32_t* words, uint32_t L, const VoxelBox& b, const int16_t* N, int T) {
+  uint32_t word = 0xFFFFFFFFu, mask = 0;
+  for (int z = b.lo[2]; z < b.hi[2]; ++z)
+    for (int y = b.lo[1]; y < b.hi[1]; ++y)
+      for (int x = b.lo[0]; x < b.hi[0]; ++x) {
+        const uint32_t v = uint32_t(x) + L * (uint32_t(y) + L * uint32_t(z)), w = v / kVoxelsPerWord;
+        if (w != word) {
+          if (mask) atomicOr(words + word, mask);
+          word = w;
+          mask = 0;
+        }
+        const uint32_t shift = 2 * (v % kVoxelsPerWord);
+        if (!((words[w] >> (shift + 1)) & 1u) && int(N[v]) >= T) mask |= 1u << shift;
+      }
+  if (mask) atomicOr(words + word, mask);
+}
+
+__global__ void firstLeafBoxesKernel(uint32_t leafCount, int L, const uint8_t* fits, LeafBox* boxes) {
+  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= leafCount) return;
+  boxes[i] = LeafBox{VoxelBox{{0, 0, 0}, {L, L, L}}, fits[i] ? i : kNoJob, INFINITY};
+}
+
+__global__ void leafBoxesKernel(WindingTreeView t, const LeafOrigin* origins, int L, const int16_t* counts,
+                                uint8_t* fits, uint32_t* words, const LeafBox* in, uint32_t count, LeafBox* out,
+                                uint32_t* outCount, uint32_t capacity) {
+  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= count) return;
+  const LeafBox q = in[i];
+  if (q.leaf == kNoJob || !fits[q.leaf]) return;
+  uint32_t* leafWords = words + leafWordOffset(q.leaf, L);
+  const int16_t* N = counts + size_t(q.leaf) * size_t(L) * size_t(L) * size_t(L);
+  const WindingLeafWords w{leafWords, uint32_t(L)};
+  const VoxelBox& b = q.box;
+  if (!w.open(b)) return;
+  double lo[3], hi[3];
+  windingBoxCentres(origins[q.leaf].o, b, lo, hi);
+  if (b.single()) {
+    const uint32_t v = w.index(b.lo[0], b.lo[1], b.lo[2]);
+    if (windingInsideWithCount(t, lo, int(N[v]))) atomicOr(leafWords + v / kVoxelsPerWord, 1u << (2 * (v % kVoxelsPerWord)));
+    return;
+  }
+  const bool sheet = windingSheetsMeetBox(t, lo, hi);
+  double gradient = q.gradient;
+  int T = 0;
+  if (!sheet && windingBoxThreshold(t, lo, hi, T, gradient)) {
+    settleLeafBox(leafWords, uint32_t(L), b, N, T);
+    return;
+  }
+  VoxelBox halves[8];
+  double known[8];
+  int n = 0;
+  windingPushHalves(b, sheet, halves, known, n, gradient);
+  const uint32_t at = atomicAdd(outCount, uint32_t(n));
+  if (at + uint32_t(n) > capacity) {
+    fits[q.leaf] = 0;
+    for (uint32_t k = at; k < capacity && k < at + uint32_t(n); ++k) out[k].leaf = kNoJob;
+    return;
+  }
+  for (int k = 0; k < n; ++k) out[at + uint32_t(k)] = LeafBox{halves[k], q.leaf, known[k]};
+}
+
 void checkLaunch(const char* name) {
   HDT_CUDA_CHECK_LAUNCH(name);
 }
@@ -375,6 +433,30 @@ public:
 private:
   cudaEvent_t e_[8];
 };
+
+// The leaves' boxes level by level (leafBoxesKernel); returns the boxes taken.
+uint64_t decideLeavesBreadthFirst(const WindingTreeView& t, const LeafOrigin* origins, uint32_t leaves, int L,
+                                  const int16_t* counts, uint8_t* fits, uint32_t* words) {
+  const uint32_t capacity = std::max<uint32_t>(2 * leaves, kLeafQueue);
+  Array<LeafBox> a(capacity), b(capacity);
+  Array<uint32_t> outCount(1);
+  LeafBox *in = a.data(), *out = b.data();
+  firstLeafBoxesKernel<<<blocks(leaves), kBlock>>>(leaves, L, fits, in);
+  checkLaunch("firstLeafBoxesKernel");
+  constexpr unsigned kBoxBlock = 64;
+  uint64_t total = 0;
+  for (uint32_t n = leaves; n > 0;) {
+    total += n;
+    outCount.zero();
+    leafBoxesKernel<<<(n + kBoxBlock - 1) / kBoxBlock, kBoxBlock>>>(t, origins, L, counts, fits, words, in, n, out,
+                                                                     outCount.data(), capacity);
+    checkLaunch("leafBoxesKernel");
+    outCount.download(&n);
+    n = std::min(n, capacity);
+    std::swap(in, out);
+  }
+  return total;
+}
 
 // crossings, lines, counts: N per voxel in d.counts.
 void computeCounts(const WindingTreeView& t, const std::vector<std::array<int, 3>>& origins, int L,
@@ -464,11 +546,8 @@ bool WindingDevicePass::leaves(const WindingTree& tree, Volume& volume, const st
     computeCounts(t.view(), origins, L, d, ev);
     clearInsideKernel<<<blocks(words.size()), kBlock>>>(words.size(), L, d.fits.data(), words.data());
     checkLaunch("clearInsideKernel");
-    constexpr unsigned kDecideBlock = 32; // few leaves at low resolutions: spread them over the SMs
-    const uint64_t parts = uint64_t(leaves) * kSplit * kSplit;
-    decideRowsKernel<<<unsigned((parts + kDecideBlock - 1) / kDecideBlock), kDecideBlock>>>(
-        t.view(), d.origins.data(), leaves, L, d.counts.data(), d.fits.data(), words.data());
-    checkLaunch("decideRowsKernel");
+    const uint64_t boxes =
+        decideLeavesBreadthFirst(t.view(), d.origins.data(), leaves, L, d.counts.data(), d.fits.data(), words.data());
     ev.mark(5);
     std::vector<uint8_t> fits(leaves);
     d.fits.download(fits.data());
@@ -483,6 +562,7 @@ bool WindingDevicePass::leaves(const WindingTree& tree, Volume& volume, const st
       times->counts = ev.ms(3, 4);
       times->decide = ev.ms(4, 5);
       times->download = ev.ms(5, 6);
+      times->boxes = boxes;
     }
     return true;
   } catch (const std::bad_alloc&) {
@@ -576,11 +656,7 @@ bool WindingDevicePass::fresh(const WindingTree& tree, int L, const std::vector<
     freshCountsKernel<<<blocks(uint64_t(leaves) * uint64_t(L) * uint64_t(L)), kBlock>>>(t.view(), o.data(), leaves, L, counts.data(),
                                                                  fits.data());
     checkLaunch("freshCountsKernel");
-    constexpr unsigned kDecideBlock = 32;
-    const uint64_t parts = uint64_t(leaves) * kSplit * kSplit;
-    decideRowsKernel<<<unsigned((parts + kDecideBlock - 1) / kDecideBlock), kDecideBlock>>>(
-        t.view(), o.data(), leaves, L, counts.data(), fits.data(), w.data());
-    checkLaunch("decideRowsKernel (fresh)");
+    decideLeavesBreadthFirst(t.view(), o.data(), leaves, L, counts.data(), fits.data(), w.data());
     std::vector<uint8_t> hostFits(leaves);
     fits.download(hostFits.data());
     w.download(words);

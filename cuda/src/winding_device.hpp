@@ -20,6 +20,7 @@ namespace cuda {
 // CUDA-event times of the device pass (milliseconds).
 struct WindingDeviceTimes {
   double upload = 0, crossings = 0, lines = 0, counts = 0, decide = 0, download = 0;
+  uint64_t boxes = 0; // leaf boxes decided (breadth first)
 };
 
 // The device passes of one build; the tree is uploaded once, on first use.
