@@ -24,6 +24,7 @@
 #include "winding_device.hpp"
 
 #include "check.hpp"
+#include "host_copy.hpp"
 
 #include "hdt/build_steps.hpp"
 #include "hdt/geometry.hpp"
@@ -34,6 +35,8 @@
 #include <cub/device/device_select.cuh>
 
 #include <algorithm>
+#include <cstdio>
+#include <cstdlib>
 #include <new>
 #include <utility>
 
@@ -241,7 +244,7 @@ __global__ void freshCountsKernel(WindingTreeView t, const LeafOrigin* origins, 
 // is certified, so any order of boxes gives the same answer. Instead of one
 // serial windingDecideBox walk per element (a few elements near an open rim
 // took most of the time), every box of every element is one thread of one
-// level: a box is settled by the carried verdict (windingCarriedBoxVerdict)
+// level: a box is settled by the carried verdict (carriedBoxVerdict below)
 // or halved along each axis longer than one voxel into the next level's
 // queue; single voxels take windingInsideAt. seen[job] collects the sides
 // met (atomicOr: order free); an element that met both is split and its
@@ -255,6 +258,26 @@ struct QueuedBox {
   VoxelBox box;
   uint32_t job;
 };
+
+// windingCarriedBoxVerdict without its last resort: where the crossings and
+// strips cannot be evaluated at the box's centre (it lies in a strip's
+// plane), the box is split instead of refining the tree's sum there (up to
+// kWindingSeedOpenings openings on one thread: a single such box took over
+// 100 ms, the whole level waiting on it).
+__device__ int carriedBoxVerdict(const WindingTreeView& t, const VoxelBox& b) {
+  double lo[3], hi[3], centre[3], reach2 = 0;
+  for (int a = 0; a < 3; ++a) {
+    lo[a] = b.lo[a];
+    hi[a] = b.hi[a];
+    centre[a] = 0.5 * (lo[a] + hi[a]);
+    const double half = 0.5 * (b.size(a) - 1); // to the farthest voxel centre
+    reach2 = reach2 + half * half;
+  }
+  const double reach = sqrt(reach2) * (1 + 1e-12);
+  const double gradient = windingGradientBound(t, lo, hi);
+  if (!(reach * gradient < 2.0 * kWindingPi)) return kWindingUnsure;
+  return windingCarriedVerdict(windingCrossingSumAt(t, centre), reach, gradient, t.triangleCount);
+}
 
 __global__ void uniformBoxesKernel(WindingTreeView t, const QueuedBox* in, uint32_t count, QueuedBox* out,
                                    uint32_t* outCount, uint32_t capacity, uint32_t* seen) {
@@ -270,7 +293,7 @@ __global__ void uniformBoxesKernel(WindingTreeView t, const QueuedBox* in, uint3
     atomicOr(seen + q.job, inside ? kSeenInside : kSeenOutside);
     return;
   }
-  const int v = windingCarriedBoxVerdict(t, b);
+  const int v = carriedBoxVerdict(t, b);
   if (v != kWindingUnsure) {
     atomicOr(seen + q.job, v == kWindingInside ? kSeenInside : kSeenOutside);
     return;
@@ -434,6 +457,44 @@ private:
   cudaEvent_t e_[8];
 };
 
+// HDT_WINDING_TRACE set: each level's boxes and kernel time on stderr.
+bool traceLevels() {
+  static const bool on = std::getenv("HDT_WINDING_TRACE") != nullptr;
+  return on;
+}
+
+class LevelTrace {
+public:
+  explicit LevelTrace(const char* name) : name_(name), on_(traceLevels()) {
+    if (on_) {
+      HDT_CUDA_CHECK(cudaEventCreate(&a_));
+      HDT_CUDA_CHECK(cudaEventCreate(&b_));
+    }
+  }
+  ~LevelTrace() {
+    if (on_) {
+      cudaEventDestroy(a_);
+      cudaEventDestroy(b_);
+    }
+  }
+  void start() {
+    if (on_) HDT_CUDA_CHECK(cudaEventRecord(a_));
+  }
+  void stop(int level, uint32_t boxes) {
+    if (!on_) return;
+    HDT_CUDA_CHECK(cudaEventRecord(b_));
+    HDT_CUDA_CHECK(cudaEventSynchronize(b_));
+    float ms = 0;
+    HDT_CUDA_CHECK(cudaEventElapsedTime(&ms, a_, b_));
+    std::fprintf(stderr, "winding trace %s level %d: %u boxes, %.3f ms\n", name_, level, boxes, double(ms));
+  }
+
+private:
+  const char* name_;
+  bool on_;
+  cudaEvent_t a_ = nullptr, b_ = nullptr;
+};
+
 // The leaves' boxes level by level (leafBoxesKernel); returns the boxes taken.
 uint64_t decideLeavesBreadthFirst(const WindingTreeView& t, const LeafOrigin* origins, uint32_t leaves, int L,
                                   const int16_t* counts, uint8_t* fits, uint32_t* words) {
@@ -445,12 +506,15 @@ uint64_t decideLeavesBreadthFirst(const WindingTreeView& t, const LeafOrigin* or
   checkLaunch("firstLeafBoxesKernel");
   constexpr unsigned kBoxBlock = 64;
   uint64_t total = 0;
-  for (uint32_t n = leaves; n > 0;) {
+  LevelTrace trace("leaves");
+  for (uint32_t n = leaves, level = 0; n > 0; ++level) {
     total += n;
     outCount.zero();
+    trace.start();
     leafBoxesKernel<<<(n + kBoxBlock - 1) / kBoxBlock, kBoxBlock>>>(t, origins, L, counts, fits, words, in, n, out,
                                                                      outCount.data(), capacity);
     checkLaunch("leafBoxesKernel");
+    trace.stop(int(level), n);
     outCount.download(&n);
     n = std::min(n, capacity);
     std::swap(in, out);
@@ -542,7 +606,7 @@ bool WindingDevicePass::leaves(const WindingTree& tree, Volume& volume, const st
     const DeviceTree& t = impl_->upload(tree);
     CountsOnDevice d(leaves, L);
     Array<uint32_t> words(volume.leafWords.size());
-    words.upload(volume.leafWords.data());
+    copyToDevice(0, words.data(), volume.leafWords.data(), words.size() * sizeof(uint32_t));
     computeCounts(t.view(), origins, L, d, ev);
     clearInsideKernel<<<blocks(words.size()), kBlock>>>(words.size(), L, d.fits.data(), words.data());
     checkLaunch("clearInsideKernel");
@@ -551,7 +615,7 @@ bool WindingDevicePass::leaves(const WindingTree& tree, Volume& volume, const st
     ev.mark(5);
     std::vector<uint8_t> fits(leaves);
     d.fits.download(fits.data());
-    words.download(volume.leafWords.data());
+    copyToHost(0, volume.leafWords.data(), words.data(), words.size() * sizeof(uint32_t));
     ev.mark(6);
     for (uint32_t i = 0; i < leaves; ++i)
       if (!fits[i]) leftLeaves.push_back(i);
@@ -590,12 +654,15 @@ bool WindingDevicePass::uniform(const WindingTree& tree, const std::vector<Windi
     checkLaunch("firstBoxesKernel");
     constexpr unsigned kBoxBlock = 64;
     uint64_t total = 0;
-    for (uint32_t n = count; n > 0;) {
+    LevelTrace trace("uniform");
+    for (uint32_t n = count, level = 0; n > 0; ++level) {
       total += n;
       outCount.zero();
+      trace.start();
       uniformBoxesKernel<<<(n + kBoxBlock - 1) / kBoxBlock, kBoxBlock>>>(t.view(), in, n, out,
                                                                          outCount.data(), capacity, seen.data());
       checkLaunch("uniformBoxesKernel");
+      trace.stop(int(level), n);
       outCount.download(&n);
       n = std::min(n, capacity);
       std::swap(in, out);
@@ -659,7 +726,7 @@ bool WindingDevicePass::fresh(const WindingTree& tree, int L, const std::vector<
     decideLeavesBreadthFirst(t.view(), o.data(), leaves, L, counts.data(), fits.data(), w.data());
     std::vector<uint8_t> hostFits(leaves);
     fits.download(hostFits.data());
-    w.download(words);
+    copyToHost(0, words, w.data(), w.size() * sizeof(uint32_t));
     ev.mark(1);
     for (uint32_t i = 0; i < leaves; ++i)
       if (!hostFits[i]) leftLeaves.push_back(i);
