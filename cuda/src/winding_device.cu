@@ -37,6 +37,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <cstdlib>
+#include <memory>
 #include <new>
 #include <utility>
 
@@ -179,13 +180,24 @@ __global__ void countsKernel(uint32_t leafCount, int L, const int32_t* exits, co
   bool fit = rowHits[k] <= INT16_MAX; // the deltas could not wrap
   int16_t* c = counts + k * uint64_t(L);
   const int32_t exit = exits[k];
+  // The row in registers, loaded and stored 16 bytes at a time (a row is L
+  // int16: 16, 32 or 64 bytes, aligned): one thread a row touched the
+  // array 2 bytes at a time, 32 rows apart across a warp.
+  constexpr int kMaxRow = 32;
+  alignas(16) int16_t row[kMaxRow];
+  const bool wide = L <= kMaxRow && L % 8 == 0;
+  int16_t* r = wide ? row : c;
+  if (wide)
+    for (int i = 0; i < L / 8; ++i) reinterpret_cast<int4*>(row)[i] = reinterpret_cast<const int4*>(c)[i];
   int32_t suffix = 0;
   for (int x = L - 1; x >= 0 && fit; --x) {
-    suffix += c[x];
+    suffix += r[x];
     const int32_t n = exit + suffix;
     fit = n >= INT16_MIN && n <= INT16_MAX;
-    c[x] = int16_t(n);
+    r[x] = int16_t(n);
   }
+  if (wide)
+    for (int i = 0; i < L / 8; ++i) reinterpret_cast<int4*>(c)[i] = reinterpret_cast<const int4*>(row)[i];
   if (!fit) fits[k / rows] = 0;
 }
 
@@ -495,13 +507,32 @@ private:
   cudaEvent_t a_ = nullptr, b_ = nullptr;
 };
 
+// The two box queues' memory, kept across the passes of one build (the
+// uniform pass runs once per refinement level).
+class QueueMemory {
+public:
+  // Two queues of `capacity` T each.
+  template <class T>
+  std::pair<T*, T*> queues(uint32_t capacity) {
+    const size_t bytes = 2 * size_t(capacity) * sizeof(T);
+    if (!block_ || block_->size() < bytes) {
+      block_.reset();
+      block_ = std::make_unique<Array<uint8_t>>(bytes);
+    }
+    T* a = reinterpret_cast<T*>(block_->data());
+    return {a, a + capacity};
+  }
+
+private:
+  std::unique_ptr<Array<uint8_t>> block_;
+};
+
 // The leaves' boxes level by level (leafBoxesKernel); returns the boxes taken.
 uint64_t decideLeavesBreadthFirst(const WindingTreeView& t, const LeafOrigin* origins, uint32_t leaves, int L,
-                                  const int16_t* counts, uint8_t* fits, uint32_t* words) {
+                                  const int16_t* counts, uint8_t* fits, uint32_t* words, QueueMemory& memory) {
   const uint32_t capacity = std::max<uint32_t>(2 * leaves, kLeafQueue);
-  Array<LeafBox> a(capacity), b(capacity);
   Array<uint32_t> outCount(1);
-  LeafBox *in = a.data(), *out = b.data();
+  auto [in, out] = memory.queues<LeafBox>(capacity);
   firstLeafBoxesKernel<<<blocks(leaves), kBlock>>>(leaves, L, fits, in);
   checkLaunch("firstLeafBoxesKernel");
   constexpr unsigned kBoxBlock = 64;
@@ -579,6 +610,7 @@ void computeCounts(const WindingTreeView& t, const std::vector<std::array<int, 3
 struct WindingDevicePass::Impl {
   const WindingTree* host = nullptr;
   DeviceTree* tree = nullptr;
+  QueueMemory queues;
   ~Impl() { delete tree; }
   const DeviceTree& upload(const WindingTree& t) {
     if (host != &t) {
@@ -611,7 +643,8 @@ bool WindingDevicePass::leaves(const WindingTree& tree, Volume& volume, const st
     clearInsideKernel<<<blocks(words.size()), kBlock>>>(words.size(), L, d.fits.data(), words.data());
     checkLaunch("clearInsideKernel");
     const uint64_t boxes =
-        decideLeavesBreadthFirst(t.view(), d.origins.data(), leaves, L, d.counts.data(), d.fits.data(), words.data());
+        decideLeavesBreadthFirst(t.view(), d.origins.data(), leaves, L, d.counts.data(), d.fits.data(), words.data(),
+                                 impl_->queues);
     ev.mark(5);
     std::vector<uint8_t> fits(leaves);
     d.fits.download(fits.data());
@@ -648,8 +681,7 @@ bool WindingDevicePass::uniform(const WindingTree& tree, const std::vector<Windi
     Array<uint32_t> seen(jobs.size()), outCount(1);
     seen.zero();
     const uint32_t capacity = std::max<uint32_t>(2 * count, kUniformQueue);
-    Array<QueuedBox> a(capacity), b(capacity);
-    QueuedBox *in = a.data(), *out = b.data();
+    auto [in, out] = impl_->queues.queues<QueuedBox>(capacity);
     firstBoxesKernel<<<blocks(count), kBlock>>>(d.data(), count, in);
     checkLaunch("firstBoxesKernel");
     constexpr unsigned kBoxBlock = 64;
@@ -723,7 +755,7 @@ bool WindingDevicePass::fresh(const WindingTree& tree, int L, const std::vector<
     freshCountsKernel<<<blocks(uint64_t(leaves) * uint64_t(L) * uint64_t(L)), kBlock>>>(t.view(), o.data(), leaves, L, counts.data(),
                                                                  fits.data());
     checkLaunch("freshCountsKernel");
-    decideLeavesBreadthFirst(t.view(), o.data(), leaves, L, counts.data(), fits.data(), w.data());
+    decideLeavesBreadthFirst(t.view(), o.data(), leaves, L, counts.data(), fits.data(), w.data(), impl_->queues);
     std::vector<uint8_t> hostFits(leaves);
     fits.download(hostFits.data());
     copyToHost(0, words, w.data(), w.size() * sizeof(uint32_t));
