@@ -78,7 +78,8 @@ double applyInsideTestOnDevice(const PreparedMesh& mesh, Volume& v, const BuildO
                             ", leaves: upload " + std::to_string(t.upload) + ", crossings " +
                             std::to_string(t.crossings) + ", lines " + std::to_string(t.lines) + ", counts " +
                             std::to_string(t.counts) + ", decide " + std::to_string(t.decide) + " (" +
-                            std::to_string(t.boxes) + " boxes), download " +
+                            std::to_string(t.boxes) + " boxes; " + std::to_string(t.hardVoxels) +
+                            " voxels on the host " + std::to_string(t.hardMs) + " ms), download " +
                             std::to_string(t.download) + "; " + std::to_string(left.size()) + " of " +
                             std::to_string(origins.size()) + " leaves left to the host"
                       : "CUDA driver: no device memory for the winding leaf pass; it runs on the host");

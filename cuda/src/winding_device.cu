@@ -35,10 +35,13 @@
 #include <cub/device/device_select.cuh>
 
 #include <algorithm>
+#include <atomic>
+#include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <memory>
 #include <new>
+#include <thread>
 #include <utility>
 
 namespace hdt {
@@ -395,9 +398,31 @@ __global__ void firstLeafBoxesKernel(uint32_t leafCount, int L, const uint8_t* f
   boxes[i] = LeafBox{VoxelBox{{0, 0, 0}, {L, L, L}}, fits[i] ? i : kNoJob, INFINITY};
 }
 
+// Voxels that the count and the strips leave unsure (the centre lies in a
+// strip's plane, or w is within the margins of 1/2): windingInsideAt's
+// refined sum can open thousands of nodes on one thread (one such voxel held
+// a whole level for over 0.5 s, ogre at 1024^3), so they are listed and
+// decided on the host after the pass (the same function, the same bits).
+struct HardVoxels {
+  uint2* items; // (leaf, voxel)
+  uint32_t* count;
+  uint32_t capacity;
+};
+
+constexpr uint32_t kHardVoxels = 1u << 20;
+
+// windingInsideWithCount's first step: the verdict from N and K at p.
+__device__ int countedVerdict(const WindingTreeView& t, const double* p, int N) {
+  double K = 0, error = 0;
+  if (!windingStripSum(t, p, K, error)) return kWindingUnsure;
+  const double whole = 4.0 * kWindingPi * double(N);
+  const WindingSum s{whole + K, error + 4.0 * kWindingUlp * (fabs(whole) + fabs(K)), true};
+  return windingVerdict(s, t.triangleCount);
+}
+
 __global__ void leafBoxesKernel(WindingTreeView t, const LeafOrigin* origins, int L, const int16_t* counts,
                                 uint8_t* fits, uint32_t* words, const LeafBox* in, uint32_t count, LeafBox* out,
-                                uint32_t* outCount, uint32_t capacity) {
+                                uint32_t* outCount, uint32_t capacity, HardVoxels hard, bool allHard) {
   const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i >= count) return;
   const LeafBox q = in[i];
@@ -411,7 +436,16 @@ __global__ void leafBoxesKernel(WindingTreeView t, const LeafOrigin* origins, in
   windingBoxCentres(origins[q.leaf].o, b, lo, hi);
   if (b.single()) {
     const uint32_t v = w.index(b.lo[0], b.lo[1], b.lo[2]);
-    if (windingInsideWithCount(t, lo, int(N[v]))) atomicOr(leafWords + v / kVoxelsPerWord, 1u << (2 * (v % kVoxelsPerWord)));
+    const int verdict = allHard ? int(kWindingUnsure) : countedVerdict(t, lo, int(N[v]));
+    if (verdict == kWindingInside) atomicOr(leafWords + v / kVoxelsPerWord, 1u << (2 * (v % kVoxelsPerWord)));
+    if (verdict == kWindingUnsure) {
+      const uint32_t at = atomicAdd(hard.count, 1u);
+      if (at < hard.capacity) {
+        hard.items[at] = make_uint2(q.leaf, v);
+      } else {
+        fits[q.leaf] = 0; // the host's whole leaf
+      }
+    }
     return;
   }
   const bool sheet = windingSheetsMeetBox(t, lo, hi);
@@ -528,10 +562,15 @@ private:
 };
 
 // The leaves' boxes level by level (leafBoxesKernel); returns the boxes taken.
+// hard: on return the voxels left to the host (decideHardVoxels).
 uint64_t decideLeavesBreadthFirst(const WindingTreeView& t, const LeafOrigin* origins, uint32_t leaves, int L,
-                                  const int16_t* counts, uint8_t* fits, uint32_t* words, QueueMemory& memory) {
+                                  const int16_t* counts, uint8_t* fits, uint32_t* words, QueueMemory& memory,
+                                  std::vector<uint2>& hard) {
   const uint32_t capacity = std::max<uint32_t>(2 * leaves, kLeafQueue);
-  Array<uint32_t> outCount(1);
+  Array<uint32_t> outCount(1), hardCount(1);
+  Array<uint2> hardItems(kHardVoxels);
+  hardCount.zero();
+  static const bool allHard = std::getenv("HDT_WINDING_HOST_VOXELS") != nullptr;
   auto [in, out] = memory.queues<LeafBox>(capacity);
   firstLeafBoxesKernel<<<blocks(leaves), kBlock>>>(leaves, L, fits, in);
   checkLaunch("firstLeafBoxesKernel");
@@ -543,14 +582,49 @@ uint64_t decideLeavesBreadthFirst(const WindingTreeView& t, const LeafOrigin* or
     outCount.zero();
     trace.start();
     leafBoxesKernel<<<(n + kBoxBlock - 1) / kBoxBlock, kBoxBlock>>>(t, origins, L, counts, fits, words, in, n, out,
-                                                                     outCount.data(), capacity);
+                                                                     outCount.data(), capacity,
+                                                                     HardVoxels{hardItems.data(), hardCount.data(), kHardVoxels},
+                                                                     allHard);
     checkLaunch("leafBoxesKernel");
     trace.stop(int(level), n);
     outCount.download(&n);
     n = std::min(n, capacity);
     std::swap(in, out);
   }
+  uint32_t n = 0;
+  hardCount.download(&n);
+  hard.resize(std::min(n, kHardVoxels));
+  if (!hard.empty()) HDT_CUDA_CHECK(cudaMemcpy(hard.data(), hardItems.data(), hard.size() * sizeof(uint2), cudaMemcpyDeviceToHost));
   return total;
+}
+
+// The listed voxels by windingInsideAt on the host (threads share the list;
+// the bits are set afterwards, in list order), in the downloaded words of
+// the leaves that fit (the others are the host's whole leaves anyway).
+void decideHardVoxels(const WindingTreeView& t, const std::vector<std::array<int, 3>>& origins, int L,
+                      const std::vector<uint2>& hard, const std::vector<uint8_t>& fits, uint32_t* words) {
+  if (hard.empty()) return;
+  std::vector<uint8_t> inside(hard.size(), 0);
+  std::atomic<size_t> next{0};
+  auto work = [&] {
+    for (size_t i; (i = next.fetch_add(1)) < hard.size();) {
+      const uint32_t leaf = hard[i].x, v = hard[i].y, uL = uint32_t(L);
+      if (!fits[leaf]) continue;
+      const std::array<int, 3>& o = origins[leaf];
+      inside[i] = windingInsideAt(t, o[0] + double(v % uL) + 0.5, o[1] + double((v / uL) % uL) + 0.5,
+                                  o[2] + double(v / (uL * uL)) + 0.5);
+    }
+  };
+  const unsigned threads = std::min<size_t>(std::max(1u, std::thread::hardware_concurrency()), hard.size());
+  std::vector<std::thread> pool;
+  for (unsigned k = 1; k < threads; ++k) pool.emplace_back(work);
+  work();
+  for (std::thread& th : pool) th.join();
+  for (size_t i = 0; i < hard.size(); ++i)
+    if (inside[i]) {
+      const uint32_t v = hard[i].y;
+      words[leafWordOffset(hard[i].x, L) + v / kVoxelsPerWord] |= 1u << (2 * (v % kVoxelsPerWord));
+    }
 }
 
 // crossings, lines, counts: N per voxel in d.counts.
@@ -637,6 +711,7 @@ bool WindingDevicePass::leaves(const WindingTree& tree, Volume& volume, const st
     ev.mark(0);
     const DeviceTree& t = impl_->upload(tree);
     CountsOnDevice d(leaves, L);
+    std::vector<uint2> hard;
     Array<uint32_t> words(volume.leafWords.size());
     copyToDevice(0, words.data(), volume.leafWords.data(), words.size() * sizeof(uint32_t));
     computeCounts(t.view(), origins, L, d, ev);
@@ -644,15 +719,20 @@ bool WindingDevicePass::leaves(const WindingTree& tree, Volume& volume, const st
     checkLaunch("clearInsideKernel");
     const uint64_t boxes =
         decideLeavesBreadthFirst(t.view(), d.origins.data(), leaves, L, d.counts.data(), d.fits.data(), words.data(),
-                                 impl_->queues);
+                                 impl_->queues, hard);
     ev.mark(5);
     std::vector<uint8_t> fits(leaves);
     d.fits.download(fits.data());
     copyToHost(0, volume.leafWords.data(), words.data(), words.size() * sizeof(uint32_t));
     ev.mark(6);
+    const auto hard0 = std::chrono::steady_clock::now();
+    decideHardVoxels(tree.view(), origins, L, hard, fits, volume.leafWords.data());
+    const double hardMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - hard0).count();
     for (uint32_t i = 0; i < leaves; ++i)
       if (!fits[i]) leftLeaves.push_back(i);
     if (times) {
+      times->hardVoxels = hard.size();
+      times->hardMs = hardMs;
       times->upload = ev.ms(0, 1);
       times->crossings = ev.ms(1, 2);
       times->lines = ev.ms(2, 3);
@@ -755,11 +835,13 @@ bool WindingDevicePass::fresh(const WindingTree& tree, int L, const std::vector<
     freshCountsKernel<<<blocks(uint64_t(leaves) * uint64_t(L) * uint64_t(L)), kBlock>>>(t.view(), o.data(), leaves, L, counts.data(),
                                                                  fits.data());
     checkLaunch("freshCountsKernel");
-    decideLeavesBreadthFirst(t.view(), o.data(), leaves, L, counts.data(), fits.data(), w.data(), impl_->queues);
+    std::vector<uint2> hard;
+    decideLeavesBreadthFirst(t.view(), o.data(), leaves, L, counts.data(), fits.data(), w.data(), impl_->queues, hard);
     std::vector<uint8_t> hostFits(leaves);
     fits.download(hostFits.data());
     copyToHost(0, words, w.data(), w.size() * sizeof(uint32_t));
     ev.mark(1);
+    decideHardVoxels(tree.view(), origins, L, hard, hostFits, words);
     for (uint32_t i = 0; i < leaves; ++i)
       if (!hostFits[i]) leftLeaves.push_back(i);
     if (ms) *ms = ev.ms(0, 1);

@@ -20,7 +20,9 @@ namespace cuda {
 // CUDA-event times of the device pass (milliseconds).
 struct WindingDeviceTimes {
   double upload = 0, crossings = 0, lines = 0, counts = 0, decide = 0, download = 0;
-  uint64_t boxes = 0; // leaf boxes decided (breadth first)
+  uint64_t boxes = 0;      // leaf boxes decided (breadth first)
+  uint64_t hardVoxels = 0; // voxels decided on the host afterwards (windingInsideAt)
+  double hardMs = 0;       // their host time
 };
 
 // The device passes of one build; the tree is uploaded once, on first use.
@@ -33,9 +35,12 @@ public:
 
   // A WindingLeafPass: per leaf (one thread each) the signed crossings of its
   // rows with the candidate triangles, their suffix sums along each line of
-  // leaves, N per voxel, then windingDecideLeaf's loop. Leaves whose counts do
-  // not fit 16 bits go to leftLeaves. False (nothing written) when the
-  // device has no room: the caller runs the host pass.
+  // leaves, N per voxel, then windingDecideLeaf's boxes breadth first; the
+  // voxels that N and the strips leave unsure are decided on the host
+  // (windingInsideAt; HDT_WINDING_HOST_VOXELS set: every single voxel, to
+  // test that path). Leaves whose counts do not fit 16 bits go to
+  // leftLeaves. False (nothing written) when the device has no room: the
+  // caller runs the host pass.
   bool leaves(const WindingTree& tree, Volume& volume, const std::vector<std::array<int, 3>>& origins,
               std::vector<uint32_t>& leftLeaves, WindingDeviceTimes* times = nullptr);
 
