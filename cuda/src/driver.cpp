@@ -17,6 +17,8 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstdio>
+#include <cstdlib>
 #include <string>
 #include <thread>
 
@@ -44,14 +46,14 @@ double applyInsideTestOnDevice(const PreparedMesh& mesh, Volume& v, const BuildO
   const auto windingStart = Clock::now();
   auto msSince = [](Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); };
   double beforeDeviceMs = -1, uniformWallMs = 0, leavesWallMs = 0, freshMs = 0, freshWallMs = 0;
-  uint64_t freshLeaves = 0;
+  uint64_t freshLeaves = 0, uniformBoxes = 0;
   // Called for the volume's elements, then for each level of refinement.
   const WindingUniformPass uniformPass = [&](const WindingTree& tree, const std::vector<WindingUniformJob>& jobs,
                                              std::vector<uint8_t>& verdicts) {
     if (beforeDeviceMs < 0) beforeDeviceMs = msSince(windingStart);
     const auto t0 = Clock::now();
     double ms = 0;
-    const bool ran = device.uniform(tree, jobs, verdicts, &ms);
+    const bool ran = device.uniform(tree, jobs, verdicts, &ms, &uniformBoxes);
     uniformMs += ms;
     uniformWallMs += msSince(t0);
     return ran;
@@ -75,18 +77,26 @@ double applyInsideTestOnDevice(const PreparedMesh& mesh, Volume& v, const BuildO
       options.log(ran ? "CUDA driver: winding pass on the device (ms): uniform " + std::to_string(uniformMs) +
                             ", leaves: upload " + std::to_string(t.upload) + ", crossings " +
                             std::to_string(t.crossings) + ", lines " + std::to_string(t.lines) + ", counts " +
-                            std::to_string(t.counts) + ", decide " + std::to_string(t.decide) + ", download " +
+                            std::to_string(t.counts) + ", decide " + std::to_string(t.decide) + " (" +
+                            std::to_string(t.boxes) + " boxes; " + std::to_string(t.hardVoxels) +
+                            " voxels on the host " + std::to_string(t.hardMs) + " ms), download " +
                             std::to_string(t.download) + "; " + std::to_string(left.size()) + " of " +
                             std::to_string(origins.size()) + " leaves left to the host"
                       : "CUDA driver: no device memory for the winding leaf pass; it runs on the host");
     }
     return ran;
   };
+  if (std::getenv("HDT_WINDING_TRACE") && !mesh.surfaceOnly && mesh.insideTest == InsideTest::WindingNumber) {
+    const auto t0 = Clock::now();
+    const WindingTree tree = buildWindingTree(mesh.triangles);
+    std::fprintf(stderr, "winding trace: tree build %.3f ms (%zu nodes, %zu edges)\n", msSince(t0), tree.nodes.size(),
+                 tree.edges.size());
+  }
   const double windingMs = applyInsideTest(mesh, v, leafPass, uniformPass, freshPass);
   if (options.log && windingMs > 0)
     options.log("CUDA driver: winding pass " + std::to_string(msSince(windingStart)) + " ms, of which host tree + walk " +
                 std::to_string(beforeDeviceMs) + " ms, uniform passes " + std::to_string(uniformWallMs) +
-                " ms, leaf pass " + std::to_string(leavesWallMs) + " ms, fresh leaves " + std::to_string(freshWallMs) +
+                " ms (" + std::to_string(uniformBoxes) + " boxes), leaf pass " + std::to_string(leavesWallMs) + " ms, fresh leaves " + std::to_string(freshWallMs) +
                 " ms (wall, allocations included; fresh kernels " + std::to_string(freshMs) + " ms, " +
                 std::to_string(freshLeaves) + " leaves); " + std::to_string(v.stats.windingRefinedElements) +
                 " elements refined");

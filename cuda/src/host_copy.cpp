@@ -283,5 +283,30 @@ void copyToHost(cudaStream_t stream, void* host, const void* device, size_t byte
   copyThroughRing(r.view(), stream, host, device, bytes, copied);
 }
 
+void copyToDevice(cudaStream_t stream, void* device, const void* host, size_t bytes) {
+  if (bytes == 0) return;
+  Ring& r = currentRing();
+  std::unique_lock<std::mutex> lock(r.mutex);
+  if (bytes < kDirectBytes || !r.allocate()) {
+    lock.unlock();
+    HDT_CUDA_CHECK(cudaMemcpyAsync(device, host, bytes, cudaMemcpyHostToDevice, stream));
+    HDT_CUDA_CHECK(cudaStreamSynchronize(stream));
+    return;
+  }
+  auto* dst = static_cast<uint8_t*>(device);
+  const auto* src = static_cast<const uint8_t*>(host);
+  // Slot k % kSlots is filled (host threads) while the link drains the
+  // others; it is refilled once its copy has arrived.
+  for (size_t off = 0, k = 0; off < bytes; off += kPieceBytes, ++k) {
+    const int i = int(k % kSlots);
+    const size_t n = std::min(kPieceBytes, bytes - off);
+    if (k >= size_t(kSlots)) HDT_CUDA_CHECK(cudaEventSynchronize(r.arrived[i]));
+    copyHostParallel(r.slot[i], src + off, n);
+    HDT_CUDA_CHECK(cudaMemcpyAsync(dst + off, r.slot[i], n, cudaMemcpyHostToDevice, stream));
+    HDT_CUDA_CHECK(cudaEventRecord(r.arrived[i], stream));
+  }
+  HDT_CUDA_CHECK(cudaStreamSynchronize(stream));
+}
+
 } // namespace cuda
 } // namespace hdt

@@ -29,6 +29,12 @@ using CopiedPrefix = std::function<void(size_t n)>;
 void copyToHost(cudaStream_t stream, void* host, const void* device, size_t bytes,
                 const CopiedPrefix& copied = {});
 
+// Host to device through the same ring (the host threads fill a slot while
+// the link drains the others); returns when `device` holds the bytes. Small
+// copies, and all copies where no memory can be pinned, take the driver's
+// pageable path.
+void copyToDevice(cudaStream_t stream, void* device, const void* host, size_t bytes);
+
 // Host to host, in parallel (oneTBB), in tasks cut at the destination's huge
 // page boundaries: what one core's memcpy cannot fill, first touch included.
 void copyHostParallel(void* dst, const void* src, size_t bytes);

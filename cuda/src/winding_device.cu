@@ -15,15 +15,16 @@
 //   counts     one thread per row: N at each voxel = exit + suffix of the
 //              deltas, in place as int16; a leaf whose row hit counts or N do
 //              not fit 16 bits is marked for the host;
-//   uniform    one thread per uniform element: classifyUniform's walk
-//              (also the children of split elements);
-//   fresh      the leaves refinement creates: N by one ray walk per voxel,
+//   uniform    classifyUniform's verdict per element (also the children of
+//              split elements), its boxes breadth first, one thread per box;
+//   fresh      the leaves refinement creates: N by one ray walk per row,
 //              then the same decision.
-//   decide     kSplit^2 threads per leaf, each windingDecideBoxes
-//              (winding_leaf.hpp) over its block of rows, in place.
+//   decide     the leaves' boxes breadth first (windingDecideBoxes' steps,
+//              winding_leaf.hpp), one thread per box and level, in place.
 #include "winding_device.hpp"
 
 #include "check.hpp"
+#include "host_copy.hpp"
 
 #include "hdt/build_steps.hpp"
 #include "hdt/geometry.hpp"
@@ -33,7 +34,15 @@
 #include <cub/device/device_radix_sort.cuh>
 #include <cub/device/device_select.cuh>
 
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <memory>
 #include <new>
+#include <thread>
+#include <utility>
 
 namespace hdt {
 namespace cuda {
@@ -174,46 +183,32 @@ __global__ void countsKernel(uint32_t leafCount, int L, const int32_t* exits, co
   bool fit = rowHits[k] <= INT16_MAX; // the deltas could not wrap
   int16_t* c = counts + k * uint64_t(L);
   const int32_t exit = exits[k];
+  // The row in registers, loaded and stored 16 bytes at a time (a row is L
+  // int16: 16, 32 or 64 bytes, aligned): one thread a row touched the
+  // array 2 bytes at a time, 32 rows apart across a warp.
+  constexpr int kMaxRow = 32;
+  alignas(16) int16_t row[kMaxRow];
+  const bool wide = L <= kMaxRow && L % 8 == 0;
+  int16_t* r = wide ? row : c;
+  if (wide)
+    for (int i = 0; i < L / 8; ++i) reinterpret_cast<int4*>(row)[i] = reinterpret_cast<const int4*>(c)[i];
   int32_t suffix = 0;
   for (int x = L - 1; x >= 0 && fit; --x) {
-    suffix += c[x];
+    suffix += r[x];
     const int32_t n = exit + suffix;
     fit = n >= INT16_MIN && n <= INT16_MAX;
-    c[x] = int16_t(n);
+    r[x] = int16_t(n);
   }
+  if (wide)
+    for (int i = 0; i < L / 8; ++i) reinterpret_cast<int4*>(c)[i] = reinterpret_cast<const int4*>(row)[i];
   if (!fit) fits[k / rows] = 0;
 }
 
-// The inside plane of every leaf that fits cleared (decideRowsKernel sets it).
+// The inside plane of every leaf that fits cleared (leafBoxesKernel sets it).
 __global__ void clearInsideKernel(uint64_t wordCount, int L, const uint8_t* fits, uint32_t* words) {
   const uint64_t i = uint64_t(blockIdx.x) * blockDim.x + threadIdx.x;
   if (i >= wordCount || !fits[i / leafWordCount(L)]) return;
   words[i] &= kSurfacePlaneBits;
-}
-
-// windingDecideLeaf's box loop (winding_leaf.hpp, windingDecideBoxes) from
-// one block of rows of the leaf instead of the whole leaf, so that kSplit^2
-// threads share a leaf (one thread per leaf left most of the GPU idle).
-// Every verdict is certified, so the bits do not depend on where the boxes
-// start. A block is L / kSplit rows in y and z (even for L = 8, 16, 32), and
-// a word holds 16 voxels of x-consecutive rows (two rows y = 2k, 2k + 1 at
-// L = 8, one or half a row otherwise): no two threads write the same word.
-constexpr int kSplit = 4; // row blocks per leaf edge
-
-__device__ void decideRows(const WindingTreeView& t, int L, const int* origin, const VoxelBox& start,
-                           const int16_t* N, uint32_t* words) {
-  const WindingLeafWords w{words, uint32_t(L)};
-  windingDecideBoxes(t, origin, N, w, start, INFINITY);
-}
-
-__global__ void decideRowsKernel(WindingTreeView t, const LeafOrigin* origins, uint32_t leafCount, int L,
-                                 const int16_t* counts, const uint8_t* fits, uint32_t* words) {
-  const uint64_t k = uint64_t(blockIdx.x) * blockDim.x + threadIdx.x;
-  const uint32_t leaf = uint32_t(k / (kSplit * kSplit)), part = uint32_t(k % (kSplit * kSplit));
-  if (leaf >= leafCount || !fits[leaf]) return;
-  const int s = L / kSplit, y0 = int(part % kSplit) * s, z0 = int(part / kSplit) * s;
-  decideRows(t, L, origins[leaf].o, VoxelBox{{0, y0, z0}, {L, y0 + s, z0 + s}},
-             counts + size_t(leaf) * size_t(L) * size_t(L) * size_t(L), words + leafWordOffset(leaf, L));
 }
 
 // classifyUniform (core/src/winding.cpp) for one element: bit 0 inside, bit 1
@@ -235,23 +230,242 @@ __global__ void uniformKernel(WindingTreeView t, const WindingUniformJob* jobs, 
 }
 
 // N at every voxel centre of a leaf without surface voxels (refinement's
-// fresh leaves): one ray walk per voxel.
+// fresh leaves): one ray walk per row. No triangle meets the closed box of
+// any of the leaf's voxels, so none lies between two voxel centres of a row
+// and the row's +x rays (the same perturbed line) cross the same triangles
+// ahead: N is the row's first voxel's count at every voxel of the row.
 __global__ void freshCountsKernel(WindingTreeView t, const LeafOrigin* origins, uint32_t leafCount, int L,
                                   int16_t* counts, uint8_t* fits) {
   const uint64_t k = uint64_t(blockIdx.x) * blockDim.x + threadIdx.x;
-  const uint64_t n = uint64_t(L) * uint64_t(L) * uint64_t(L);
-  if (k >= uint64_t(leafCount) * n) return; // k = leaf * L^3 + voxel
-  const uint32_t leaf = uint32_t(k / n), v = uint32_t(k % n);
+  const uint64_t rows = uint64_t(L) * uint64_t(L);
+  if (k >= uint64_t(leafCount) * rows) return; // k = leaf * L^2 + row
+  const uint32_t leaf = uint32_t(k / rows), r = uint32_t(k % rows);
   const LeafOrigin o = origins[leaf];
-  const double p[3] = {o.o[0] + double(v % uint32_t(L)) + 0.5, o.o[1] + double((v / uint32_t(L)) % uint32_t(L)) + 0.5,
-                       o.o[2] + double(v / uint32_t(L * L)) + 0.5};
+  const double p[3] = {o.o[0] + 0.5, o.o[1] + double(r % uint32_t(L)) + 0.5, o.o[2] + double(r / uint32_t(L)) + 0.5};
   int64_t P[3];
   int count = 0;
   if (!windingLatticePoint(p, P) || !windingRayCrossings(t, P, count) || count < INT16_MIN || count > INT16_MAX) {
     fits[leaf] = 0;
     return;
   }
-  counts[k] = int16_t(count);
+  int16_t* row = counts + k * uint64_t(L);
+  for (int x = 0; x < L; ++x) row[x] = int16_t(count);
+}
+
+// ---- uniform elements, breadth first ------------------------------------------
+//
+// classifyUniform's verdict (inside, outside or split) is a function of the
+// exact verdicts at the element's voxel centres, and every box verdict below
+// is certified, so any order of boxes gives the same answer. Instead of one
+// serial windingDecideBox walk per element (a few elements near an open rim
+// took most of the time), every box of every element is one thread of one
+// level: a box is settled by the carried verdict (carriedBoxVerdict below)
+// or halved along each axis longer than one voxel into the next level's
+// queue; single voxels take windingInsideAt. seen[job] collects the sides
+// met (atomicOr: order free); an element that met both is split and its
+// remaining boxes are dropped. An element whose children do not fit the
+// queue is marked and decided afterwards by the serial walk (uniformKernel).
+constexpr uint32_t kSeenOutside = 1, kSeenInside = 2, kSeenBoth = 3, kQueueFull = 4;
+constexpr uint32_t kNoJob = 0xFFFFFFFFu;
+constexpr uint32_t kUniformQueue = 1u << 23; // boxes per level (at least twice the jobs)
+
+struct QueuedBox {
+  VoxelBox box;
+  uint32_t job;
+};
+
+// windingCarriedBoxVerdict without its last resort: where the crossings and
+// strips cannot be evaluated at the box's centre (it lies in a strip's
+// plane), the box is split instead of refining the tree's sum there (up to
+// kWindingSeedOpenings openings on one thread: a single such box took over
+// 100 ms, the whole level waiting on it).
+__device__ int carriedBoxVerdict(const WindingTreeView& t, const VoxelBox& b) {
+  double lo[3], hi[3], centre[3], reach2 = 0;
+  for (int a = 0; a < 3; ++a) {
+    lo[a] = b.lo[a];
+    hi[a] = b.hi[a];
+    centre[a] = 0.5 * (lo[a] + hi[a]);
+    const double half = 0.5 * (b.size(a) - 1); // to the farthest voxel centre
+    reach2 = reach2 + half * half;
+  }
+  const double reach = sqrt(reach2) * (1 + 1e-12);
+  const double gradient = windingGradientBound(t, lo, hi);
+  if (!(reach * gradient < 2.0 * kWindingPi)) return kWindingUnsure;
+  return windingCarriedVerdict(windingCrossingSumAt(t, centre), reach, gradient, t.triangleCount);
+}
+
+__global__ void uniformBoxesKernel(WindingTreeView t, const QueuedBox* in, uint32_t count, QueuedBox* out,
+                                   uint32_t* outCount, uint32_t capacity, uint32_t* seen) {
+  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= count) return;
+  const QueuedBox q = in[i];
+  if (q.job == kNoJob) return;
+  const uint32_t state = *static_cast<volatile uint32_t*>(seen + q.job);
+  if ((state & kSeenBoth) == kSeenBoth || (state & kQueueFull)) return;
+  const VoxelBox& b = q.box;
+  if (b.single()) {
+    const bool inside = windingInsideAt(t, b.lo[0] + 0.5, b.lo[1] + 0.5, b.lo[2] + 0.5);
+    atomicOr(seen + q.job, inside ? kSeenInside : kSeenOutside);
+    return;
+  }
+  const int v = carriedBoxVerdict(t, b);
+  if (v != kWindingUnsure) {
+    atomicOr(seen + q.job, v == kWindingInside ? kSeenInside : kSeenOutside);
+    return;
+  }
+  bool halve[3];
+  uint32_t n = 1;
+  for (int a = 0; a < 3; ++a) {
+    halve[a] = b.size(a) > 1;
+    n *= halve[a] ? 2u : 1u;
+  }
+  const uint32_t at = atomicAdd(outCount, n);
+  if (at + n > capacity) { // the slots it got below capacity are dropped
+    atomicOr(seen + q.job, kQueueFull);
+    for (uint32_t k = at; k < capacity && k < at + n; ++k) out[k].job = kNoJob;
+    return;
+  }
+  uint32_t k = 0;
+  for (int c = 0; c < 8; ++c) {
+    VoxelBox s = b;
+    bool exists = true;
+    for (int a = 0; a < 3; ++a) {
+      const int mid = b.lo[a] + b.size(a) / 2;
+      if ((c >> a) & 1) {
+        exists = exists && halve[a];
+        s.lo[a] = mid;
+      } else if (halve[a]) {
+        s.hi[a] = mid;
+      }
+    }
+    if (exists) out[at + k++] = QueuedBox{s, q.job};
+  }
+}
+
+__global__ void firstBoxesKernel(const WindingUniformJob* jobs, uint32_t count, QueuedBox* boxes) {
+  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= count) return;
+  QueuedBox q;
+  for (int a = 0; a < 3; ++a) {
+    q.box.lo[a] = jobs[i].origin[a];
+    q.box.hi[a] = jobs[i].origin[a] + jobs[i].edge;
+  }
+  q.job = i;
+  boxes[i] = q;
+}
+
+// ---- leaves, breadth first ----------------------------------------------------------
+//
+// windingDecideLeaf's boxes (winding_leaf.hpp: windingDecideBoxes' steps) as
+// a queue over all leaves, one thread per box and level: a box with no
+// non-surface voxel is dropped, a sheet-free box whose threshold holds is
+// settled (one atomicOr per word: boxes of a leaf share words), a single
+// voxel takes windingInsideWithCount, anything else is halved
+// (windingPushHalves, with the gradient bound the children may reuse) into
+// the next level. Every verdict is certified, so the bits do not depend on
+// the boxes taken (the host starts from the whole leaf too). A leaf whose
+// children do not fit the queue is left to the host (fits = 0;
+// classifyLeaf rewrites its inside plane).
+struct LeafBox {
+  VoxelBox box; // leaf-local voxels
+  uint32_t leaf;
+  double gradient; // a bound on |grad K| over the box (INFINITY: none known)
+};
+
+constexpr uint32_t kLeafQueue = 1u << 23; // boxes per level (at least twice the leaves)
+
+// The inside bit of each non-surface voxel of b whose N reaches T.
+__device__ void settleLeafBox(uint32_t* words, uint32_t L, const VoxelBox& b, const int16_t* N, int T) {
+  uint32_t word = 0xFFFFFFFFu, mask = 0;
+  for (int z = b.lo[2]; z < b.hi[2]; ++z)
+    for (int y = b.lo[1]; y < b.hi[1]; ++y)
+      for (int x = b.lo[0]; x < b.hi[0]; ++x) {
+        const uint32_t v = uint32_t(x) + L * (uint32_t(y) + L * uint32_t(z)), w = v / kVoxelsPerWord;
+        if (w != word) {
+          if (mask) atomicOr(words + word, mask);
+          word = w;
+          mask = 0;
+        }
+        const uint32_t shift = 2 * (v % kVoxelsPerWord);
+        if (!((words[w] >> (shift + 1)) & 1u) && int(N[v]) >= T) mask |= 1u << shift;
+      }
+  if (mask) atomicOr(words + word, mask);
+}
+
+__global__ void firstLeafBoxesKernel(uint32_t leafCount, int L, const uint8_t* fits, LeafBox* boxes) {
+  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= leafCount) return;
+  boxes[i] = LeafBox{VoxelBox{{0, 0, 0}, {L, L, L}}, fits[i] ? i : kNoJob, INFINITY};
+}
+
+// Voxels that the count and the strips leave unsure (the centre lies in a
+// strip's plane, or w is within the margins of 1/2): windingInsideAt's
+// refined sum can open thousands of nodes on one thread (one such voxel held
+// a whole level for over 0.5 s, ogre at 1024^3), so they are listed and
+// decided on the host after the pass (the same function, the same bits).
+struct HardVoxels {
+  uint2* items; // (leaf, voxel)
+  uint32_t* count;
+  uint32_t capacity;
+};
+
+constexpr uint32_t kHardVoxels = 1u << 20;
+
+// windingInsideWithCount's first step: the verdict from N and K at p.
+__device__ int countedVerdict(const WindingTreeView& t, const double* p, int N) {
+  double K = 0, error = 0;
+  if (!windingStripSum(t, p, K, error)) return kWindingUnsure;
+  const double whole = 4.0 * kWindingPi * double(N);
+  const WindingSum s{whole + K, error + 4.0 * kWindingUlp * (fabs(whole) + fabs(K)), true};
+  return windingVerdict(s, t.triangleCount);
+}
+
+__global__ void leafBoxesKernel(WindingTreeView t, const LeafOrigin* origins, int L, const int16_t* counts,
+                                uint8_t* fits, uint32_t* words, const LeafBox* in, uint32_t count, LeafBox* out,
+                                uint32_t* outCount, uint32_t capacity, HardVoxels hard, bool allHard) {
+  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= count) return;
+  const LeafBox q = in[i];
+  if (q.leaf == kNoJob || !fits[q.leaf]) return;
+  uint32_t* leafWords = words + leafWordOffset(q.leaf, L);
+  const int16_t* N = counts + size_t(q.leaf) * size_t(L) * size_t(L) * size_t(L);
+  const WindingLeafWords w{leafWords, uint32_t(L)};
+  const VoxelBox& b = q.box;
+  if (!w.open(b)) return;
+  double lo[3], hi[3];
+  windingBoxCentres(origins[q.leaf].o, b, lo, hi);
+  if (b.single()) {
+    const uint32_t v = w.index(b.lo[0], b.lo[1], b.lo[2]);
+    const int verdict = allHard ? int(kWindingUnsure) : countedVerdict(t, lo, int(N[v]));
+    if (verdict == kWindingInside) atomicOr(leafWords + v / kVoxelsPerWord, 1u << (2 * (v % kVoxelsPerWord)));
+    if (verdict == kWindingUnsure) {
+      const uint32_t at = atomicAdd(hard.count, 1u);
+      if (at < hard.capacity) {
+        hard.items[at] = make_uint2(q.leaf, v);
+      } else {
+        fits[q.leaf] = 0; // the host's whole leaf
+      }
+    }
+    return;
+  }
+  const bool sheet = windingSheetsMeetBox(t, lo, hi);
+  double gradient = q.gradient;
+  int T = 0;
+  if (!sheet && windingBoxThreshold(t, lo, hi, T, gradient)) {
+    settleLeafBox(leafWords, uint32_t(L), b, N, T);
+    return;
+  }
+  VoxelBox halves[8];
+  double known[8];
+  int n = 0;
+  windingPushHalves(b, sheet, halves, known, n, gradient);
+  const uint32_t at = atomicAdd(outCount, uint32_t(n));
+  if (at + uint32_t(n) > capacity) {
+    fits[q.leaf] = 0;
+    for (uint32_t k = at; k < capacity && k < at + uint32_t(n); ++k) out[k].leaf = kNoJob;
+    return;
+  }
+  for (int k = 0; k < n; ++k) out[at + uint32_t(k)] = LeafBox{halves[k], q.leaf, known[k]};
 }
 
 void checkLaunch(const char* name) {
@@ -288,6 +502,130 @@ public:
 private:
   cudaEvent_t e_[8];
 };
+
+// HDT_WINDING_TRACE set: each level's boxes and kernel time on stderr.
+bool traceLevels() {
+  static const bool on = std::getenv("HDT_WINDING_TRACE") != nullptr;
+  return on;
+}
+
+class LevelTrace {
+public:
+  explicit LevelTrace(const char* name) : name_(name), on_(traceLevels()) {
+    if (on_) {
+      HDT_CUDA_CHECK(cudaEventCreate(&a_));
+      HDT_CUDA_CHECK(cudaEventCreate(&b_));
+    }
+  }
+  ~LevelTrace() {
+    if (on_) {
+      cudaEventDestroy(a_);
+      cudaEventDestroy(b_);
+    }
+  }
+  void start() {
+    if (on_) HDT_CUDA_CHECK(cudaEventRecord(a_));
+  }
+  void stop(int level, uint32_t boxes) {
+    if (!on_) return;
+    HDT_CUDA_CHECK(cudaEventRecord(b_));
+    HDT_CUDA_CHECK(cudaEventSynchronize(b_));
+    float ms = 0;
+    HDT_CUDA_CHECK(cudaEventElapsedTime(&ms, a_, b_));
+    std::fprintf(stderr, "winding trace %s level %d: %u boxes, %.3f ms\n", name_, level, boxes, double(ms));
+  }
+
+private:
+  const char* name_;
+  bool on_;
+  cudaEvent_t a_ = nullptr, b_ = nullptr;
+};
+
+// The two box queues' memory, kept across the passes of one build (the
+// uniform pass runs once per refinement level).
+class QueueMemory {
+public:
+  // Two queues of `capacity` T each.
+  template <class T>
+  std::pair<T*, T*> queues(uint32_t capacity) {
+    const size_t bytes = 2 * size_t(capacity) * sizeof(T);
+    if (!block_ || block_->size() < bytes) {
+      block_.reset();
+      block_ = std::make_unique<Array<uint8_t>>(bytes);
+    }
+    T* a = reinterpret_cast<T*>(block_->data());
+    return {a, a + capacity};
+  }
+
+private:
+  std::unique_ptr<Array<uint8_t>> block_;
+};
+
+// The leaves' boxes level by level (leafBoxesKernel); returns the boxes taken.
+// hard: on return the voxels left to the host (decideHardVoxels).
+uint64_t decideLeavesBreadthFirst(const WindingTreeView& t, const LeafOrigin* origins, uint32_t leaves, int L,
+                                  const int16_t* counts, uint8_t* fits, uint32_t* words, QueueMemory& memory,
+                                  std::vector<uint2>& hard) {
+  const uint32_t capacity = std::max<uint32_t>(2 * leaves, kLeafQueue);
+  Array<uint32_t> outCount(1), hardCount(1);
+  Array<uint2> hardItems(kHardVoxels);
+  hardCount.zero();
+  static const bool allHard = std::getenv("HDT_WINDING_HOST_VOXELS") != nullptr;
+  auto [in, out] = memory.queues<LeafBox>(capacity);
+  firstLeafBoxesKernel<<<blocks(leaves), kBlock>>>(leaves, L, fits, in);
+  checkLaunch("firstLeafBoxesKernel");
+  constexpr unsigned kBoxBlock = 64;
+  uint64_t total = 0;
+  LevelTrace trace("leaves");
+  for (uint32_t n = leaves, level = 0; n > 0; ++level) {
+    total += n;
+    outCount.zero();
+    trace.start();
+    leafBoxesKernel<<<(n + kBoxBlock - 1) / kBoxBlock, kBoxBlock>>>(t, origins, L, counts, fits, words, in, n, out,
+                                                                     outCount.data(), capacity,
+                                                                     HardVoxels{hardItems.data(), hardCount.data(), kHardVoxels},
+                                                                     allHard);
+    checkLaunch("leafBoxesKernel");
+    trace.stop(int(level), n);
+    outCount.download(&n);
+    n = std::min(n, capacity);
+    std::swap(in, out);
+  }
+  uint32_t n = 0;
+  hardCount.download(&n);
+  hard.resize(std::min(n, kHardVoxels));
+  if (!hard.empty()) HDT_CUDA_CHECK(cudaMemcpy(hard.data(), hardItems.data(), hard.size() * sizeof(uint2), cudaMemcpyDeviceToHost));
+  return total;
+}
+
+// The listed voxels by windingInsideAt on the host (threads share the list;
+// the bits are set afterwards, in list order), in the downloaded words of
+// the leaves that fit (the others are the host's whole leaves anyway).
+void decideHardVoxels(const WindingTreeView& t, const std::vector<std::array<int, 3>>& origins, int L,
+                      const std::vector<uint2>& hard, const std::vector<uint8_t>& fits, uint32_t* words) {
+  if (hard.empty()) return;
+  std::vector<uint8_t> inside(hard.size(), 0);
+  std::atomic<size_t> next{0};
+  auto work = [&] {
+    for (size_t i; (i = next.fetch_add(1)) < hard.size();) {
+      const uint32_t leaf = hard[i].x, v = hard[i].y, uL = uint32_t(L);
+      if (!fits[leaf]) continue;
+      const std::array<int, 3>& o = origins[leaf];
+      inside[i] = windingInsideAt(t, o[0] + double(v % uL) + 0.5, o[1] + double((v / uL) % uL) + 0.5,
+                                  o[2] + double(v / (uL * uL)) + 0.5);
+    }
+  };
+  const unsigned threads = std::min<size_t>(std::max(1u, std::thread::hardware_concurrency()), hard.size());
+  std::vector<std::thread> pool;
+  for (unsigned k = 1; k < threads; ++k) pool.emplace_back(work);
+  work();
+  for (std::thread& th : pool) th.join();
+  for (size_t i = 0; i < hard.size(); ++i)
+    if (inside[i]) {
+      const uint32_t v = hard[i].y;
+      words[leafWordOffset(hard[i].x, L) + v / kVoxelsPerWord] |= 1u << (2 * (v % kVoxelsPerWord));
+    }
+}
 
 // crossings, lines, counts: N per voxel in d.counts.
 void computeCounts(const WindingTreeView& t, const std::vector<std::array<int, 3>>& origins, int L,
@@ -346,6 +684,7 @@ void computeCounts(const WindingTreeView& t, const std::vector<std::array<int, 3
 struct WindingDevicePass::Impl {
   const WindingTree* host = nullptr;
   DeviceTree* tree = nullptr;
+  QueueMemory queues;
   ~Impl() { delete tree; }
   const DeviceTree& upload(const WindingTree& t) {
     if (host != &t) {
@@ -372,30 +711,35 @@ bool WindingDevicePass::leaves(const WindingTree& tree, Volume& volume, const st
     ev.mark(0);
     const DeviceTree& t = impl_->upload(tree);
     CountsOnDevice d(leaves, L);
+    std::vector<uint2> hard;
     Array<uint32_t> words(volume.leafWords.size());
-    words.upload(volume.leafWords.data());
+    copyToDevice(0, words.data(), volume.leafWords.data(), words.size() * sizeof(uint32_t));
     computeCounts(t.view(), origins, L, d, ev);
     clearInsideKernel<<<blocks(words.size()), kBlock>>>(words.size(), L, d.fits.data(), words.data());
     checkLaunch("clearInsideKernel");
-    constexpr unsigned kDecideBlock = 32; // few leaves at low resolutions: spread them over the SMs
-    const uint64_t parts = uint64_t(leaves) * kSplit * kSplit;
-    decideRowsKernel<<<unsigned((parts + kDecideBlock - 1) / kDecideBlock), kDecideBlock>>>(
-        t.view(), d.origins.data(), leaves, L, d.counts.data(), d.fits.data(), words.data());
-    checkLaunch("decideRowsKernel");
+    const uint64_t boxes =
+        decideLeavesBreadthFirst(t.view(), d.origins.data(), leaves, L, d.counts.data(), d.fits.data(), words.data(),
+                                 impl_->queues, hard);
     ev.mark(5);
     std::vector<uint8_t> fits(leaves);
     d.fits.download(fits.data());
-    words.download(volume.leafWords.data());
+    copyToHost(0, volume.leafWords.data(), words.data(), words.size() * sizeof(uint32_t));
     ev.mark(6);
+    const auto hard0 = std::chrono::steady_clock::now();
+    decideHardVoxels(tree.view(), origins, L, hard, fits, volume.leafWords.data());
+    const double hardMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - hard0).count();
     for (uint32_t i = 0; i < leaves; ++i)
       if (!fits[i]) leftLeaves.push_back(i);
     if (times) {
+      times->hardVoxels = hard.size();
+      times->hardMs = hardMs;
       times->upload = ev.ms(0, 1);
       times->crossings = ev.ms(1, 2);
       times->lines = ev.ms(2, 3);
       times->counts = ev.ms(3, 4);
       times->decide = ev.ms(4, 5);
       times->download = ev.ms(5, 6);
+      times->boxes = boxes;
     }
     return true;
   } catch (const std::bad_alloc&) {
@@ -404,23 +748,65 @@ bool WindingDevicePass::leaves(const WindingTree& tree, Volume& volume, const st
 }
 
 bool WindingDevicePass::uniform(const WindingTree& tree, const std::vector<WindingUniformJob>& jobs,
-                                std::vector<uint8_t>& verdicts, double* ms) {
+                                std::vector<uint8_t>& verdicts, double* ms, uint64_t* boxes) {
   verdicts.assign(jobs.size(), 0);
   if (jobs.empty()) return true;
   try {
     Events ev;
     ev.mark(0);
     const DeviceTree& t = impl_->upload(tree);
+    const uint32_t count = uint32_t(jobs.size());
     Array<WindingUniformJob> d(jobs.size());
-    Array<uint8_t> v(jobs.size());
     d.upload(jobs.data());
-    constexpr unsigned kUniformBlock = 32;
-    uniformKernel<<<unsigned((jobs.size() + kUniformBlock - 1) / kUniformBlock), kUniformBlock>>>(
-        t.view(), d.data(), uint32_t(jobs.size()), v.data());
-    checkLaunch("uniformKernel");
-    v.download(verdicts.data());
+    Array<uint32_t> seen(jobs.size()), outCount(1);
+    seen.zero();
+    const uint32_t capacity = std::max<uint32_t>(2 * count, kUniformQueue);
+    auto [in, out] = impl_->queues.queues<QueuedBox>(capacity);
+    firstBoxesKernel<<<blocks(count), kBlock>>>(d.data(), count, in);
+    checkLaunch("firstBoxesKernel");
+    constexpr unsigned kBoxBlock = 64;
+    uint64_t total = 0;
+    LevelTrace trace("uniform");
+    for (uint32_t n = count, level = 0; n > 0; ++level) {
+      total += n;
+      outCount.zero();
+      trace.start();
+      uniformBoxesKernel<<<(n + kBoxBlock - 1) / kBoxBlock, kBoxBlock>>>(t.view(), in, n, out,
+                                                                         outCount.data(), capacity, seen.data());
+      checkLaunch("uniformBoxesKernel");
+      trace.stop(int(level), n);
+      outCount.download(&n);
+      n = std::min(n, capacity);
+      std::swap(in, out);
+    }
+    std::vector<uint32_t> state(jobs.size());
+    seen.download(state.data());
+    std::vector<WindingUniformJob> serial; // whose boxes did not fit the queue
+    std::vector<size_t> at;
+    for (size_t i = 0; i < jobs.size(); ++i) {
+      if (state[i] & kQueueFull) {
+        serial.push_back(jobs[i]);
+        at.push_back(i);
+        continue;
+      }
+      const bool both = (state[i] & kSeenBoth) == kSeenBoth;
+      verdicts[i] = both ? 2 : (state[i] & kSeenInside) ? 1 : 0;
+    }
+    if (!serial.empty()) {
+      Array<WindingUniformJob> sd(serial.size());
+      Array<uint8_t> v(serial.size());
+      sd.upload(serial.data());
+      constexpr unsigned kUniformBlock = 32;
+      uniformKernel<<<unsigned((serial.size() + kUniformBlock - 1) / kUniformBlock), kUniformBlock>>>(
+          t.view(), sd.data(), uint32_t(serial.size()), v.data());
+      checkLaunch("uniformKernel");
+      std::vector<uint8_t> sv(serial.size());
+      v.download(sv.data());
+      for (size_t j = 0; j < serial.size(); ++j) verdicts[at[j]] = sv[j];
+    }
     ev.mark(1);
     if (ms) *ms = ev.ms(0, 1);
+    if (boxes) *boxes += total;
     return true;
   } catch (const std::bad_alloc&) {
     return false;
@@ -446,18 +832,16 @@ bool WindingDevicePass::fresh(const WindingTree& tree, int L, const std::vector<
     o.upload(host.data());
     w.zero();
     HDT_CUDA_CHECK(cudaMemset(fits.data(), 1, leaves));
-    freshCountsKernel<<<blocks(uint64_t(leaves) * n), kBlock>>>(t.view(), o.data(), leaves, L, counts.data(),
+    freshCountsKernel<<<blocks(uint64_t(leaves) * uint64_t(L) * uint64_t(L)), kBlock>>>(t.view(), o.data(), leaves, L, counts.data(),
                                                                  fits.data());
     checkLaunch("freshCountsKernel");
-    constexpr unsigned kDecideBlock = 32;
-    const uint64_t parts = uint64_t(leaves) * kSplit * kSplit;
-    decideRowsKernel<<<unsigned((parts + kDecideBlock - 1) / kDecideBlock), kDecideBlock>>>(
-        t.view(), o.data(), leaves, L, counts.data(), fits.data(), w.data());
-    checkLaunch("decideRowsKernel (fresh)");
+    std::vector<uint2> hard;
+    decideLeavesBreadthFirst(t.view(), o.data(), leaves, L, counts.data(), fits.data(), w.data(), impl_->queues, hard);
     std::vector<uint8_t> hostFits(leaves);
     fits.download(hostFits.data());
-    w.download(words);
+    copyToHost(0, words, w.data(), w.size() * sizeof(uint32_t));
     ev.mark(1);
+    decideHardVoxels(tree.view(), origins, L, hard, hostFits, words);
     for (uint32_t i = 0; i < leaves; ++i)
       if (!hostFits[i]) leftLeaves.push_back(i);
     if (ms) *ms = ev.ms(0, 1);

@@ -20,6 +20,9 @@ namespace cuda {
 // CUDA-event times of the device pass (milliseconds).
 struct WindingDeviceTimes {
   double upload = 0, crossings = 0, lines = 0, counts = 0, decide = 0, download = 0;
+  uint64_t boxes = 0;      // leaf boxes decided (breadth first)
+  uint64_t hardVoxels = 0; // voxels decided on the host afterwards (windingInsideAt)
+  double hardMs = 0;       // their host time
 };
 
 // The device passes of one build; the tree is uploaded once, on first use.
@@ -32,20 +35,26 @@ public:
 
   // A WindingLeafPass: per leaf (one thread each) the signed crossings of its
   // rows with the candidate triangles, their suffix sums along each line of
-  // leaves, N per voxel, then windingDecideLeaf's loop. Leaves whose counts do
-  // not fit 16 bits go to leftLeaves. False (nothing written) when the
-  // device has no room: the caller runs the host pass.
+  // leaves, N per voxel, then windingDecideLeaf's boxes breadth first; the
+  // voxels that N and the strips leave unsure are decided on the host
+  // (windingInsideAt; HDT_WINDING_HOST_VOXELS set: every single voxel, to
+  // test that path). Leaves whose counts do not fit 16 bits go to
+  // leftLeaves. False (nothing written) when the device has no room: the
+  // caller runs the host pass.
   bool leaves(const WindingTree& tree, Volume& volume, const std::vector<std::array<int, 3>>& origins,
               std::vector<uint32_t>& leftLeaves, WindingDeviceTimes* times = nullptr);
 
-  // A WindingUniformPass: one thread per element, classifyUniform's
-  // windingDecideBox walk (winding.hpp). ms: the kernel and its copies.
+  // A WindingUniformPass: classifyUniform's verdict per element, its boxes
+  // breadth first (one thread per box and level, carried verdicts, halves);
+  // elements whose boxes overflow the queue take the serial walk
+  // (windingDecideBox, one thread each). ms: the kernels and their copies;
+  // boxes: adds the number of boxes taken.
   bool uniform(const WindingTree& tree, const std::vector<WindingUniformJob>& jobs, std::vector<uint8_t>& verdicts,
-               double* ms = nullptr);
+               double* ms = nullptr, uint64_t* boxes = nullptr);
 
   // A WindingFreshLeafPass: the leaves that refinement creates hold no
   // surface voxel; N at each voxel centre by windingRayCrossings (one thread
-  // per voxel), then the same decision as leaves().
+  // per row: N is constant along a row there), then the same decision as leaves().
   bool fresh(const WindingTree& tree, int L, const std::vector<std::array<int, 3>>& origins, uint32_t* words,
              std::vector<uint32_t>& leftLeaves, double* ms = nullptr);
 
