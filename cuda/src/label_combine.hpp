@@ -5,9 +5,11 @@
 // meets it, whatever its part).
 //
 // Parts are numbered by rank, the overlap policy's order (rank 0 wins);
-// kNoRank: no claim. Every kernel of one part touches each of its union
-// elements, leaves or voxels from one thread, and parts run one after
-// another on one stream, so the per-element minima need no atomics.
+// kNoRank: no claim. A part build is one part, or several whose root cells
+// are disjoint (labelled.cpp), so that every kernel of one part build
+// touches each of its union elements, leaves or voxels from one thread; part
+// builds run one after another on one stream, so the per-element minima
+// need no atomics.
 #pragma once
 
 #include "device_memory.hpp"
@@ -33,16 +35,24 @@ struct CombineError {
 
 // One level of a part's tree against the union's. map: the union index
 // (level-local) of each part element of this level (null at level 0: the
-// same root cells). Writes the next level's map (Branch children) or, at the
-// leaf level, leafMap (part leaf -> union leaf); records Full elements in
-// fullRank (union global indices).
+// same root cells). rankOf: each element's rank (a build of several parts:
+// its part's, kNoRank outside their root cells, where any element but Empty
+// sets *error). Writes the next level's map and ranks (Branch children) or,
+// at the leaf level, leafMap (part leaf -> union leaf) and leafRank; records
+// Full elements in fullRank (union global indices).
 void mapPartLevel(cudaStream_t s, const ElementWord* partWords, uint32_t partCount, uint64_t partNextStart,
                   const uint32_t* map, const ElementWord* unionWords, uint64_t unionStart, uint64_t unionNextStart,
-                  uint32_t* nextMap, uint32_t* leafMap, uint16_t rank, uint16_t* fullRank, CombineError e);
+                  uint32_t* nextMap, uint32_t* leafMap, const uint16_t* rankOf, uint16_t* nextRank, uint16_t* leafRank,
+                  uint16_t* fullRank, CombineError e);
 
-// ORs a part's leaf words into acc (union leaves) and counts the claim.
+// ranks[0, count) = rank (a one-part build's root cells).
+void fillRanks(cudaStream_t s, uint16_t* ranks, uint64_t count, uint16_t rank);
+
+// ORs a part build's leaf words into acc (union leaves) and counts each
+// leaf's claim, of rank leafRank[leaf].
 void orPartLeaves(cudaStream_t s, const uint32_t* partWords, uint32_t partLeaves, uint32_t wordsPerLeaf,
-                  const uint32_t* leafMap, uint32_t* acc, uint32_t* claimCount, uint16_t* claimRank, uint16_t rank);
+                  const uint32_t* leafMap, const uint16_t* leafRank, uint32_t* acc, uint32_t* claimCount,
+                  uint16_t* claimRank);
 
 // Full claims inherited from Full ancestors, one union level at a time (top down).
 void propagateFull(cudaStream_t s, const ElementWord* unionWords, uint32_t count, uint64_t start, uint16_t* fullRank);
@@ -64,7 +74,7 @@ void markMulti(cudaStream_t s, uint32_t leaves, const uint32_t* claimCount, uint
 // claims in its combined state. multiIndex: exclusive scan of markMulti.
 void partVoxelRanks(cudaStream_t s, const uint32_t* partWords, uint32_t partLeaves, uint32_t wordsPerLeaf,
                     const uint32_t* leafMap, const uint32_t* claimCount, const uint32_t* multiIndex,
-                    const uint32_t* combined, uint16_t* voxelRanks, uint16_t rank);
+                    const uint32_t* combined, uint16_t* voxelRanks, const uint16_t* leafRank);
 void inheritedVoxelRanks(cudaStream_t s, uint32_t leaves, uint32_t wordsPerLeaf, const uint32_t* claimCount,
                          const uint32_t* multiIndex, const uint16_t* leafInherited, const uint32_t* combined,
                          uint16_t* voxelRanks);

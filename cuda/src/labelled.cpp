@@ -7,6 +7,12 @@
 //    is mapped onto that tree level by level (its elements are a subset of
 //    the union's, in the same order) and folded in: its Full elements as
 //    claims, its leaf words ORed into the union's leaves, its claim counted.
+//    Closed parts (or any, for surface-only builds) whose root cells are
+//    disjoint share one build (partBuilds): a part's triangles meet only
+//    the root cells of its box, and a closed part's parity is even on every
+//    line, so outside its box it adds nothing to another's inside test;
+//    the shared build is then each part's own build on that part's root
+//    cells, and Empty elsewhere. Each element takes its root cell's part.
 // 3. Full claims go down the union's tree; the leaf words are finished
 //    (inside where not surface); leaves of two claims or more get a rank per
 //    voxel, the best claim in the voxel's state (second pass over the parts,
@@ -21,6 +27,7 @@
 #include "pipeline.hpp"
 #include "session.hpp"
 
+#include "hdt/build_steps.hpp"
 #include "hdt/error.hpp"
 #include "hdt/host_memory.hpp"
 #include "hdt/labels.hpp"
@@ -44,13 +51,76 @@ struct Mismatch : std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-// What a part keeps on the device for the second pass.
+// What a part build keeps on the device for the second pass.
 struct PartOnDevice {
-  uint16_t rank = 0;
   uint32_t leaves = 0;
-  DeviceBuffer<uint32_t> words;   // its leaf words
-  DeviceBuffer<uint32_t> leafMap; // its leaf -> union leaf
+  DeviceBuffer<uint32_t> words;    // its leaf words
+  DeviceBuffer<uint32_t> leafMap;  // its leaf -> union leaf
+  DeviceBuffer<uint16_t> leafRank; // its leaf's part's rank
 };
+
+// The root cells [first, last] (per axis) that a part's triangles can meet:
+// those of its lattice box (cellRange, as T1 finds a triangle's cells).
+struct CellBox {
+  int64_t first[3], last[3];
+  bool meets(const CellBox& o) const {
+    for (int a = 0; a < 3; ++a)
+      if (last[a] < o.first[a] || o.last[a] < first[a]) return false;
+    return true;
+  }
+};
+
+CellBox cellBoxOf(const PreparedMesh& part) {
+  const GridSpec& g = part.grid;
+  int64_t lo[3] = {INT64_MAX, INT64_MAX, INT64_MAX}, hi[3] = {INT64_MIN, INT64_MIN, INT64_MIN};
+  for (const LatticeTriangle& t : part.triangles) {
+    int64_t a[3], b[3];
+    triangleBounds(t, a, b);
+    for (int k = 0; k < 3; ++k) {
+      lo[k] = std::min(lo[k], a[k]);
+      hi[k] = std::max(hi[k], b[k]);
+    }
+  }
+  CellBox c;
+  for (int k = 0; k < 3; ++k)
+    cellRange(lo[k], hi[k], latticeOfVoxel(g.rootCellVoxels()), g.rootGrid, c.first[k], c.last[k]);
+  return c;
+}
+
+// The part builds: the parts, first fit in input order, grouped so that the
+// parts of a group have disjoint root cells; a part that is open in a solid
+// build (its parity may be odd outside its box) is built alone, and so is
+// every part of a grid of more than 2^22 root cells (the shared builds'
+// root ranks are written on the host).
+struct PartBuild {
+  std::vector<uint32_t> parts;
+  std::vector<CellBox> cells;
+  bool shared = true; // may take more parts
+};
+std::vector<PartBuild> partBuilds(const std::vector<PreparedMesh>& parts) {
+  std::vector<PartBuild> builds;
+  for (uint32_t i = 0; i < parts.size(); ++i) {
+    const uint64_t R = uint64_t(parts[i].grid.rootGrid);
+    const bool shareable = (parts[i].surfaceOnly || parts[i].closed) && R * R * R <= (uint64_t(1) << 22);
+    const CellBox box = cellBoxOf(parts[i]);
+    PartBuild* into = nullptr;
+    for (PartBuild& b : builds) {
+      if (!shareable || !b.shared) continue;
+      if (std::none_of(b.cells.begin(), b.cells.end(), [&](const CellBox& c) { return c.meets(box); })) {
+        into = &b;
+        break;
+      }
+    }
+    if (!into) {
+      builds.emplace_back();
+      into = &builds.back();
+      into->shared = shareable;
+    }
+    into->parts.push_back(i);
+    into->cells.push_back(box);
+  }
+  return builds;
+}
 
 template <class T>
 void fill(Session& s, DeviceBuffer<T>& b, int byte) {
@@ -101,36 +171,79 @@ struct UnionState {
   DeviceBuffer<uint32_t> error;
 };
 
-// Step 2 for one part: build, map onto the union, fold in.
-PartOnDevice foldPart(Session& s, UnionState& u, const PreparedMesh& part, uint16_t rank) {
+// The root cells' ranks of a part build: its one part's everywhere, or
+// each part's on its root cells and kNoRank elsewhere, copied from `host`
+// (the caller keeps it until the stream has run).
+DeviceBuffer<uint16_t> rootRanks(Session& s, const PartBuild& b, const std::vector<uint16_t>& rank,
+                                 std::vector<uint16_t>& host) {
+  const uint64_t R = uint64_t(s.grid.rootGrid);
+  DeviceBuffer<uint16_t> out(s.memory, R * R * R);
+  if (b.parts.size() == 1) {
+    fillRanks(s.stream.get(), out.data(), out.size(), rank[b.parts[0]]);
+    return out;
+  }
+  host.assign(out.size(), kNoRank);
+  for (size_t m = 0; m < b.parts.size(); ++m) {
+    const CellBox& c = b.cells[m];
+    for (int64_t z = c.first[2]; z <= c.last[2]; ++z)
+      for (int64_t y = c.first[1]; y <= c.last[1]; ++y)
+        std::fill_n(host.begin() + int64_t(R) * (y + int64_t(R) * z) + c.first[0], c.last[0] - c.first[0] + 1,
+                    rank[b.parts[m]]);
+  }
+  HDT_CUDA_CHECK(cudaMemcpyAsync(out.data(), host.data(), out.bytes(), cudaMemcpyHostToDevice, s.stream.get()));
+  return out;
+}
+
+// Step 2 for one part build: build, map onto the union, fold in.
+PartOnDevice foldPart(Session& s, UnionState& u, const std::vector<PreparedMesh>& parts, const PartBuild& b,
+                      const std::vector<uint16_t>& rank) {
   const GridSpec& g = s.grid;
   const uint64_t cells = uint64_t(g.rootGrid) * g.rootGrid * g.rootGrid;
-  DeviceBuffer<LatticeTriangle> tris(s.memory, part.triangles.size());
-  HDT_CUDA_CHECK(cudaMemcpyAsync(tris.data(), part.triangles.data(), tris.bytes(), cudaMemcpyHostToDevice,
-                                 s.stream.get()));
-  const DeviceMesh mesh{tris.data(), uint32_t(part.triangles.size())};
+  size_t count = 0;
+  bool closed = true;
+  for (uint32_t i : b.parts) {
+    count += parts[i].triangles.size();
+    closed = closed && parts[i].closed;
+  }
+  DeviceBuffer<LatticeTriangle> tris(s.memory, count);
+  size_t at = 0;
+  for (uint32_t i : b.parts) {
+    const PreparedMesh& p = parts[i];
+    HDT_CUDA_CHECK(cudaMemcpyAsync(tris.data() + at, p.triangles.data(), p.triangles.size() * sizeof(LatticeTriangle),
+                                   cudaMemcpyHostToDevice, s.stream.get()));
+    at += p.triangles.size();
+  }
+  std::vector<uint16_t> hostRanks;
+  DeviceBuffer<uint16_t> ranks = rootRanks(s, b, rank, hostRanks);
+  const DeviceMesh mesh{tris.data(), uint32_t(count)};
   RootMapping root = mapTrianglesToRootCells(s.memory, s.scalars, mesh, g, 0, cells, false);
-  DeviceVolume pv = buildOnDevice(s, mesh, part.closed, part.surfaceOnly, std::move(root));
+  DeviceVolume pv = buildOnDevice(s, mesh, closed, parts[b.parts[0]].surfaceOnly, std::move(root));
   const std::vector<uint64_t> start = levelStarts(pv.tree);
   const size_t h = size_t(g.height);
   if (pv.tree.levels.size() != h + 1 || pv.tree.levels[0].count != u.tree.tree.levels[0].count)
     throw Mismatch("a part's levels differ from the whole mesh's");
   PartOnDevice out;
-  out.rank = rank;
   out.leaves = pv.tree.leaves.count;
   out.leafMap = DeviceBuffer<uint32_t>(s.memory, out.leaves);
+  out.leafRank = DeviceBuffer<uint16_t>(s.memory, out.leaves);
   const CombineError e{u.error.data()};
   DeviceBuffer<uint32_t> map;
   for (size_t k = 0; k <= h; ++k) {
     DeviceBuffer<uint32_t> next;
-    if (k < h) next = DeviceBuffer<uint32_t>(s.memory, pv.tree.levels[k + 1].count);
+    DeviceBuffer<uint16_t> nextRanks;
+    if (k < h) {
+      next = DeviceBuffer<uint32_t>(s.memory, pv.tree.levels[k + 1].count);
+      nextRanks = DeviceBuffer<uint16_t>(s.memory, pv.tree.levels[k + 1].count);
+    }
     mapPartLevel(s.stream.get(), pv.tree.levels[k].words.data(), pv.tree.levels[k].count, start[k + 1],
                  k == 0 ? nullptr : map.data(), u.tree.tree.levels[k].words.data(), u.start[k], u.start[k + 1],
-                 k < h ? next.data() : nullptr, k == h ? out.leafMap.data() : nullptr, rank, u.fullRank.data(), e);
+                 k < h ? next.data() : nullptr, k == h ? out.leafMap.data() : nullptr, ranks.data(),
+                 k < h ? nextRanks.data() : nullptr, k == h ? out.leafRank.data() : nullptr, u.fullRank.data(), e);
     map = std::move(next);
+    ranks = std::move(nextRanks);
   }
   orPartLeaves(s.stream.get(), pv.words.data(), out.leaves, leafWordCount(g.leafSize), out.leafMap.data(),
-               u.acc.data(), u.claimCount.data(), u.claimRank.data(), rank);
+               out.leafRank.data(), u.acc.data(), u.claimCount.data(), u.claimRank.data());
   out.words = std::move(pv.words);
   s.sync(); // the part's tree and triangles go back to the pool now
   return out;
@@ -228,7 +341,7 @@ Volume combineOnDevice(Session& s, UnionState& u, std::vector<PartOnDevice>& par
   fill(s, voxelRanks, 0xFF);
   for (const PartOnDevice& p : parts)
     partVoxelRanks(st, p.words.data(), p.leaves, W, p.leafMap.data(), u.claimCount.data(), multiIndex.data(),
-                   u.acc.data(), voxelRanks.data(), p.rank);
+                   u.acc.data(), voxelRanks.data(), p.leafRank.data());
   inheritedVoxelRanks(st, leaves, W, u.claimCount.data(), multiIndex.data(), u.leafInherited.data(), u.acc.data(),
                       voxelRanks.data());
   lap("voxel ranks");
@@ -289,9 +402,10 @@ Volume buildLabelled(const PreparedMesh& whole, const std::vector<PreparedMesh>&
   const auto wall0 = Clock::now();
   const GridSpec& g = whole.grid;
   const uint64_t cells = uint64_t(g.rootGrid) * g.rootGrid * g.rootGrid;
-  // Progress: the whole mesh, each part, the combination.
+  // Progress: the whole mesh, each part build, the combination.
+  const std::vector<PartBuild> builds = partBuilds(parts);
   double stage = 0;
-  const double stages = double(parts.size() + 2);
+  const double stages = double(builds.size() + 2);
   BuildOptions wrapped = options;
   if (options.progress)
     wrapped.progress = [&](double f, const char* phase) { return options.progress((stage + f) / stages, phase); };
@@ -323,10 +437,10 @@ Volume buildLabelled(const PreparedMesh& whole, const std::vector<PreparedMesh>&
   std::vector<uint16_t> labelOfRank;
   const std::vector<uint16_t> rank = ranksOf(partLabels, labels, labelOfRank);
   std::vector<PartOnDevice> onDevice;
-  onDevice.reserve(parts.size());
-  for (size_t i = 0; i < parts.size(); ++i) {
+  onDevice.reserve(builds.size());
+  for (size_t i = 0; i < builds.size(); ++i) {
     stage = double(i + 1);
-    onDevice.push_back(foldPart(s, u, parts[i], rank[i]));
+    onDevice.push_back(foldPart(s, u, parts, builds[i], rank));
   }
   stage = stages - 1;
   s.progress(0.0, "combining labels");
@@ -366,7 +480,8 @@ Volume buildLabelled(const PreparedMesh& whole, const std::vector<PreparedMesh>&
     const auto ms = [](Clock::time_point a, Clock::time_point b) {
       return std::to_string(int(std::chrono::duration<double, std::milli>(b - a).count()));
     };
-    options.log("CUDA labelled build: " + std::to_string(parts.size()) + " parts combined on the device: " +
+    options.log("CUDA labelled build: " + std::to_string(parts.size()) + " parts in " +
+                std::to_string(builds.size()) + " part builds combined on the device: " +
                 ms(wall0, combine0) + " ms the whole mesh and the parts (" + ms(wall0, parts0) + " + " +
                 ms(parts0, combine0) + "), " + ms(combine0, finish0) + " ms the combination and the copy back (" +
                 std::to_string(s.copyBackBytes >> 20) + " MiB in " + std::to_string(int(s.copyBackMs)) + " ms), " +
