@@ -9,6 +9,8 @@
 #include <tbb/parallel_for.h>
 
 #include <chrono>
+#include <functional>
+#include <future>
 #include <map>
 #include <string>
 #include <utility>
@@ -83,23 +85,56 @@ std::vector<std::pair<Label, TriangleMesh>> splitByLabel(const TriangleMesh& mes
 
 namespace {
 
-// The CUDA driver's labelled build where the backend asks for it (Auto: a
-// usable device); false where the per-part path must run. Auto falls back
-// on a device failure as build() does; Cuda reports it.
+bool deviceAsked(const BuildOptions& options) {
+  return options.backend == Backend::Cuda || (options.backend == Backend::Auto && cudaAvailable(nullptr));
+}
+
+// The CUDA driver's labelled build (where deviceAsked); false where the
+// per-part path must run. Auto falls back on a device failure as build()
+// does; Cuda reports it. partsReady: as buildLabelledCuda's.
 bool buildOnDevice(const TriangleMesh& mesh, const BuildConfig& placed, const std::vector<PreparedMesh>& parts,
                    const std::vector<Label>& partLabels, const LabelOptions& labels, const BuildOptions& options,
-                   Volume& out) {
-  if (options.backend == Backend::Cpu || (options.backend == Backend::Auto && !cudaAvailable(nullptr))) return false;
+                   Volume& out, const std::function<void()>& partsReady) {
   BuildConfig surface = placed;
   surface.surfaceOnly = true; // the whole mesh gives the tree and the surface, the parts the inside
   try {
-    return buildLabelledCuda(prepareMesh(mesh, surface), parts, partLabels, labels, options, out);
+    return buildLabelledCuda(prepareMesh(mesh, surface), parts, partLabels, labels, options, out, partsReady);
   } catch (const Error& e) {
     if (e.kind() == ErrorKind::Aborted || options.backend == Backend::Cuda) throw;
     if (options.log)
       options.log(std::string("backend auto: CUDA labelled build failed (") + e.what() + "); per-part builds follow");
     return false;
   }
+}
+
+// The parts, each prepared on the grid of `placed`, and their labels; the
+// log line that says how long that took (logged by the caller's thread).
+struct PreparedParts {
+  std::vector<PreparedMesh> meshes;
+  std::vector<Label> labels;
+  std::string log;
+};
+
+PreparedParts prepareParts(const TriangleMesh& mesh, const BuildConfig& placed) {
+  const auto t0 = std::chrono::steady_clock::now();
+  std::vector<std::pair<Label, TriangleMesh>> split = splitByLabel(mesh);
+  const auto t1 = std::chrono::steady_clock::now();
+  // The parts are prepared side by side: many are small, too small to fill
+  // the host's threads one after another.
+  PreparedParts out;
+  out.meshes.resize(split.size());
+  out.labels.resize(split.size());
+  tbb::parallel_for(size_t(0), split.size(), [&](size_t i) {
+    out.meshes[i] = prepareMesh(split[i].second, placed);
+    split[i].second = TriangleMesh{}; // the part's points are no longer needed
+    out.labels[i] = split[i].first;
+  });
+  const auto ms = [](std::chrono::steady_clock::time_point a, std::chrono::steady_clock::time_point b) {
+    return std::to_string(int(std::chrono::duration<double, std::milli>(b - a).count()));
+  };
+  out.log = "labelled build: " + std::to_string(out.meshes.size()) + " parts split in " + ms(t0, t1) +
+            " ms, prepared in " + ms(t1, std::chrono::steady_clock::now()) + " ms";
+  return out;
 }
 
 } // namespace
@@ -112,29 +147,33 @@ Volume voxelizeLabelled(const TriangleMesh& mesh, const BuildConfig& config, con
     meshBounds(mesh, placed.boundsMin, placed.boundsMax);
     placed.hasBounds = true;
   }
-  const auto t0 = std::chrono::steady_clock::now();
-  std::vector<std::pair<Label, TriangleMesh>> split = splitByLabel(mesh);
-  const auto t1 = std::chrono::steady_clock::now();
-  // The parts are prepared side by side: many are small, too small to fill
-  // the host's threads one after another.
-  std::vector<PreparedMesh> prepared(split.size());
-  std::vector<Label> partLabels(split.size());
-  tbb::parallel_for(size_t(0), split.size(), [&](size_t i) {
-    prepared[i] = prepareMesh(split[i].second, placed);
-    split[i].second = TriangleMesh{}; // the part's points are no longer needed
-    partLabels[i] = split[i].first;
-  });
-  if (options.log) {
-    const auto ms = [](std::chrono::steady_clock::time_point a, std::chrono::steady_clock::time_point b) {
-      return std::to_string(int(std::chrono::duration<double, std::milli>(b - a).count()));
-    };
-    options.log("labelled build: " + std::to_string(prepared.size()) + " parts split in " + ms(t0, t1) +
-                " ms, prepared in " + ms(t1, std::chrono::steady_clock::now()) + " ms");
-  }
+  PreparedParts parts;
+  bool logged = false;
+  const auto logParts = [&] {
+    if (options.log && !logged) options.log(parts.log);
+    logged = true;
+  };
   Volume v;
-  if (!buildOnDevice(mesh, placed, prepared, partLabels, labels, options, v)) {
-    std::vector<Volume> parts;
-    parts.reserve(prepared.size());
+  bool built = false;
+  if (deviceAsked(options)) {
+    // The parts are split and prepared on the host while the device builds
+    // the whole mesh's tree (and the host prepares the whole mesh before).
+    std::shared_future<void> partsDone =
+        std::async(std::launch::async, [&] { parts = prepareParts(mesh, placed); }).share();
+    const auto partsReady = [&] {
+      partsDone.get();
+      logParts();
+    };
+    built = buildOnDevice(mesh, placed, parts.meshes, parts.labels, labels, options, v, partsReady);
+    partsReady(); // its errors (a label 0, say) are the build's
+  } else {
+    parts = prepareParts(mesh, placed);
+    logParts();
+  }
+  if (!built) {
+    const std::vector<PreparedMesh>& prepared = parts.meshes;
+    std::vector<Volume> partVolumes;
+    partVolumes.reserve(prepared.size());
     for (size_t i = 0; i < prepared.size(); ++i) {
       BuildOptions partOptions = options;
       if (options.progress) {
@@ -143,9 +182,9 @@ Volume voxelizeLabelled(const TriangleMesh& mesh, const BuildConfig& config, con
           return options.progress((double(i) + f) / n, phase);
         };
       }
-      parts.push_back(build(prepared[i], partOptions));
+      partVolumes.push_back(build(prepared[i], partOptions));
     }
-    v = combineLabelledParts(parts, partLabels, labels);
+    v = combineLabelledParts(partVolumes, parts.labels, labels);
   }
   for (const auto& [label, name] : mesh.labelNames)
     if (label != kOutsideLabel) v.labels.names[label] = name;

@@ -33,19 +33,18 @@ __device__ __forceinline__ bool leafItemOfThread(uint64_t total, uint32_t perLea
   return true;
 }
 
-__global__ void mapPartLevelKernel(const ElementWord* partWords, uint32_t partCount, uint64_t partNextStart,
-                                   const uint32_t* map, const ElementWord* unionWords, uint64_t unionStart,
-                                   uint64_t unionNextStart, uint32_t* nextMap, uint32_t* leafMap,
-                                   const uint16_t* rankOf, uint16_t* nextRank, uint16_t* leafRank,
-                                   uint16_t* fullRank, CombineError e) {
+__global__ void mapPartLevelKernel(const ElementWord* partWords, const uint64_t* coords, uint32_t partCount, int level,
+                                   uint64_t partNextStart, const uint32_t* map, const ElementWord* unionWords,
+                                   uint64_t unionStart, uint64_t unionNextStart, uint32_t* nextMap, uint32_t* leafMap,
+                                   uint16_t* leafRank, PartOwners owners, uint16_t* fullRank, CombineError e) {
   const uint64_t i = threadIndex();
   if (i >= partCount) return;
   const ElementWord pw = partWords[i];
   const ElementState ps = elementState(pw);
   if (ps == ElementState::Empty) return;
-  const uint16_t rank = rankOf[i];
-  if (rank == kNoRank) { // a batch's element outside all its parts' root cells
-    fail(e);
+  const uint16_t rank = ownerOfElement(owners, coords[i], level);
+  if (rank == kNoRank || (rank == kMixedOwners && ps != ElementState::Branch)) {
+    fail(e); // not the parts' own builds (labelled.cpp, partBuilds)
     return;
   }
   const uint32_t u = map ? map[i] : uint32_t(i);
@@ -61,11 +60,8 @@ __global__ void mapPartLevelKernel(const ElementWord* partWords, uint32_t partCo
       fail(e);
       return;
     }
-    for (uint32_t c = 0; c < 8; ++c) {
-      const uint64_t child = uint64_t(elementPayload(pw)) - partNextStart + c;
-      nextMap[child] = uint32_t(uint64_t(elementPayload(uw)) - unionNextStart + c);
-      nextRank[child] = rank;
-    }
+    for (uint32_t c = 0; c < 8; ++c)
+      nextMap[uint64_t(elementPayload(pw)) - partNextStart + c] = uint32_t(uint64_t(elementPayload(uw)) - unionNextStart + c);
     break;
   case ElementState::Boundary:
     if (elementState(uw) != ElementState::Boundary || !leafMap) {
@@ -336,11 +332,6 @@ __global__ void countLeafVoxelsKernel(const uint32_t* words, uint64_t total, uns
   warpAdd(inside, counts + 1);
 }
 
-__global__ void fillRanksKernel(uint16_t* ranks, uint64_t count, uint16_t rank) {
-  const uint64_t i = threadIndex();
-  if (i < count) ranks[i] = rank;
-}
-
 template <class... Args, class... Params>
 void launch(const char* name, cudaStream_t s, uint64_t threads, void (*kernel)(Params...), Args... args) {
   if (threads == 0) return;
@@ -350,16 +341,12 @@ void launch(const char* name, cudaStream_t s, uint64_t threads, void (*kernel)(P
 
 } // namespace
 
-void mapPartLevel(cudaStream_t s, const ElementWord* partWords, uint32_t partCount, uint64_t partNextStart,
-                  const uint32_t* map, const ElementWord* unionWords, uint64_t unionStart, uint64_t unionNextStart,
-                  uint32_t* nextMap, uint32_t* leafMap, const uint16_t* rankOf, uint16_t* nextRank, uint16_t* leafRank,
-                  uint16_t* fullRank, CombineError e) {
-  launch("mapPartLevel", s, partCount, mapPartLevelKernel, partWords, partCount, partNextStart, map, unionWords,
-         unionStart, unionNextStart, nextMap, leafMap, rankOf, nextRank, leafRank, fullRank, e);
-}
-
-void fillRanks(cudaStream_t s, uint16_t* ranks, uint64_t count, uint16_t rank) {
-  launch("fillRanks", s, count, fillRanksKernel, ranks, count, rank);
+void mapPartLevel(cudaStream_t s, const ElementWord* partWords, const uint64_t* coords, uint32_t partCount,
+                  int level, uint64_t partNextStart, const uint32_t* map, const ElementWord* unionWords,
+                  uint64_t unionStart, uint64_t unionNextStart, uint32_t* nextMap, uint32_t* leafMap,
+                  uint16_t* leafRank, PartOwners owners, uint16_t* fullRank, CombineError e) {
+  launch("mapPartLevel", s, partCount, mapPartLevelKernel, partWords, coords, partCount, level, partNextStart, map,
+         unionWords, unionStart, unionNextStart, nextMap, leafMap, leafRank, owners, fullRank, e);
 }
 
 void orPartLeaves(cudaStream_t s, const uint32_t* partWords, uint32_t partLeaves, uint32_t wordsPerLeaf,

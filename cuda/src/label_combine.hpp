@@ -14,6 +14,7 @@
 
 #include "device_memory.hpp"
 
+#include "hdt/build_steps.hpp" // unpackCoord
 #include "hdt/label_field.hpp"
 #include "hdt/types.hpp"
 
@@ -25,6 +26,53 @@ namespace hdt {
 namespace cuda {
 
 constexpr uint16_t kNoRank = 0xFFFF;
+constexpr uint16_t kMixedOwners = 0xFFFE; // an element of a shared build that spans several parts' cells
+
+// One part of a shared build: its rank and its cells (inclusive, per axis)
+// at the build's ownership level, those its triangles can meet.
+struct PartCells {
+  int32_t first[3], last[3];
+  uint16_t rank;
+};
+
+// Whose an element of a part build is: with count == 0 (a one-part build),
+// `rank`'s everywhere; otherwise parts[0, count) on device, their cells
+// disjoint.
+struct PartOwners {
+  const PartCells* parts = nullptr;
+  uint32_t count = 0;
+  int level = 0; // the ownership level
+  uint16_t rank = kNoRank;
+};
+
+// The rank of the element at `cell` (packed coordinates) of `level`: a
+// part's where all its cells of the ownership level are that part's,
+// kMixedOwners where it spans a part's cells and others, kNoRank where it
+// meets no part's cells.
+HDT_HD uint16_t ownerOfElement(const PartOwners& o, uint64_t cell, int level) {
+  if (o.count == 0) return o.rank;
+  int64_t lo[3], hi[3];
+  for (int a = 0; a < 3; ++a) {
+    const int64_t c = unpackCoord(cell, a);
+    if (level >= o.level) {
+      lo[a] = hi[a] = c >> (level - o.level);
+    } else {
+      lo[a] = c << (o.level - level);
+      hi[a] = lo[a] + (int64_t(1) << (o.level - level)) - 1;
+    }
+  }
+  for (uint32_t p = 0; p < o.count; ++p) {
+    const PartCells& q = o.parts[p];
+    bool meets = true, inside = true;
+    for (int a = 0; a < 3; ++a) {
+      meets = meets && lo[a] <= q.last[a] && q.first[a] <= hi[a];
+      inside = inside && q.first[a] <= lo[a] && hi[a] <= q.last[a];
+    }
+    if (inside) return q.rank;
+    if (meets) return kMixedOwners;
+  }
+  return kNoRank;
+}
 
 // Any inconsistency between a part's tree and the union's (a part refined
 // where the union is not, a part surface voxel the union lacks) sets
@@ -33,20 +81,18 @@ struct CombineError {
   uint32_t* flag;
 };
 
-// One level of a part's tree against the union's. map: the union index
-// (level-local) of each part element of this level (null at level 0: the
-// same root cells). rankOf: each element's rank (a build of several parts:
-// its part's, kNoRank outside their root cells, where any element but Empty
-// sets *error). Writes the next level's map and ranks (Branch children) or,
-// at the leaf level, leafMap (part leaf -> union leaf) and leafRank; records
-// Full elements in fullRank (union global indices).
-void mapPartLevel(cudaStream_t s, const ElementWord* partWords, uint32_t partCount, uint64_t partNextStart,
-                  const uint32_t* map, const ElementWord* unionWords, uint64_t unionStart, uint64_t unionNextStart,
-                  uint32_t* nextMap, uint32_t* leafMap, const uint16_t* rankOf, uint16_t* nextRank, uint16_t* leafRank,
-                  uint16_t* fullRank, CombineError e);
-
-// ranks[0, count) = rank (a one-part build's root cells).
-void fillRanks(cudaStream_t s, uint16_t* ranks, uint64_t count, uint16_t rank);
+// One level of a part build's tree against the union's. map: the union
+// index (level-local) of each part element of this level (null at level 0:
+// the same root cells). Each element takes its owner's rank (coords: the
+// level's packed cell coordinates); in a shared build an element but Empty
+// that meets no part's cells, or that spans several and is not a Branch,
+// sets *error. Writes the next level's map (Branch children) or, at the leaf
+// level, leafMap (part leaf -> union leaf) and leafRank; records Full
+// elements in fullRank (union global indices).
+void mapPartLevel(cudaStream_t s, const ElementWord* partWords, const uint64_t* coords, uint32_t partCount,
+                  int level, uint64_t partNextStart, const uint32_t* map, const ElementWord* unionWords,
+                  uint64_t unionStart, uint64_t unionNextStart, uint32_t* nextMap, uint32_t* leafMap,
+                  uint16_t* leafRank, PartOwners owners, uint16_t* fullRank, CombineError e);
 
 // ORs a part build's leaf words into acc (union leaves) and counts each
 // leaf's claim, of rank leafRank[leaf].

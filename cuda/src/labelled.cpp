@@ -7,12 +7,19 @@
 //    is mapped onto that tree level by level (its elements are a subset of
 //    the union's, in the same order) and folded in: its Full elements as
 //    claims, its leaf words ORed into the union's leaves, its claim counted.
-//    Closed parts (or any, for surface-only builds) whose root cells are
-//    disjoint share one build (partBuilds): a part's triangles meet only
-//    the root cells of its box, and a closed part's parity is even on every
-//    line, so outside its box it adds nothing to another's inside test;
-//    the shared build is then each part's own build on that part's root
-//    cells, and Empty elsewhere. Each element takes its root cell's part.
+//    Closed parts (or any, for surface-only builds) whose cells are disjoint
+//    share one build (partBuilds; cells: the elements of the ownership
+//    level, kOwnershipLevel below the root cells, that meet the part's box):
+//    a part's triangles meet only its cells, and a closed part's parity is
+//    even on every line, so outside its box it adds nothing to another's
+//    inside test, and its parity is constant on an element its triangles do
+//    not meet. On an element within one part's cells the shared build is
+//    that part's own build; outside all parts' cells it is Empty, as each
+//    part's own build (outside its box, a part is neither met nor inside);
+//    an element that spans several parts' cells is either Empty or a
+//    Branch (uniform and inside a part, it would lie within that part's
+//    cells), and no part claims it. So each element is claimed for its
+//    owner (ownerOfElement): the parts' own claims, as if built one by one.
 // 3. Full claims go down the union's tree; the leaf words are finished
 //    (inside where not surface); leaves of two claims or more get a rank per
 //    voxel, the best claim in the voxel's state (second pass over the parts,
@@ -35,6 +42,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <functional>
 #include <numeric>
 #include <stdexcept>
 #include <string>
@@ -59,19 +67,21 @@ struct PartOnDevice {
   DeviceBuffer<uint16_t> leafRank; // its leaf's part's rank
 };
 
-// The root cells [first, last] (per axis) that a part's triangles can meet:
-// those of its lattice box (cellRange, as T1 finds a triangle's cells).
-struct CellBox {
-  int64_t first[3], last[3];
-  bool meets(const CellBox& o) const {
-    for (int a = 0; a < 3; ++a)
-      if (last[a] < o.first[a] || o.last[a] < first[a]) return false;
-    return true;
-  }
-};
+// Parts share builds on the cells of this level below the root cells (or
+// the leaf level, if higher): finer cells than the root cells separate more
+// small parts that lie close together (bench/results/labels-gpu.md).
+constexpr int kOwnershipLevel = 3;
+// At most this many parts share one build (each element looks through them).
+constexpr size_t kPartsPerBuild = 64;
 
-CellBox cellBoxOf(const PreparedMesh& part) {
+int ownershipLevel(const GridSpec& g) { return std::min(kOwnershipLevel, g.height); }
+
+// The cells [first, last] (per axis, of the ownership level) that a part's
+// triangles can meet: those of its lattice box (cellRange, as T1 and T2 find
+// a triangle's elements).
+PartCells cellsOf(const PreparedMesh& part, uint16_t rank) {
   const GridSpec& g = part.grid;
+  const int level = ownershipLevel(g);
   int64_t lo[3] = {INT64_MAX, INT64_MAX, INT64_MAX}, hi[3] = {INT64_MIN, INT64_MIN, INT64_MIN};
   for (const LatticeTriangle& t : part.triangles) {
     int64_t a[3], b[3];
@@ -81,32 +91,44 @@ CellBox cellBoxOf(const PreparedMesh& part) {
       hi[k] = std::max(hi[k], b[k]);
     }
   }
-  CellBox c;
-  for (int k = 0; k < 3; ++k)
-    cellRange(lo[k], hi[k], latticeOfVoxel(g.rootCellVoxels()), g.rootGrid, c.first[k], c.last[k]);
+  PartCells c;
+  for (int k = 0; k < 3; ++k) {
+    int64_t first = 0, last = 0;
+    cellRange(lo[k], hi[k], latticeOfVoxel(g.elementVoxels(level)), int64_t(g.rootGrid) << level, first, last);
+    c.first[k] = int32_t(first);
+    c.last[k] = int32_t(last);
+  }
+  c.rank = rank;
   return c;
 }
 
+bool cellsMeet(const PartCells& a, const PartCells& b) {
+  for (int k = 0; k < 3; ++k)
+    if (a.last[k] < b.first[k] || b.last[k] < a.first[k]) return false;
+  return true;
+}
+
 // The part builds: the parts, first fit in input order, grouped so that the
-// parts of a group have disjoint root cells; a part that is open in a solid
-// build (its parity may be odd outside its box) is built alone, and so is
-// every part of a grid of more than 2^22 root cells (the shared builds'
-// root ranks are written on the host).
+// parts of a group have disjoint cells. A part that is open in a solid build
+// is built alone: its parity may be odd outside its box, and a uniform
+// element of its own build, classified at one corner, may reach outside its
+// cells.
 struct PartBuild {
   std::vector<uint32_t> parts;
-  std::vector<CellBox> cells;
+  std::vector<PartCells> cells;
   bool shared = true; // may take more parts
 };
-std::vector<PartBuild> partBuilds(const std::vector<PreparedMesh>& parts) {
+std::vector<PartBuild> partBuilds(const std::vector<PreparedMesh>& parts, const std::vector<uint16_t>& rank) {
   std::vector<PartBuild> builds;
+  // Shared builds need kMixedOwners free: ranks stay below it.
+  const bool share = parts.size() < size_t(kMixedOwners);
   for (uint32_t i = 0; i < parts.size(); ++i) {
-    const uint64_t R = uint64_t(parts[i].grid.rootGrid);
-    const bool shareable = (parts[i].surfaceOnly || parts[i].closed) && R * R * R <= (uint64_t(1) << 22);
-    const CellBox box = cellBoxOf(parts[i]);
+    const bool shareable = share && (parts[i].surfaceOnly || parts[i].closed);
+    const PartCells cells = cellsOf(parts[i], rank[i]);
     PartBuild* into = nullptr;
     for (PartBuild& b : builds) {
-      if (!shareable || !b.shared) continue;
-      if (std::none_of(b.cells.begin(), b.cells.end(), [&](const CellBox& c) { return c.meets(box); })) {
+      if (!shareable || !b.shared || b.parts.size() >= kPartsPerBuild) continue;
+      if (std::none_of(b.cells.begin(), b.cells.end(), [&](const PartCells& c) { return cellsMeet(c, cells); })) {
         into = &b;
         break;
       }
@@ -117,7 +139,7 @@ std::vector<PartBuild> partBuilds(const std::vector<PreparedMesh>& parts) {
       into->shared = shareable;
     }
     into->parts.push_back(i);
-    into->cells.push_back(box);
+    into->cells.push_back(cells);
   }
   return builds;
 }
@@ -171,32 +193,8 @@ struct UnionState {
   DeviceBuffer<uint32_t> error;
 };
 
-// The root cells' ranks of a part build: its one part's everywhere, or
-// each part's on its root cells and kNoRank elsewhere, copied from `host`
-// (the caller keeps it until the stream has run).
-DeviceBuffer<uint16_t> rootRanks(Session& s, const PartBuild& b, const std::vector<uint16_t>& rank,
-                                 std::vector<uint16_t>& host) {
-  const uint64_t R = uint64_t(s.grid.rootGrid);
-  DeviceBuffer<uint16_t> out(s.memory, R * R * R);
-  if (b.parts.size() == 1) {
-    fillRanks(s.stream.get(), out.data(), out.size(), rank[b.parts[0]]);
-    return out;
-  }
-  host.assign(out.size(), kNoRank);
-  for (size_t m = 0; m < b.parts.size(); ++m) {
-    const CellBox& c = b.cells[m];
-    for (int64_t z = c.first[2]; z <= c.last[2]; ++z)
-      for (int64_t y = c.first[1]; y <= c.last[1]; ++y)
-        std::fill_n(host.begin() + int64_t(R) * (y + int64_t(R) * z) + c.first[0], c.last[0] - c.first[0] + 1,
-                    rank[b.parts[m]]);
-  }
-  HDT_CUDA_CHECK(cudaMemcpyAsync(out.data(), host.data(), out.bytes(), cudaMemcpyHostToDevice, s.stream.get()));
-  return out;
-}
-
 // Step 2 for one part build: build, map onto the union, fold in.
-PartOnDevice foldPart(Session& s, UnionState& u, const std::vector<PreparedMesh>& parts, const PartBuild& b,
-                      const std::vector<uint16_t>& rank) {
+PartOnDevice foldPart(Session& s, UnionState& u, const std::vector<PreparedMesh>& parts, const PartBuild& b) {
   const GridSpec& g = s.grid;
   const uint64_t cells = uint64_t(g.rootGrid) * g.rootGrid * g.rootGrid;
   size_t count = 0;
@@ -213,8 +211,18 @@ PartOnDevice foldPart(Session& s, UnionState& u, const std::vector<PreparedMesh>
                                    cudaMemcpyHostToDevice, s.stream.get()));
     at += p.triangles.size();
   }
-  std::vector<uint16_t> hostRanks;
-  DeviceBuffer<uint16_t> ranks = rootRanks(s, b, rank, hostRanks);
+  PartOwners owners;
+  DeviceBuffer<PartCells> ownerCells;
+  if (b.parts.size() == 1) {
+    owners.rank = b.cells[0].rank;
+  } else {
+    ownerCells = DeviceBuffer<PartCells>(s.memory, b.cells.size());
+    HDT_CUDA_CHECK(cudaMemcpyAsync(ownerCells.data(), b.cells.data(), ownerCells.bytes(), cudaMemcpyHostToDevice,
+                                   s.stream.get()));
+    owners.parts = ownerCells.data();
+    owners.count = uint32_t(b.cells.size());
+    owners.level = ownershipLevel(g);
+  }
   const DeviceMesh mesh{tris.data(), uint32_t(count)};
   RootMapping root = mapTrianglesToRootCells(s.memory, s.scalars, mesh, g, 0, cells, false);
   DeviceVolume pv = buildOnDevice(s, mesh, closed, parts[b.parts[0]].surfaceOnly, std::move(root));
@@ -230,22 +238,18 @@ PartOnDevice foldPart(Session& s, UnionState& u, const std::vector<PreparedMesh>
   DeviceBuffer<uint32_t> map;
   for (size_t k = 0; k <= h; ++k) {
     DeviceBuffer<uint32_t> next;
-    DeviceBuffer<uint16_t> nextRanks;
-    if (k < h) {
-      next = DeviceBuffer<uint32_t>(s.memory, pv.tree.levels[k + 1].count);
-      nextRanks = DeviceBuffer<uint16_t>(s.memory, pv.tree.levels[k + 1].count);
-    }
-    mapPartLevel(s.stream.get(), pv.tree.levels[k].words.data(), pv.tree.levels[k].count, start[k + 1],
+    if (k < h) next = DeviceBuffer<uint32_t>(s.memory, pv.tree.levels[k + 1].count);
+    const Level& lv = pv.tree.levels[k];
+    mapPartLevel(s.stream.get(), lv.words.data(), lv.coords.data(), lv.count, int(k), start[k + 1],
                  k == 0 ? nullptr : map.data(), u.tree.tree.levels[k].words.data(), u.start[k], u.start[k + 1],
-                 k < h ? next.data() : nullptr, k == h ? out.leafMap.data() : nullptr, ranks.data(),
-                 k < h ? nextRanks.data() : nullptr, k == h ? out.leafRank.data() : nullptr, u.fullRank.data(), e);
+                 k < h ? next.data() : nullptr, k == h ? out.leafMap.data() : nullptr,
+                 k == h ? out.leafRank.data() : nullptr, owners, u.fullRank.data(), e);
     map = std::move(next);
-    ranks = std::move(nextRanks);
   }
   orPartLeaves(s.stream.get(), pv.words.data(), out.leaves, leafWordCount(g.leafSize), out.leafMap.data(),
                out.leafRank.data(), u.acc.data(), u.claimCount.data(), u.claimRank.data());
   out.words = std::move(pv.words);
-  s.sync(); // the part's tree and triangles go back to the pool now
+  s.sync(); // the part's tree and triangles go back to the pool now (b.cells is read by then)
   return out;
 }
 
@@ -397,15 +401,32 @@ Volume combineOnDevice(Session& s, UnionState& u, std::vector<PartOnDevice>& par
   return v;
 }
 
+bool sameGrid(const GridSpec& a, const GridSpec& b) {
+  return a.resolution == b.resolution && a.rootGrid == b.rootGrid && a.leafSize == b.leafSize &&
+         a.height == b.height && a.origin == b.origin && a.voxelSize == b.voxelSize;
+}
+
+// Why the device path does not apply to these parts (empty: it does).
+std::string notApplicable(const PreparedMesh& whole, const std::vector<PreparedMesh>& parts,
+                          const std::vector<Label>& partLabels) {
+  if (parts.empty() || parts.size() != partLabels.size() || parts.size() > kNoRank) return "no parts";
+  for (const PreparedMesh& p : parts) {
+    if (p.triangles.empty()) return "a part has no triangles";
+    if (!p.surfaceOnly && p.insideTest == InsideTest::WindingNumber) return "a part uses the winding number";
+    if (p.surfaceOnly != parts[0].surfaceOnly || !sameGrid(p.grid, whole.grid)) return "the parts are not on one grid";
+  }
+  return "";
+}
+
 Volume buildLabelled(const PreparedMesh& whole, const std::vector<PreparedMesh>& parts,
-                     const std::vector<Label>& partLabels, const LabelOptions& labels, const BuildOptions& options) {
+                     const std::vector<Label>& partLabels, const LabelOptions& labels, const BuildOptions& options,
+                     const std::function<void()>& partsReady) {
   const auto wall0 = Clock::now();
   const GridSpec& g = whole.grid;
   const uint64_t cells = uint64_t(g.rootGrid) * g.rootGrid * g.rootGrid;
   // Progress: the whole mesh, each part build, the combination.
-  const std::vector<PartBuild> builds = partBuilds(parts);
   double stage = 0;
-  const double stages = double(builds.size() + 2);
+  double stages = 3;
   BuildOptions wrapped = options;
   if (options.progress)
     wrapped.progress = [&](double f, const char* phase) { return options.progress((stage + f) / stages, phase); };
@@ -418,6 +439,13 @@ Volume buildLabelled(const PreparedMesh& whole, const std::vector<PreparedMesh>&
     u.tree = buildOnDevice(s, s.deviceMesh, true, true, std::move(root));
   }
   s.triangles = DeviceBuffer<LatticeTriangle>();
+  if (partsReady) partsReady(); // the parts, prepared on the host meanwhile
+  const std::string why = notApplicable(whole, parts, partLabels);
+  if (!why.empty()) throw Mismatch(why);
+  std::vector<uint16_t> labelOfRank;
+  const std::vector<uint16_t> rank = ranksOf(partLabels, labels, labelOfRank);
+  const std::vector<PartBuild> builds = partBuilds(parts, rank);
+  stages = double(builds.size() + 2);
   s.sync();
   const auto parts0 = Clock::now();
   u.start = levelStarts(u.tree.tree);
@@ -434,13 +462,11 @@ Volume buildLabelled(const PreparedMesh& whole, const std::vector<PreparedMesh>&
   fill(s, u.claimRank, 0xFF);
   fill(s, u.error, 0);
 
-  std::vector<uint16_t> labelOfRank;
-  const std::vector<uint16_t> rank = ranksOf(partLabels, labels, labelOfRank);
   std::vector<PartOnDevice> onDevice;
   onDevice.reserve(builds.size());
   for (size_t i = 0; i < builds.size(); ++i) {
     stage = double(i + 1);
-    onDevice.push_back(foldPart(s, u, parts, builds[i], rank));
+    onDevice.push_back(foldPart(s, u, parts, builds[i]));
   }
   stage = stages - 1;
   s.progress(0.0, "combining labels");
@@ -491,28 +517,18 @@ Volume buildLabelled(const PreparedMesh& whole, const std::vector<PreparedMesh>&
   return v;
 }
 
-bool sameGrid(const GridSpec& a, const GridSpec& b) {
-  return a.resolution == b.resolution && a.rootGrid == b.rootGrid && a.leafSize == b.leafSize &&
-         a.height == b.height && a.origin == b.origin && a.voxelSize == b.voxelSize;
-}
 
 } // namespace
 
 bool buildLabelledCuda(const PreparedMesh& whole, const std::vector<PreparedMesh>& parts,
                        const std::vector<Label>& partLabels, const LabelOptions& labels, const BuildOptions& options,
-                       Volume& out) {
+                       Volume& out, const std::function<void()>& partsReady) {
   const auto skip = [&](const std::string& why) {
     if (options.log) options.log("CUDA labelled build: per-part builds combined on the host (" + why + ")");
     return false;
   };
-  if (parts.empty() || parts.size() != partLabels.size() || parts.size() > kNoRank) return skip("no parts");
-  for (const PreparedMesh& p : parts) {
-    if (p.triangles.empty()) return skip("a part has no triangles");
-    if (!p.surfaceOnly && p.insideTest == InsideTest::WindingNumber) return skip("a part uses the winding number");
-    if (p.surfaceOnly != parts[0].surfaceOnly || !sameGrid(p.grid, whole.grid)) return skip("the parts are not on one grid");
-  }
   try {
-    out = buildLabelled(whole, parts, partLabels, labels, options);
+    out = buildLabelled(whole, parts, partLabels, labels, options, partsReady);
     return true;
   } catch (const Mismatch& e) {
     return skip(e.what());

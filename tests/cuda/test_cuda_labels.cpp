@@ -191,11 +191,11 @@ TEST(CudaLabels, PartWithoutTrianglesFallsBack) {
   if (cpuError.empty()) EXPECT_TRUE(sameLabelled(gpu, cpu));
 }
 
-// Parts far enough apart (no root cell in common) share one device build:
-// eight separate spheres, labels out of input order, share one; a sphere
-// nested in one of them takes a second, and an open box (its parity may be
-// odd outside its box) a third, in solid builds. The bytes stay the CPU's (per-part builds), solid and
-// surface only.
+// Parts far enough apart (no cell in common) share one device build: eight
+// separate spheres, labels out of input order, share one; a sphere nested
+// in one of them takes a second, and an open box (its parity may be odd
+// outside its box) a third, in solid builds. The bytes stay the CPU's
+// (per-part builds), solid and surface only.
 TEST(CudaLabels, SeparatePartsShareBuilds) {
   HDT_REQUIRE_CUDA();
   const Label labels[] = {5, 2, 8, 1, 7, 3, 6, 4};
@@ -219,6 +219,24 @@ TEST(CudaLabels, SeparatePartsShareBuilds) {
     LabelOptions highest;
     highest.overlap = OverlapPolicy::Highest;
     expectSameOnBoth(mesh, c, highest);
+  }
+}
+
+// A label 0 (reserved for outside) fails as on the CPU, though the device
+// path splits the parts while it builds the whole mesh.
+TEST(CudaLabels, LabelZeroFailsAsOnTheCpu) {
+  HDT_REQUIRE_CUDA();
+  TriangleMesh mesh = combined({withLabel(box({-1, -1, -1}, {0, 1, 1}), 1), withLabel(box({0, -1, -1}, {1, 1, 1}), 2)});
+  mesh.triangleLabels[3] = kOutsideLabel;
+  for (Backend backend : {Backend::Cuda, Backend::Auto}) {
+    BuildOptions o = cudaOptions();
+    o.backend = backend;
+    try {
+      voxelizeLabelled(mesh, grid(128, 4, 8), o);
+      ADD_FAILURE() << "label 0 accepted";
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find("reserved for outside"), std::string::npos) << e.what();
+    }
   }
 }
 
