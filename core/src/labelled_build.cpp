@@ -5,9 +5,9 @@
 #include "hdt/error.hpp"
 #include "hdt/mesh.hpp"
 
-#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
+#include <algorithm>
 #include <chrono>
 #include <functional>
 #include <future>
@@ -21,9 +21,12 @@ namespace {
 
 // The triangles of each label as a mesh of their own (points renumbered in
 // order of first use by the part's triangles, in input order), ascending by
-// label. Linear: triangles grouped by label first, then the parts made side
-// by side, each thread with one point map shared by its parts, stamped with
-// the part that wrote it (a map per label would cost labels x points).
+// label. Linear: triangles grouped by label first; then one pass, label by
+// label, numbers each part's points with one point map stamped with the part
+// that wrote it (a map per label would cost labels x points); then the
+// parts are copied side by side into arrays of their final size. (A point
+// map per thread, and parts grown point by point, cost more in page faults
+// than the pass: bench/results/labels-gpu.md.)
 std::vector<std::pair<Label, TriangleMesh>> splitByLabel(const TriangleMesh& mesh) {
   const size_t n = mesh.triangleCount();
   if (mesh.triangleLabels.size() != n) {
@@ -48,34 +51,36 @@ std::vector<std::pair<Label, TriangleMesh>> splitByLabel(const TriangleMesh& mes
   std::vector<Label> labels;
   for (uint32_t label = 1; label < 65536; ++label)
     if (first[label] != first[label + 1]) labels.push_back(Label(label));
-  std::vector<std::pair<Label, TriangleMesh>> out(labels.size());
-  // A thread's point map is stamped with the part that wrote it (label + 1):
-  // reused without clearing.
-  struct PointMap {
-    std::vector<uint32_t> stamp, local;
-  };
-  tbb::enumerable_thread_specific<PointMap> maps;
-  tbb::parallel_for(size_t(0), labels.size(), [&](size_t k) {
-    const uint32_t label = labels[k];
-    PointMap& map = maps.local();
-    if (map.stamp.empty()) {
-      map.stamp.assign(mesh.pointCount(), 0);
-      map.local.resize(mesh.pointCount());
-    }
-    TriangleMesh part;
-    part.triangles.reserve(3 * size_t(first[label + 1] - first[label]));
+  // Part k's points (mesh indices) are partPoint[pointStart[k], pointStart[k + 1]);
+  // corner[3 i + c]: corner c of triangle byLabel[i], part-local.
+  std::vector<uint32_t> stamp(mesh.pointCount(), 0), local(mesh.pointCount()), corner(3 * n), partPoint;
+  std::vector<size_t> pointStart(labels.size() + 1, 0);
+  partPoint.reserve(3 * n);
+  for (size_t k = 0; k < labels.size(); ++k) {
+    const uint32_t label = labels[k], mark = uint32_t(k + 1);
+    pointStart[k] = partPoint.size();
     for (uint32_t i = first[label]; i < first[label + 1]; ++i) {
       const size_t t = byLabel[i];
       for (int c = 0; c < 3; ++c) {
         const uint32_t p = mesh.triangles[3 * t + size_t(c)];
-        if (map.stamp[p] != label + 1) {
-          map.stamp[p] = label + 1;
-          map.local[p] = uint32_t(part.pointCount());
-          part.points.insert(part.points.end(), mesh.points.begin() + 3 * p, mesh.points.begin() + 3 * p + 3);
+        if (stamp[p] != mark) {
+          stamp[p] = mark;
+          local[p] = uint32_t(partPoint.size() - pointStart[k]);
+          partPoint.push_back(p);
         }
-        part.triangles.push_back(map.local[p]);
+        corner[3 * size_t(i) + size_t(c)] = local[p];
       }
     }
+  }
+  pointStart[labels.size()] = partPoint.size();
+  std::vector<std::pair<Label, TriangleMesh>> out(labels.size());
+  tbb::parallel_for(size_t(0), labels.size(), [&](size_t k) {
+    const uint32_t label = labels[k];
+    TriangleMesh part;
+    part.points.resize(3 * (pointStart[k + 1] - pointStart[k]));
+    for (size_t j = pointStart[k]; j < pointStart[k + 1]; ++j)
+      std::copy_n(mesh.points.begin() + 3 * size_t(partPoint[j]), 3, part.points.begin() + 3 * (j - pointStart[k]));
+    part.triangles.assign(corner.begin() + 3 * size_t(first[label]), corner.begin() + 3 * size_t(first[label + 1]));
     out[k] = {Label(label), std::move(part)};
   });
   return out;

@@ -7,19 +7,21 @@
 //    is mapped onto that tree level by level (its elements are a subset of
 //    the union's, in the same order) and folded in: its Full elements as
 //    claims, its leaf words ORed into the union's leaves, its claim counted.
-//    Closed parts (or any, for surface-only builds) whose cells are disjoint
-//    share one build (partBuilds; cells: the elements of the ownership
-//    level, kOwnershipLevel below the root cells, that meet the part's box):
-//    a part's triangles meet only its cells, and a closed part's parity is
-//    even on every line, so outside its box it adds nothing to another's
-//    inside test, and its parity is constant on an element its triangles do
-//    not meet. On an element within one part's cells the shared build is
-//    that part's own build; outside all parts' cells it is Empty, as each
-//    part's own build (outside its box, a part is neither met nor inside);
-//    an element that spans several parts' cells is either Empty or a
-//    Branch (uniform and inside a part, it would lie within that part's
-//    cells), and no part claims it. So each element is claimed for its
-//    owner (ownerOfElement): the parts' own claims, as if built one by one.
+//    Parts whose cells are disjoint share one build (partBuilds, which says
+//    why at most one may be open, and why its cells are whole root cells;
+//    a closed part's cells: the elements of the ownership level,
+//    kOwnershipLevel below the root cells, that meet its box): a part's
+//    triangles meet only its cells, and a closed part's parity is even on
+//    every line, so outside its box it adds nothing to another's inside test
+//    (nor decides an open part's: partBuilds), and it is constant on an
+//    element its triangles do not meet. On an element within one part's
+//    cells the shared build is that part's own build; outside all parts'
+//    cells it is Empty, as each part's own build (outside its box, a part is
+//    neither met nor inside); an element that spans several parts' cells is
+//    either Empty or a Branch (uniform and inside a part, it would lie
+//    within that part's cells), and no part claims it. So each element is
+//    claimed for its owner (ownerOfElement): the parts' own claims, as if
+//    built one by one.
 // 3. Full claims go down the union's tree; the leaf words are finished
 //    (inside where not surface); leaves of two claims or more get a rank per
 //    voxel, the best claim in the voxel's state (second pass over the parts,
@@ -78,8 +80,9 @@ int ownershipLevel(const GridSpec& g) { return std::min(kOwnershipLevel, g.heigh
 
 // The cells [first, last] (per axis, of the ownership level) that a part's
 // triangles can meet: those of its lattice box (cellRange, as T1 and T2 find
-// a triangle's elements).
-PartCells cellsOf(const PreparedMesh& part, uint16_t rank) {
+// a triangle's elements); with `wholeRootCells`, all cells of the root cells
+// that meet its box.
+PartCells cellsOf(const PreparedMesh& part, uint16_t rank, bool wholeRootCells) {
   const GridSpec& g = part.grid;
   const int level = ownershipLevel(g);
   int64_t lo[3] = {INT64_MAX, INT64_MAX, INT64_MAX}, hi[3] = {INT64_MIN, INT64_MIN, INT64_MIN};
@@ -94,7 +97,13 @@ PartCells cellsOf(const PreparedMesh& part, uint16_t rank) {
   PartCells c;
   for (int k = 0; k < 3; ++k) {
     int64_t first = 0, last = 0;
-    cellRange(lo[k], hi[k], latticeOfVoxel(g.elementVoxels(level)), int64_t(g.rootGrid) << level, first, last);
+    if (wholeRootCells) {
+      cellRange(lo[k], hi[k], latticeOfVoxel(g.rootCellVoxels()), g.rootGrid, first, last);
+      first <<= level;
+      last = ((last + 1) << level) - 1;
+    } else {
+      cellRange(lo[k], hi[k], latticeOfVoxel(g.elementVoxels(level)), int64_t(g.rootGrid) << level, first, last);
+    }
     c.first[k] = int32_t(first);
     c.last[k] = int32_t(last);
   }
@@ -109,25 +118,31 @@ bool cellsMeet(const PartCells& a, const PartCells& b) {
 }
 
 // The part builds: the parts, first fit in input order, grouped so that the
-// parts of a group have disjoint cells. A part that is open in a solid build
-// is built alone: its parity may be odd outside its box, and a uniform
-// element of its own build, classified at one corner, may reach outside its
-// cells.
+// parts of a group have disjoint cells, and at most one of them is open in a
+// solid build. An open part's parity may be odd outside its box, but there
+// on one ray axis at most (a point in the shadows of a box along two axes
+// lies in the box); a build with an open part takes the majority of three
+// axes, on which each closed part's parities agree, so one flipped axis
+// changes nothing (two open parts could flip two). A uniform element of an
+// open part's own build, classified at one corner, may reach outside its
+// box, but not outside the root cells that meet its box (its parent meets
+// the part, or it is a root cell whose corner lies in the box): an open
+// part's cells are those whole root cells, which no element spans.
 struct PartBuild {
   std::vector<uint32_t> parts;
   std::vector<PartCells> cells;
-  bool shared = true; // may take more parts
+  bool open = false; // has an open part (solid builds)
 };
 std::vector<PartBuild> partBuilds(const std::vector<PreparedMesh>& parts, const std::vector<uint16_t>& rank) {
   std::vector<PartBuild> builds;
   // Shared builds need kMixedOwners free: ranks stay below it.
   const bool share = parts.size() < size_t(kMixedOwners);
   for (uint32_t i = 0; i < parts.size(); ++i) {
-    const bool shareable = share && (parts[i].surfaceOnly || parts[i].closed);
-    const PartCells cells = cellsOf(parts[i], rank[i]);
+    const bool open = !parts[i].surfaceOnly && !parts[i].closed;
+    const PartCells cells = cellsOf(parts[i], rank[i], open);
     PartBuild* into = nullptr;
     for (PartBuild& b : builds) {
-      if (!shareable || !b.shared || b.parts.size() >= kPartsPerBuild) continue;
+      if (!share || (open && b.open) || b.parts.size() >= kPartsPerBuild) continue;
       if (std::none_of(b.cells.begin(), b.cells.end(), [&](const PartCells& c) { return cellsMeet(c, cells); })) {
         into = &b;
         break;
@@ -136,8 +151,8 @@ std::vector<PartBuild> partBuilds(const std::vector<PreparedMesh>& parts, const 
     if (!into) {
       builds.emplace_back();
       into = &builds.back();
-      into->shared = shareable;
     }
+    into->open = into->open || open;
     into->parts.push_back(i);
     into->cells.push_back(cells);
   }
