@@ -3,6 +3,7 @@
 #include "hdt/labels.hpp"
 
 #include "hdt/error.hpp"
+#include "hdt/huge_pages.hpp"
 #include "hdt/mesh.hpp"
 
 #include <tbb/parallel_for.h>
@@ -25,8 +26,7 @@ namespace {
 // label, numbers each part's points with one point map stamped with the part
 // that wrote it (a map per label would cost labels x points); then the
 // parts are copied side by side into arrays of their final size. (A point
-// map per thread, and parts grown point by point, cost more in page faults
-// than the pass: bench/results/labels-gpu.md.)
+// map per thread, and parts grown point by point, fault in more pages.)
 std::vector<std::pair<Label, TriangleMesh>> splitByLabel(const TriangleMesh& mesh) {
   const size_t n = mesh.triangleCount();
   if (mesh.triangleLabels.size() != n) {
@@ -52,27 +52,34 @@ std::vector<std::pair<Label, TriangleMesh>> splitByLabel(const TriangleMesh& mes
   for (uint32_t label = 1; label < 65536; ++label)
     if (first[label] != first[label + 1]) labels.push_back(Label(label));
   // Part k's points (mesh indices) are partPoint[pointStart[k], pointStart[k + 1]);
-  // corner[3 i + c]: corner c of triangle byLabel[i], part-local.
-  std::vector<uint32_t> stamp(mesh.pointCount(), 0), local(mesh.pointCount()), corner(3 * n), partPoint;
+  // corner[3 i + c]: corner c of triangle byLabel[i], part-local. One
+  // scratch array for all four, large enough for huge pages.
+  const size_t points = mesh.pointCount();
+  std::vector<uint32_t, HugePageScratchAllocator<uint32_t>> scratch(2 * points + 6 * n);
+  uint32_t* const stamp = scratch.data();
+  uint32_t* const local = stamp + points;
+  uint32_t* const corner = local + points;
+  uint32_t* const partPoint = corner + 3 * n;
+  std::fill_n(stamp, points, 0u);
   std::vector<size_t> pointStart(labels.size() + 1, 0);
-  partPoint.reserve(3 * n);
+  size_t used = 0; // in partPoint
   for (size_t k = 0; k < labels.size(); ++k) {
     const uint32_t label = labels[k], mark = uint32_t(k + 1);
-    pointStart[k] = partPoint.size();
+    pointStart[k] = used;
     for (uint32_t i = first[label]; i < first[label + 1]; ++i) {
       const size_t t = byLabel[i];
       for (int c = 0; c < 3; ++c) {
         const uint32_t p = mesh.triangles[3 * t + size_t(c)];
         if (stamp[p] != mark) {
           stamp[p] = mark;
-          local[p] = uint32_t(partPoint.size() - pointStart[k]);
-          partPoint.push_back(p);
+          local[p] = uint32_t(used - pointStart[k]);
+          partPoint[used++] = p;
         }
         corner[3 * size_t(i) + size_t(c)] = local[p];
       }
     }
   }
-  pointStart[labels.size()] = partPoint.size();
+  pointStart[labels.size()] = used;
   std::vector<std::pair<Label, TriangleMesh>> out(labels.size());
   tbb::parallel_for(size_t(0), labels.size(), [&](size_t k) {
     const uint32_t label = labels[k];
@@ -80,7 +87,7 @@ std::vector<std::pair<Label, TriangleMesh>> splitByLabel(const TriangleMesh& mes
     part.points.resize(3 * (pointStart[k + 1] - pointStart[k]));
     for (size_t j = pointStart[k]; j < pointStart[k + 1]; ++j)
       std::copy_n(mesh.points.begin() + 3 * size_t(partPoint[j]), 3, part.points.begin() + 3 * (j - pointStart[k]));
-    part.triangles.assign(corner.begin() + 3 * size_t(first[label]), corner.begin() + 3 * size_t(first[label + 1]));
+    part.triangles.assign(corner + 3 * size_t(first[label]), corner + 3 * size_t(first[label + 1]));
     out[k] = {Label(label), std::move(part)};
   });
   return out;
