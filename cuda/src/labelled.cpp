@@ -439,12 +439,16 @@ Volume buildLabelled(const PreparedMesh& whole, const std::vector<PreparedMesh>&
   const auto wall0 = Clock::now();
   const GridSpec& g = whole.grid;
   const uint64_t cells = uint64_t(g.rootGrid) * g.rootGrid * g.rootGrid;
-  // Progress: the whole mesh, each part build, the combination.
-  double stage = 0;
-  double stages = 3;
+  // Progress: the whole mesh (the first tenth: the number of part builds
+  // is known only after it), then each part build and the combination.
+  constexpr double kWholeShare = 0.1;
+  double stage = 0, stages = 0; // stages: part builds + 1, once known
   BuildOptions wrapped = options;
   if (options.progress)
-    wrapped.progress = [&](double f, const char* phase) { return options.progress((stage + f) / stages, phase); };
+    wrapped.progress = [&](double f, const char* phase) {
+      const double x = stages == 0 ? kWholeShare * f : kWholeShare + (1 - kWholeShare) * (stage - 1 + f) / stages;
+      return options.progress(x, phase);
+    };
   Session s(whole, wrapped);
   uploadTriangles(s);
 
@@ -460,7 +464,8 @@ Volume buildLabelled(const PreparedMesh& whole, const std::vector<PreparedMesh>&
   std::vector<uint16_t> labelOfRank;
   const std::vector<uint16_t> rank = ranksOf(partLabels, labels, labelOfRank);
   const std::vector<PartBuild> builds = partBuilds(parts, rank);
-  stages = double(builds.size() + 2);
+  stages = double(builds.size() + 1);
+  stage = 1;
   s.sync();
   const auto parts0 = Clock::now();
   u.start = levelStarts(u.tree.tree);
@@ -483,7 +488,7 @@ Volume buildLabelled(const PreparedMesh& whole, const std::vector<PreparedMesh>&
     stage = double(i + 1);
     onDevice.push_back(foldPart(s, u, parts, builds[i]));
   }
-  stage = stages - 1;
+  stage = stages;
   s.progress(0.0, "combining labels");
   s.sync();
   const auto combine0 = Clock::now();

@@ -14,9 +14,11 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <string>
 #include <sys/stat.h>
+#include <vector>
 
 namespace hdt {
 namespace test {
@@ -221,8 +223,18 @@ TEST(CudaLabels, SeparatePartsShareBuilds) {
     c.surfaceOnly = surfaceOnly;
     expectSameOnBoth(mesh, c);
     PathLog log;
-    voxelizeLabelled(mesh, c, log.options(cudaOptions()));
+    BuildOptions o = log.options(cudaOptions());
+    std::vector<double> progress; // reported fractions: rise from 0 to 1 over the part builds
+    o.progress = [&](double f, const char*) {
+      progress.push_back(f);
+      return true;
+    };
+    voxelizeLabelled(mesh, c, o);
     EXPECT_EQ(partBuildsLogged(log.text), 2) << log.text;
+    ASSERT_FALSE(progress.empty());
+    EXPECT_TRUE(std::is_sorted(progress.begin(), progress.end()));
+    EXPECT_GE(progress.front(), 0.0);
+    EXPECT_DOUBLE_EQ(progress.back(), 1.0);
     LabelOptions highest;
     highest.overlap = OverlapPolicy::Highest;
     expectSameOnBoth(mesh, c, highest);
