@@ -24,7 +24,7 @@ Volume buildCuda(const PreparedMesh&, const BuildOptions&) {
 void prepareCuda(const BuildConfig&, const BuildOptions&, const std::function<bool()>&) {}
 void releaseCuda(const BuildOptions&) {}
 bool buildLabelledCuda(const PreparedMesh&, const std::vector<PreparedMesh>&, const std::vector<Label>&,
-                       const LabelOptions&, const BuildOptions&, Volume&) {
+                       const LabelOptions&, const BuildOptions&, Volume&, const std::function<void()>&) {
   return false;
 }
 std::unique_ptr<RootRangeBuild> makeCudaRangeBuild(const PreparedMesh&, const BuildOptions&, RootRange) {

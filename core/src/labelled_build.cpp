@@ -3,12 +3,15 @@
 #include "hdt/labels.hpp"
 
 #include "hdt/error.hpp"
+#include "hdt/huge_pages.hpp"
 #include "hdt/mesh.hpp"
 
-#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
+#include <algorithm>
 #include <chrono>
+#include <functional>
+#include <future>
 #include <map>
 #include <string>
 #include <utility>
@@ -19,9 +22,11 @@ namespace {
 
 // The triangles of each label as a mesh of their own (points renumbered in
 // order of first use by the part's triangles, in input order), ascending by
-// label. Linear: triangles grouped by label first, then the parts made side
-// by side, each thread with one point map shared by its parts, stamped with
-// the part that wrote it (a map per label would cost labels x points).
+// label. Linear: triangles grouped by label first; then one pass, label by
+// label, numbers each part's points with one point map stamped with the part
+// that wrote it (a map per label would cost labels x points); then the
+// parts are copied side by side into arrays of their final size. (A point
+// map per thread, and parts grown point by point, fault in more pages.)
 std::vector<std::pair<Label, TriangleMesh>> splitByLabel(const TriangleMesh& mesh) {
   const size_t n = mesh.triangleCount();
   if (mesh.triangleLabels.size() != n) {
@@ -46,34 +51,43 @@ std::vector<std::pair<Label, TriangleMesh>> splitByLabel(const TriangleMesh& mes
   std::vector<Label> labels;
   for (uint32_t label = 1; label < 65536; ++label)
     if (first[label] != first[label + 1]) labels.push_back(Label(label));
-  std::vector<std::pair<Label, TriangleMesh>> out(labels.size());
-  // A thread's point map is stamped with the part that wrote it (label + 1):
-  // reused without clearing.
-  struct PointMap {
-    std::vector<uint32_t> stamp, local;
-  };
-  tbb::enumerable_thread_specific<PointMap> maps;
-  tbb::parallel_for(size_t(0), labels.size(), [&](size_t k) {
-    const uint32_t label = labels[k];
-    PointMap& map = maps.local();
-    if (map.stamp.empty()) {
-      map.stamp.assign(mesh.pointCount(), 0);
-      map.local.resize(mesh.pointCount());
-    }
-    TriangleMesh part;
-    part.triangles.reserve(3 * size_t(first[label + 1] - first[label]));
+  // Part k's points (mesh indices) are partPoint[pointStart[k], pointStart[k + 1]);
+  // corner[3 i + c]: corner c of triangle byLabel[i], part-local. One
+  // scratch array for all four, large enough for huge pages.
+  const size_t points = mesh.pointCount();
+  std::vector<uint32_t, HugePageScratchAllocator<uint32_t>> scratch(2 * points + 6 * n);
+  uint32_t* const stamp = scratch.data();
+  uint32_t* const local = stamp + points;
+  uint32_t* const corner = local + points;
+  uint32_t* const partPoint = corner + 3 * n;
+  std::fill_n(stamp, points, 0u);
+  std::vector<size_t> pointStart(labels.size() + 1, 0);
+  size_t used = 0; // in partPoint
+  for (size_t k = 0; k < labels.size(); ++k) {
+    const uint32_t label = labels[k], mark = uint32_t(k + 1);
+    pointStart[k] = used;
     for (uint32_t i = first[label]; i < first[label + 1]; ++i) {
       const size_t t = byLabel[i];
       for (int c = 0; c < 3; ++c) {
         const uint32_t p = mesh.triangles[3 * t + size_t(c)];
-        if (map.stamp[p] != label + 1) {
-          map.stamp[p] = label + 1;
-          map.local[p] = uint32_t(part.pointCount());
-          part.points.insert(part.points.end(), mesh.points.begin() + 3 * p, mesh.points.begin() + 3 * p + 3);
+        if (stamp[p] != mark) {
+          stamp[p] = mark;
+          local[p] = uint32_t(used - pointStart[k]);
+          partPoint[used++] = p;
         }
-        part.triangles.push_back(map.local[p]);
+        corner[3 * size_t(i) + size_t(c)] = local[p];
       }
     }
+  }
+  pointStart[labels.size()] = used;
+  std::vector<std::pair<Label, TriangleMesh>> out(labels.size());
+  tbb::parallel_for(size_t(0), labels.size(), [&](size_t k) {
+    const uint32_t label = labels[k];
+    TriangleMesh part;
+    part.points.resize(3 * (pointStart[k + 1] - pointStart[k]));
+    for (size_t j = pointStart[k]; j < pointStart[k + 1]; ++j)
+      std::copy_n(mesh.points.begin() + 3 * size_t(partPoint[j]), 3, part.points.begin() + 3 * (j - pointStart[k]));
+    part.triangles.assign(corner + 3 * size_t(first[label]), corner + 3 * size_t(first[label + 1]));
     out[k] = {Label(label), std::move(part)};
   });
   return out;
@@ -83,23 +97,56 @@ std::vector<std::pair<Label, TriangleMesh>> splitByLabel(const TriangleMesh& mes
 
 namespace {
 
-// The CUDA driver's labelled build where the backend asks for it (Auto: a
-// usable device); false where the per-part path must run. Auto falls back
-// on a device failure as build() does; Cuda reports it.
+bool deviceAsked(const BuildOptions& options) {
+  return options.backend == Backend::Cuda || (options.backend == Backend::Auto && cudaAvailable(nullptr));
+}
+
+// The CUDA driver's labelled build (where deviceAsked); false where the
+// per-part path must run. Auto falls back on a device failure as build()
+// does; Cuda reports it. partsReady: as buildLabelledCuda's.
 bool buildOnDevice(const TriangleMesh& mesh, const BuildConfig& placed, const std::vector<PreparedMesh>& parts,
                    const std::vector<Label>& partLabels, const LabelOptions& labels, const BuildOptions& options,
-                   Volume& out) {
-  if (options.backend == Backend::Cpu || (options.backend == Backend::Auto && !cudaAvailable(nullptr))) return false;
+                   Volume& out, const std::function<void()>& partsReady) {
   BuildConfig surface = placed;
   surface.surfaceOnly = true; // the whole mesh gives the tree and the surface, the parts the inside
   try {
-    return buildLabelledCuda(prepareMesh(mesh, surface), parts, partLabels, labels, options, out);
+    return buildLabelledCuda(prepareMesh(mesh, surface), parts, partLabels, labels, options, out, partsReady);
   } catch (const Error& e) {
     if (e.kind() == ErrorKind::Aborted || options.backend == Backend::Cuda) throw;
     if (options.log)
       options.log(std::string("backend auto: CUDA labelled build failed (") + e.what() + "); per-part builds follow");
     return false;
   }
+}
+
+// The parts, each prepared on the grid of `placed`, and their labels; the
+// log line that says how long that took (logged by the caller's thread).
+struct PreparedParts {
+  std::vector<PreparedMesh> meshes;
+  std::vector<Label> labels;
+  std::string log;
+};
+
+PreparedParts prepareParts(const TriangleMesh& mesh, const BuildConfig& placed) {
+  const auto t0 = std::chrono::steady_clock::now();
+  std::vector<std::pair<Label, TriangleMesh>> split = splitByLabel(mesh);
+  const auto t1 = std::chrono::steady_clock::now();
+  // The parts are prepared side by side: many are small, too small to fill
+  // the host's threads one after another.
+  PreparedParts out;
+  out.meshes.resize(split.size());
+  out.labels.resize(split.size());
+  tbb::parallel_for(size_t(0), split.size(), [&](size_t i) {
+    out.meshes[i] = prepareMesh(split[i].second, placed);
+    split[i].second = TriangleMesh{}; // the part's points are no longer needed
+    out.labels[i] = split[i].first;
+  });
+  const auto ms = [](std::chrono::steady_clock::time_point a, std::chrono::steady_clock::time_point b) {
+    return std::to_string(int(std::chrono::duration<double, std::milli>(b - a).count()));
+  };
+  out.log = "labelled build: " + std::to_string(out.meshes.size()) + " parts split in " + ms(t0, t1) +
+            " ms, prepared in " + ms(t1, std::chrono::steady_clock::now()) + " ms";
+  return out;
 }
 
 } // namespace
@@ -112,29 +159,33 @@ Volume voxelizeLabelled(const TriangleMesh& mesh, const BuildConfig& config, con
     meshBounds(mesh, placed.boundsMin, placed.boundsMax);
     placed.hasBounds = true;
   }
-  const auto t0 = std::chrono::steady_clock::now();
-  std::vector<std::pair<Label, TriangleMesh>> split = splitByLabel(mesh);
-  const auto t1 = std::chrono::steady_clock::now();
-  // The parts are prepared side by side: many are small, too small to fill
-  // the host's threads one after another.
-  std::vector<PreparedMesh> prepared(split.size());
-  std::vector<Label> partLabels(split.size());
-  tbb::parallel_for(size_t(0), split.size(), [&](size_t i) {
-    prepared[i] = prepareMesh(split[i].second, placed);
-    split[i].second = TriangleMesh{}; // the part's points are no longer needed
-    partLabels[i] = split[i].first;
-  });
-  if (options.log) {
-    const auto ms = [](std::chrono::steady_clock::time_point a, std::chrono::steady_clock::time_point b) {
-      return std::to_string(int(std::chrono::duration<double, std::milli>(b - a).count()));
-    };
-    options.log("labelled build: " + std::to_string(prepared.size()) + " parts split in " + ms(t0, t1) +
-                " ms, prepared in " + ms(t1, std::chrono::steady_clock::now()) + " ms");
-  }
+  PreparedParts parts;
+  bool logged = false;
+  const auto logParts = [&] {
+    if (options.log && !logged) options.log(parts.log);
+    logged = true;
+  };
   Volume v;
-  if (!buildOnDevice(mesh, placed, prepared, partLabels, labels, options, v)) {
-    std::vector<Volume> parts;
-    parts.reserve(prepared.size());
+  bool built = false;
+  if (deviceAsked(options)) {
+    // The parts are split and prepared on the host while the device builds
+    // the whole mesh's tree (and the host prepares the whole mesh before).
+    std::shared_future<void> partsDone =
+        std::async(std::launch::async, [&] { parts = prepareParts(mesh, placed); }).share();
+    const auto partsReady = [&] {
+      partsDone.get();
+      logParts();
+    };
+    built = buildOnDevice(mesh, placed, parts.meshes, parts.labels, labels, options, v, partsReady);
+    partsReady(); // its errors (a label 0, say) are the build's
+  } else {
+    parts = prepareParts(mesh, placed);
+    logParts();
+  }
+  if (!built) {
+    const std::vector<PreparedMesh>& prepared = parts.meshes;
+    std::vector<Volume> partVolumes;
+    partVolumes.reserve(prepared.size());
     for (size_t i = 0; i < prepared.size(); ++i) {
       BuildOptions partOptions = options;
       if (options.progress) {
@@ -143,9 +194,9 @@ Volume voxelizeLabelled(const TriangleMesh& mesh, const BuildConfig& config, con
           return options.progress((double(i) + f) / n, phase);
         };
       }
-      parts.push_back(build(prepared[i], partOptions));
+      partVolumes.push_back(build(prepared[i], partOptions));
     }
-    v = combineLabelledParts(parts, partLabels, labels);
+    v = combineLabelledParts(partVolumes, parts.labels, labels);
   }
   for (const auto& [label, name] : mesh.labelNames)
     if (label != kOutsideLabel) v.labels.names[label] = name;

@@ -33,15 +33,20 @@ __device__ __forceinline__ bool leafItemOfThread(uint64_t total, uint32_t perLea
   return true;
 }
 
-__global__ void mapPartLevelKernel(const ElementWord* partWords, uint32_t partCount, uint64_t partNextStart,
-                                   const uint32_t* map, const ElementWord* unionWords, uint64_t unionStart,
-                                   uint64_t unionNextStart, uint32_t* nextMap, uint32_t* leafMap, uint16_t rank,
-                                   uint16_t* fullRank, CombineError e) {
+__global__ void mapPartLevelKernel(const ElementWord* partWords, const uint64_t* coords, uint32_t partCount, int level,
+                                   uint64_t partNextStart, const uint32_t* map, const ElementWord* unionWords,
+                                   uint64_t unionStart, uint64_t unionNextStart, uint32_t* nextMap, uint32_t* leafMap,
+                                   uint16_t* leafRank, PartOwners owners, uint16_t* fullRank, CombineError e) {
   const uint64_t i = threadIndex();
   if (i >= partCount) return;
   const ElementWord pw = partWords[i];
   const ElementState ps = elementState(pw);
   if (ps == ElementState::Empty) return;
+  const uint16_t rank = ownerOfElement(owners, coords[i], level);
+  if (rank == kNoRank || (rank == kMixedOwners && ps != ElementState::Branch)) {
+    fail(e); // not the parts' own builds (labelled.cpp, partBuilds)
+    return;
+  }
   const uint32_t u = map ? map[i] : uint32_t(i);
   const ElementWord uw = unionWords[u];
   switch (ps) {
@@ -64,14 +69,15 @@ __global__ void mapPartLevelKernel(const ElementWord* partWords, uint32_t partCo
       return;
     }
     leafMap[elementPayload(pw)] = elementPayload(uw);
+    leafRank[elementPayload(pw)] = rank;
     break;
   default: break;
   }
 }
 
 __global__ void orPartLeavesKernel(const uint32_t* partWords, uint64_t total, uint32_t wordsPerLeaf,
-                                   const uint32_t* leafMap, uint32_t* acc, uint32_t* claimCount, uint16_t* claimRank,
-                                   uint16_t rank) {
+                                   const uint32_t* leafMap, const uint16_t* leafRank, uint32_t* acc,
+                                   uint32_t* claimCount, uint16_t* claimRank) {
   LeafItem t;
   if (!leafItemOfThread(total, wordsPerLeaf, t)) return;
   const uint64_t j = t.j, w = t.at;
@@ -79,7 +85,7 @@ __global__ void orPartLeavesKernel(const uint32_t* partWords, uint64_t total, ui
   acc[ul * wordsPerLeaf + w] |= partWords[j];
   if (w == 0) {
     claimCount[ul] += 1;
-    claimRank[ul] = rank;
+    claimRank[ul] = leafRank[t.leaf];
   }
 }
 
@@ -152,8 +158,8 @@ __device__ __forceinline__ void claimVoxels(uint32_t mine, uint16_t* ranks, uint
 }
 
 __global__ void partVoxelRanksKernel(const uint32_t* partWords, uint64_t total, uint32_t wordsPerLeaf,
-                                     const uint32_t* leafMap, const uint32_t* claimCount, const uint32_t* multiIndex,
-                                     const uint32_t* combined, uint16_t* voxelRanks, uint16_t rank) {
+                                     const uint32_t* leafMap, const uint16_t* leafRank, const uint32_t* claimCount,
+                                     const uint32_t* multiIndex, const uint32_t* combined, uint16_t* voxelRanks) {
   LeafItem t;
   if (!leafItemOfThread(total, wordsPerLeaf, t)) return;
   const uint64_t j = t.j, w = t.at;
@@ -162,7 +168,7 @@ __global__ void partVoxelRanksKernel(const uint32_t* partWords, uint64_t total, 
   const uint32_t pw = partWords[j], c = combined[ul * wordsPerLeaf + w];
   const uint32_t mine = (planeOf(pw, kSurfacePlane) & planeOf(c, kSurfacePlane)) |
                         (planeOf(pw, kInsidePlane) & planeOf(c, kInsidePlane));
-  claimVoxels(mine, voxelRanks + (uint64_t(multiIndex[ul]) * wordsPerLeaf + w) * kVoxelsPerWord, rank);
+  claimVoxels(mine, voxelRanks + (uint64_t(multiIndex[ul]) * wordsPerLeaf + w) * kVoxelsPerWord, leafRank[t.leaf]);
 }
 
 __global__ void inheritedVoxelRanksKernel(uint64_t total, uint32_t wordsPerLeaf, const uint32_t* claimCount,
@@ -310,18 +316,20 @@ void launch(const char* name, cudaStream_t s, uint64_t threads, void (*kernel)(P
 
 } // namespace
 
-void mapPartLevel(cudaStream_t s, const ElementWord* partWords, uint32_t partCount, uint64_t partNextStart,
-                  const uint32_t* map, const ElementWord* unionWords, uint64_t unionStart, uint64_t unionNextStart,
-                  uint32_t* nextMap, uint32_t* leafMap, uint16_t rank, uint16_t* fullRank, CombineError e) {
-  launch("mapPartLevel", s, partCount, mapPartLevelKernel, partWords, partCount, partNextStart, map, unionWords,
-         unionStart, unionNextStart, nextMap, leafMap, rank, fullRank, e);
+void mapPartLevel(cudaStream_t s, const ElementWord* partWords, const uint64_t* coords, uint32_t partCount,
+                  int level, uint64_t partNextStart, const uint32_t* map, const ElementWord* unionWords,
+                  uint64_t unionStart, uint64_t unionNextStart, uint32_t* nextMap, uint32_t* leafMap,
+                  uint16_t* leafRank, PartOwners owners, uint16_t* fullRank, CombineError e) {
+  launch("mapPartLevel", s, partCount, mapPartLevelKernel, partWords, coords, partCount, level, partNextStart, map,
+         unionWords, unionStart, unionNextStart, nextMap, leafMap, leafRank, owners, fullRank, e);
 }
 
 void orPartLeaves(cudaStream_t s, const uint32_t* partWords, uint32_t partLeaves, uint32_t wordsPerLeaf,
-                  const uint32_t* leafMap, uint32_t* acc, uint32_t* claimCount, uint16_t* claimRank, uint16_t rank) {
+                  const uint32_t* leafMap, const uint16_t* leafRank, uint32_t* acc, uint32_t* claimCount,
+                  uint16_t* claimRank) {
   const uint64_t total = uint64_t(partLeaves) * wordsPerLeaf;
-  launch("orPartLeaves", s, total, orPartLeavesKernel, partWords, total, wordsPerLeaf, leafMap, acc, claimCount,
-         claimRank, rank);
+  launch("orPartLeaves", s, total, orPartLeavesKernel, partWords, total, wordsPerLeaf, leafMap, leafRank, acc,
+         claimCount, claimRank);
 }
 
 void propagateFull(cudaStream_t s, const ElementWord* unionWords, uint32_t count, uint64_t start, uint16_t* fullRank) {
@@ -347,10 +355,10 @@ void markMulti(cudaStream_t s, uint32_t leaves, const uint32_t* claimCount, uint
 
 void partVoxelRanks(cudaStream_t s, const uint32_t* partWords, uint32_t partLeaves, uint32_t wordsPerLeaf,
                     const uint32_t* leafMap, const uint32_t* claimCount, const uint32_t* multiIndex,
-                    const uint32_t* combined, uint16_t* voxelRanks, uint16_t rank) {
+                    const uint32_t* combined, uint16_t* voxelRanks, const uint16_t* leafRank) {
   const uint64_t total = uint64_t(partLeaves) * wordsPerLeaf;
-  launch("partVoxelRanks", s, total, partVoxelRanksKernel, partWords, total, wordsPerLeaf, leafMap, claimCount,
-         multiIndex, combined, voxelRanks, rank);
+  launch("partVoxelRanks", s, total, partVoxelRanksKernel, partWords, total, wordsPerLeaf, leafMap, leafRank,
+         claimCount, multiIndex, combined, voxelRanks);
 }
 
 void inheritedVoxelRanks(cudaStream_t s, uint32_t leaves, uint32_t wordsPerLeaf, const uint32_t* claimCount,

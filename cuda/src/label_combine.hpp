@@ -5,13 +5,16 @@
 // meets it, whatever its part).
 //
 // Parts are numbered by rank, the overlap policy's order (rank 0 wins);
-// kNoRank: no claim. Every kernel of one part touches each of its union
-// elements, leaves or voxels from one thread, and parts run one after
-// another on one stream, so the per-element minima need no atomics.
+// kNoRank: no claim. A part build is one part, or several whose root cells
+// are disjoint (labelled.cpp), so that every kernel of one part build
+// touches each of its union elements, leaves or voxels from one thread; part
+// builds run one after another on one stream, so the per-element minima
+// need no atomics.
 #pragma once
 
 #include "device_memory.hpp"
 
+#include "hdt/build_steps.hpp" // unpackCoord
 #include "hdt/label_field.hpp"
 #include "hdt/types.hpp"
 
@@ -23,6 +26,53 @@ namespace hdt {
 namespace cuda {
 
 constexpr uint16_t kNoRank = 0xFFFF;
+constexpr uint16_t kMixedOwners = 0xFFFE; // an element of a shared build that spans several parts' cells
+
+// One part of a shared build: its rank and its cells (inclusive, per axis)
+// at the build's ownership level, those its triangles can meet.
+struct PartCells {
+  int32_t first[3], last[3];
+  uint16_t rank;
+};
+
+// Whose an element of a part build is: with count == 0 (a one-part build),
+// `rank`'s everywhere; otherwise parts[0, count) on device, their cells
+// disjoint.
+struct PartOwners {
+  const PartCells* parts = nullptr;
+  uint32_t count = 0;
+  int level = 0; // the ownership level
+  uint16_t rank = kNoRank;
+};
+
+// The rank of the element at `cell` (packed coordinates) of `level`: a
+// part's where all its cells of the ownership level are that part's,
+// kMixedOwners where it spans a part's cells and others, kNoRank where it
+// meets no part's cells.
+HDT_HD uint16_t ownerOfElement(const PartOwners& o, uint64_t cell, int level) {
+  if (o.count == 0) return o.rank;
+  int64_t lo[3], hi[3];
+  for (int a = 0; a < 3; ++a) {
+    const int64_t c = unpackCoord(cell, a);
+    if (level >= o.level) {
+      lo[a] = hi[a] = c >> (level - o.level);
+    } else {
+      lo[a] = c << (o.level - level);
+      hi[a] = lo[a] + (int64_t(1) << (o.level - level)) - 1;
+    }
+  }
+  for (uint32_t p = 0; p < o.count; ++p) {
+    const PartCells& q = o.parts[p];
+    bool meets = true, inside = true;
+    for (int a = 0; a < 3; ++a) {
+      meets = meets && lo[a] <= q.last[a] && q.first[a] <= hi[a];
+      inside = inside && q.first[a] <= lo[a] && hi[a] <= q.last[a];
+    }
+    if (inside) return q.rank;
+    if (meets) return kMixedOwners;
+  }
+  return kNoRank;
+}
 
 // Any inconsistency between a part's tree and the union's (a part refined
 // where the union is not, a part surface voxel the union lacks) sets
@@ -31,18 +81,24 @@ struct CombineError {
   uint32_t* flag;
 };
 
-// One level of a part's tree against the union's. map: the union index
-// (level-local) of each part element of this level (null at level 0: the
-// same root cells). Writes the next level's map (Branch children) or, at the
-// leaf level, leafMap (part leaf -> union leaf); records Full elements in
-// fullRank (union global indices).
-void mapPartLevel(cudaStream_t s, const ElementWord* partWords, uint32_t partCount, uint64_t partNextStart,
-                  const uint32_t* map, const ElementWord* unionWords, uint64_t unionStart, uint64_t unionNextStart,
-                  uint32_t* nextMap, uint32_t* leafMap, uint16_t rank, uint16_t* fullRank, CombineError e);
+// One level of a part build's tree against the union's. map: the union
+// index (level-local) of each part element of this level (null at level 0:
+// the same root cells). Each element takes its owner's rank (coords: the
+// level's packed cell coordinates); in a shared build an element but Empty
+// that meets no part's cells, or that spans several and is not a Branch,
+// sets *error. Writes the next level's map (Branch children) or, at the leaf
+// level, leafMap (part leaf -> union leaf) and leafRank; records Full
+// elements in fullRank (union global indices).
+void mapPartLevel(cudaStream_t s, const ElementWord* partWords, const uint64_t* coords, uint32_t partCount,
+                  int level, uint64_t partNextStart, const uint32_t* map, const ElementWord* unionWords,
+                  uint64_t unionStart, uint64_t unionNextStart, uint32_t* nextMap, uint32_t* leafMap,
+                  uint16_t* leafRank, PartOwners owners, uint16_t* fullRank, CombineError e);
 
-// ORs a part's leaf words into acc (union leaves) and counts the claim.
+// ORs a part build's leaf words into acc (union leaves) and counts each
+// leaf's claim, of rank leafRank[leaf].
 void orPartLeaves(cudaStream_t s, const uint32_t* partWords, uint32_t partLeaves, uint32_t wordsPerLeaf,
-                  const uint32_t* leafMap, uint32_t* acc, uint32_t* claimCount, uint16_t* claimRank, uint16_t rank);
+                  const uint32_t* leafMap, const uint16_t* leafRank, uint32_t* acc, uint32_t* claimCount,
+                  uint16_t* claimRank);
 
 // Full claims inherited from Full ancestors, one union level at a time (top down).
 void propagateFull(cudaStream_t s, const ElementWord* unionWords, uint32_t count, uint64_t start, uint16_t* fullRank);
@@ -64,7 +120,7 @@ void markMulti(cudaStream_t s, uint32_t leaves, const uint32_t* claimCount, uint
 // claims in its combined state. multiIndex: exclusive scan of markMulti.
 void partVoxelRanks(cudaStream_t s, const uint32_t* partWords, uint32_t partLeaves, uint32_t wordsPerLeaf,
                     const uint32_t* leafMap, const uint32_t* claimCount, const uint32_t* multiIndex,
-                    const uint32_t* combined, uint16_t* voxelRanks, uint16_t rank);
+                    const uint32_t* combined, uint16_t* voxelRanks, const uint16_t* leafRank);
 void inheritedVoxelRanks(cudaStream_t s, uint32_t leaves, uint32_t wordsPerLeaf, const uint32_t* claimCount,
                          const uint32_t* multiIndex, const uint16_t* leafInherited, const uint32_t* combined,
                          uint16_t* voxelRanks);

@@ -7,6 +7,21 @@
 //    is mapped onto that tree level by level (its elements are a subset of
 //    the union's, in the same order) and folded in: its Full elements as
 //    claims, its leaf words ORed into the union's leaves, its claim counted.
+//    Parts whose cells are disjoint share one build (partBuilds, which says
+//    why at most one may be open, and why its cells are whole root cells;
+//    a closed part's cells: the elements of the ownership level,
+//    kOwnershipLevel below the root cells, that meet its box): a part's
+//    triangles meet only its cells, and a closed part's parity is even on
+//    every line, so outside its box it adds nothing to another's inside test
+//    (nor decides an open part's: partBuilds), and it is constant on an
+//    element its triangles do not meet. On an element within one part's
+//    cells the shared build is that part's own build; outside all parts'
+//    cells it is Empty, as each part's own build (outside its box, a part is
+//    neither met nor inside); an element that spans several parts' cells is
+//    either Empty or a Branch (uniform and inside a part, it would lie
+//    within that part's cells), and no part claims it. So each element is
+//    claimed for its owner (ownerOfElement): the parts' own claims, as if
+//    built one by one.
 // 3. Full claims go down the union's tree; the leaf words are finished
 //    (inside where not surface); leaves of two claims or more get a rank per
 //    voxel, the best claim in the voxel's state (second pass over the parts,
@@ -22,6 +37,7 @@
 #include "session.hpp"
 #include "voxel_counts.hpp"
 
+#include "hdt/build_steps.hpp"
 #include "hdt/error.hpp"
 #include "hdt/host_memory.hpp"
 #include "hdt/labels.hpp"
@@ -29,6 +45,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <functional>
 #include <numeric>
 #include <stdexcept>
 #include <string>
@@ -45,13 +62,103 @@ struct Mismatch : std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-// What a part keeps on the device for the second pass.
+// What a part build keeps on the device for the second pass.
 struct PartOnDevice {
-  uint16_t rank = 0;
   uint32_t leaves = 0;
-  DeviceBuffer<uint32_t> words;   // its leaf words
-  DeviceBuffer<uint32_t> leafMap; // its leaf -> union leaf
+  DeviceBuffer<uint32_t> words;    // its leaf words
+  DeviceBuffer<uint32_t> leafMap;  // its leaf -> union leaf
+  DeviceBuffer<uint16_t> leafRank; // its leaf's part's rank
 };
+
+// Parts share builds on the cells of this level below the root cells (or
+// the leaf level, if higher): finer cells than the root cells separate more
+// small parts that lie close together (bench/results/labels-gpu.md).
+constexpr int kOwnershipLevel = 3;
+// At most this many parts share one build (each element looks through them).
+constexpr size_t kPartsPerBuild = 64;
+
+int ownershipLevel(const GridSpec& g) { return std::min(kOwnershipLevel, g.height); }
+
+// The cells [first, last] (per axis, of the ownership level) that a part's
+// triangles can meet: those of its lattice box (cellRange, as T1 and T2 find
+// a triangle's elements); with `wholeRootCells`, all cells of the root cells
+// that meet its box.
+PartCells cellsOf(const PreparedMesh& part, uint16_t rank, bool wholeRootCells) {
+  const GridSpec& g = part.grid;
+  const int level = ownershipLevel(g);
+  int64_t lo[3] = {INT64_MAX, INT64_MAX, INT64_MAX}, hi[3] = {INT64_MIN, INT64_MIN, INT64_MIN};
+  for (const LatticeTriangle& t : part.triangles) {
+    int64_t a[3], b[3];
+    triangleBounds(t, a, b);
+    for (int k = 0; k < 3; ++k) {
+      lo[k] = std::min(lo[k], a[k]);
+      hi[k] = std::max(hi[k], b[k]);
+    }
+  }
+  PartCells c;
+  for (int k = 0; k < 3; ++k) {
+    int64_t first = 0, last = 0;
+    if (wholeRootCells) {
+      cellRange(lo[k], hi[k], latticeOfVoxel(g.rootCellVoxels()), g.rootGrid, first, last);
+      first <<= level;
+      last = ((last + 1) << level) - 1;
+    } else {
+      cellRange(lo[k], hi[k], latticeOfVoxel(g.elementVoxels(level)), int64_t(g.rootGrid) << level, first, last);
+    }
+    c.first[k] = int32_t(first);
+    c.last[k] = int32_t(last);
+  }
+  c.rank = rank;
+  return c;
+}
+
+bool cellsMeet(const PartCells& a, const PartCells& b) {
+  for (int k = 0; k < 3; ++k)
+    if (a.last[k] < b.first[k] || b.last[k] < a.first[k]) return false;
+  return true;
+}
+
+// The part builds: the parts, first fit in input order, grouped so that the
+// parts of a group have disjoint cells, and at most one of them is open in a
+// solid build. An open part's parity may be odd outside its box, but there
+// on one ray axis at most (a point in the shadows of a box along two axes
+// lies in the box); a build with an open part takes the majority of three
+// axes, on which each closed part's parities agree, so one flipped axis
+// changes nothing (two open parts could flip two). A uniform element of an
+// open part's own build, classified at one corner, may reach outside its
+// box, but not outside the root cells that meet its box (its parent meets
+// the part, or it is a root cell whose corner lies in the box): an open
+// part's cells are those whole root cells, which no element spans.
+struct PartBuild {
+  std::vector<uint32_t> parts;
+  std::vector<PartCells> cells;
+  bool open = false; // has an open part (solid builds)
+};
+std::vector<PartBuild> partBuilds(const std::vector<PreparedMesh>& parts, const std::vector<uint16_t>& rank) {
+  std::vector<PartBuild> builds;
+  // Shared builds need kMixedOwners free: ranks stay below it.
+  const bool share = parts.size() < size_t(kMixedOwners);
+  for (uint32_t i = 0; i < parts.size(); ++i) {
+    const bool open = !parts[i].surfaceOnly && !parts[i].closed;
+    const PartCells cells = cellsOf(parts[i], rank[i], open);
+    PartBuild* into = nullptr;
+    for (PartBuild& b : builds) {
+      if (!share || (open && b.open) || b.parts.size() >= kPartsPerBuild) continue;
+      if (std::none_of(b.cells.begin(), b.cells.end(), [&](const PartCells& c) { return cellsMeet(c, cells); })) {
+        into = &b;
+        break;
+      }
+    }
+    if (!into) {
+      builds.emplace_back();
+      into = &builds.back();
+    }
+    into->open = into->open || open;
+    into->parts.push_back(i);
+    into->cells.push_back(cells);
+  }
+  return builds;
+}
 
 template <class T>
 void fill(Session& s, DeviceBuffer<T>& b, int byte) {
@@ -102,38 +209,63 @@ struct UnionState {
   DeviceBuffer<uint32_t> error;
 };
 
-// Step 2 for one part: build, map onto the union, fold in.
-PartOnDevice foldPart(Session& s, UnionState& u, const PreparedMesh& part, uint16_t rank) {
+// Step 2 for one part build: build, map onto the union, fold in.
+PartOnDevice foldPart(Session& s, UnionState& u, const std::vector<PreparedMesh>& parts, const PartBuild& b) {
   const GridSpec& g = s.grid;
   const uint64_t cells = uint64_t(g.rootGrid) * g.rootGrid * g.rootGrid;
-  DeviceBuffer<LatticeTriangle> tris(s.memory, part.triangles.size());
-  HDT_CUDA_CHECK(cudaMemcpyAsync(tris.data(), part.triangles.data(), tris.bytes(), cudaMemcpyHostToDevice,
-                                 s.stream.get()));
-  const DeviceMesh mesh{tris.data(), uint32_t(part.triangles.size())};
+  size_t count = 0;
+  bool closed = true;
+  for (uint32_t i : b.parts) {
+    count += parts[i].triangles.size();
+    closed = closed && parts[i].closed;
+  }
+  DeviceBuffer<LatticeTriangle> tris(s.memory, count);
+  size_t at = 0;
+  for (uint32_t i : b.parts) {
+    const PreparedMesh& p = parts[i];
+    HDT_CUDA_CHECK(cudaMemcpyAsync(tris.data() + at, p.triangles.data(), p.triangles.size() * sizeof(LatticeTriangle),
+                                   cudaMemcpyHostToDevice, s.stream.get()));
+    at += p.triangles.size();
+  }
+  PartOwners owners;
+  DeviceBuffer<PartCells> ownerCells;
+  if (b.parts.size() == 1) {
+    owners.rank = b.cells[0].rank;
+  } else {
+    ownerCells = DeviceBuffer<PartCells>(s.memory, b.cells.size());
+    HDT_CUDA_CHECK(cudaMemcpyAsync(ownerCells.data(), b.cells.data(), ownerCells.bytes(), cudaMemcpyHostToDevice,
+                                   s.stream.get()));
+    owners.parts = ownerCells.data();
+    owners.count = uint32_t(b.cells.size());
+    owners.level = ownershipLevel(g);
+  }
+  const DeviceMesh mesh{tris.data(), uint32_t(count)};
   RootMapping root = mapTrianglesToRootCells(s.memory, s.scalars, mesh, g, 0, cells, false);
-  DeviceVolume pv = buildOnDevice(s, mesh, part.closed, part.surfaceOnly, std::move(root));
+  DeviceVolume pv = buildOnDevice(s, mesh, closed, parts[b.parts[0]].surfaceOnly, std::move(root));
   const std::vector<uint64_t> start = levelStarts(pv.tree);
   const size_t h = size_t(g.height);
   if (pv.tree.levels.size() != h + 1 || pv.tree.levels[0].count != u.tree.tree.levels[0].count)
     throw Mismatch("a part's levels differ from the whole mesh's");
   PartOnDevice out;
-  out.rank = rank;
   out.leaves = pv.tree.leaves.count;
   out.leafMap = DeviceBuffer<uint32_t>(s.memory, out.leaves);
+  out.leafRank = DeviceBuffer<uint16_t>(s.memory, out.leaves);
   const CombineError e{u.error.data()};
   DeviceBuffer<uint32_t> map;
   for (size_t k = 0; k <= h; ++k) {
     DeviceBuffer<uint32_t> next;
     if (k < h) next = DeviceBuffer<uint32_t>(s.memory, pv.tree.levels[k + 1].count);
-    mapPartLevel(s.stream.get(), pv.tree.levels[k].words.data(), pv.tree.levels[k].count, start[k + 1],
+    const Level& lv = pv.tree.levels[k];
+    mapPartLevel(s.stream.get(), lv.words.data(), lv.coords.data(), lv.count, int(k), start[k + 1],
                  k == 0 ? nullptr : map.data(), u.tree.tree.levels[k].words.data(), u.start[k], u.start[k + 1],
-                 k < h ? next.data() : nullptr, k == h ? out.leafMap.data() : nullptr, rank, u.fullRank.data(), e);
+                 k < h ? next.data() : nullptr, k == h ? out.leafMap.data() : nullptr,
+                 k == h ? out.leafRank.data() : nullptr, owners, u.fullRank.data(), e);
     map = std::move(next);
   }
   orPartLeaves(s.stream.get(), pv.words.data(), out.leaves, leafWordCount(g.leafSize), out.leafMap.data(),
-               u.acc.data(), u.claimCount.data(), u.claimRank.data(), rank);
+               out.leafRank.data(), u.acc.data(), u.claimCount.data(), u.claimRank.data());
   out.words = std::move(pv.words);
-  s.sync(); // the part's tree and triangles go back to the pool now
+  s.sync(); // the part's tree and triangles go back to the pool now (b.cells is read by then)
   return out;
 }
 
@@ -229,7 +361,7 @@ Volume combineOnDevice(Session& s, UnionState& u, std::vector<PartOnDevice>& par
   fill(s, voxelRanks, 0xFF);
   for (const PartOnDevice& p : parts)
     partVoxelRanks(st, p.words.data(), p.leaves, W, p.leafMap.data(), u.claimCount.data(), multiIndex.data(),
-                   u.acc.data(), voxelRanks.data(), p.rank);
+                   u.acc.data(), voxelRanks.data(), p.leafRank.data());
   inheritedVoxelRanks(st, leaves, W, u.claimCount.data(), multiIndex.data(), u.leafInherited.data(), u.acc.data(),
                       voxelRanks.data());
   lap("voxel ranks");
@@ -285,17 +417,39 @@ Volume combineOnDevice(Session& s, UnionState& u, std::vector<PartOnDevice>& par
   return v;
 }
 
+bool sameGrid(const GridSpec& a, const GridSpec& b) {
+  return a.resolution == b.resolution && a.rootGrid == b.rootGrid && a.leafSize == b.leafSize &&
+         a.height == b.height && a.origin == b.origin && a.voxelSize == b.voxelSize;
+}
+
+// Why the device path does not apply to these parts (empty: it does).
+std::string notApplicable(const PreparedMesh& whole, const std::vector<PreparedMesh>& parts,
+                          const std::vector<Label>& partLabels) {
+  if (parts.empty() || parts.size() != partLabels.size() || parts.size() > kNoRank) return "no parts";
+  for (const PreparedMesh& p : parts) {
+    if (p.triangles.empty()) return "a part has no triangles";
+    if (!p.surfaceOnly && p.insideTest == InsideTest::WindingNumber) return "a part uses the winding number";
+    if (p.surfaceOnly != parts[0].surfaceOnly || !sameGrid(p.grid, whole.grid)) return "the parts are not on one grid";
+  }
+  return "";
+}
+
 Volume buildLabelled(const PreparedMesh& whole, const std::vector<PreparedMesh>& parts,
-                     const std::vector<Label>& partLabels, const LabelOptions& labels, const BuildOptions& options) {
+                     const std::vector<Label>& partLabels, const LabelOptions& labels, const BuildOptions& options,
+                     const std::function<void()>& partsReady) {
   const auto wall0 = Clock::now();
   const GridSpec& g = whole.grid;
   const uint64_t cells = uint64_t(g.rootGrid) * g.rootGrid * g.rootGrid;
-  // Progress: the whole mesh, each part, the combination.
-  double stage = 0;
-  const double stages = double(parts.size() + 2);
+  // Progress: the whole mesh (the first tenth: the number of part builds
+  // is known only after it), then each part build and the combination.
+  constexpr double kWholeShare = 0.1;
+  double stage = 0, stages = 0; // stages: part builds + 1, once known
   BuildOptions wrapped = options;
   if (options.progress)
-    wrapped.progress = [&](double f, const char* phase) { return options.progress((stage + f) / stages, phase); };
+    wrapped.progress = [&](double f, const char* phase) {
+      const double x = stages == 0 ? kWholeShare * f : kWholeShare + (1 - kWholeShare) * (stage - 1 + f) / stages;
+      return options.progress(x, phase);
+    };
   Session s(whole, wrapped);
   uploadTriangles(s);
 
@@ -305,6 +459,14 @@ Volume buildLabelled(const PreparedMesh& whole, const std::vector<PreparedMesh>&
     u.tree = buildOnDevice(s, s.deviceMesh, true, true, std::move(root));
   }
   s.triangles = DeviceBuffer<LatticeTriangle>();
+  if (partsReady) partsReady(); // the parts, prepared on the host meanwhile
+  const std::string why = notApplicable(whole, parts, partLabels);
+  if (!why.empty()) throw Mismatch(why);
+  std::vector<uint16_t> labelOfRank;
+  const std::vector<uint16_t> rank = ranksOf(partLabels, labels, labelOfRank);
+  const std::vector<PartBuild> builds = partBuilds(parts, rank);
+  stages = double(builds.size() + 1);
+  stage = 1;
   s.sync();
   const auto parts0 = Clock::now();
   u.start = levelStarts(u.tree.tree);
@@ -321,15 +483,13 @@ Volume buildLabelled(const PreparedMesh& whole, const std::vector<PreparedMesh>&
   fill(s, u.claimRank, 0xFF);
   fill(s, u.error, 0);
 
-  std::vector<uint16_t> labelOfRank;
-  const std::vector<uint16_t> rank = ranksOf(partLabels, labels, labelOfRank);
   std::vector<PartOnDevice> onDevice;
-  onDevice.reserve(parts.size());
-  for (size_t i = 0; i < parts.size(); ++i) {
+  onDevice.reserve(builds.size());
+  for (size_t i = 0; i < builds.size(); ++i) {
     stage = double(i + 1);
-    onDevice.push_back(foldPart(s, u, parts[i], rank[i]));
+    onDevice.push_back(foldPart(s, u, parts, builds[i]));
   }
-  stage = stages - 1;
+  stage = stages;
   s.progress(0.0, "combining labels");
   s.sync();
   const auto combine0 = Clock::now();
@@ -367,7 +527,8 @@ Volume buildLabelled(const PreparedMesh& whole, const std::vector<PreparedMesh>&
     const auto ms = [](Clock::time_point a, Clock::time_point b) {
       return std::to_string(int(std::chrono::duration<double, std::milli>(b - a).count()));
     };
-    options.log("CUDA labelled build: " + std::to_string(parts.size()) + " parts combined on the device: " +
+    options.log("CUDA labelled build: " + std::to_string(parts.size()) + " parts in " +
+                std::to_string(builds.size()) + " part builds combined on the device: " +
                 ms(wall0, combine0) + " ms the whole mesh and the parts (" + ms(wall0, parts0) + " + " +
                 ms(parts0, combine0) + "), " + ms(combine0, finish0) + " ms the combination and the copy back (" +
                 std::to_string(s.copyBackBytes >> 20) + " MiB in " + std::to_string(int(s.copyBackMs)) + " ms), " +
@@ -377,28 +538,18 @@ Volume buildLabelled(const PreparedMesh& whole, const std::vector<PreparedMesh>&
   return v;
 }
 
-bool sameGrid(const GridSpec& a, const GridSpec& b) {
-  return a.resolution == b.resolution && a.rootGrid == b.rootGrid && a.leafSize == b.leafSize &&
-         a.height == b.height && a.origin == b.origin && a.voxelSize == b.voxelSize;
-}
 
 } // namespace
 
 bool buildLabelledCuda(const PreparedMesh& whole, const std::vector<PreparedMesh>& parts,
                        const std::vector<Label>& partLabels, const LabelOptions& labels, const BuildOptions& options,
-                       Volume& out) {
+                       Volume& out, const std::function<void()>& partsReady) {
   const auto skip = [&](const std::string& why) {
     if (options.log) options.log("CUDA labelled build: per-part builds combined on the host (" + why + ")");
     return false;
   };
-  if (parts.empty() || parts.size() != partLabels.size() || parts.size() > kNoRank) return skip("no parts");
-  for (const PreparedMesh& p : parts) {
-    if (p.triangles.empty()) return skip("a part has no triangles");
-    if (!p.surfaceOnly && p.insideTest == InsideTest::WindingNumber) return skip("a part uses the winding number");
-    if (p.surfaceOnly != parts[0].surfaceOnly || !sameGrid(p.grid, whole.grid)) return skip("the parts are not on one grid");
-  }
   try {
-    out = buildLabelled(whole, parts, partLabels, labels, options);
+    out = buildLabelled(whole, parts, partLabels, labels, options, partsReady);
     return true;
   } catch (const Mismatch& e) {
     return skip(e.what());

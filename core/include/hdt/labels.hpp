@@ -26,6 +26,7 @@
 #include "hdt/volume.hpp"
 
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -70,10 +71,13 @@ Volume voxelizeLabelled(const TriangleMesh& mesh, const BuildConfig& config, con
 // number, a part without triangles, not enough device memory for all parts
 // at once, or, which one lattice rules out, part trees that are not subtrees
 // of the whole's): the caller then combines per-part builds on the host.
-// Without the CUDA driver it always returns false.
+// partsReady, when given, is called once the whole mesh's tree is built,
+// before `parts` and `partLabels` are first read: the caller may prepare
+// them meanwhile (it must wait for them itself too, as the call may end
+// before, by an exception). Without the CUDA driver it always returns false.
 bool buildLabelledCuda(const PreparedMesh& whole, const std::vector<PreparedMesh>& parts,
                        const std::vector<Label>& partLabels, const LabelOptions& labels, const BuildOptions& options,
-                       Volume& out);
+                       Volume& out, const std::function<void()>& partsReady = {});
 
 // The combination step on its own: `parts` are built on one grid (same
 // GridSpec, surface-only flag), partLabels[i] >= 1 is the label of parts[i],
