@@ -17,8 +17,6 @@
 
 #include <algorithm>
 #include <chrono>
-#include <cstdio>
-#include <cstdlib>
 #include <string>
 #include <thread>
 
@@ -86,12 +84,6 @@ double applyInsideTestOnDevice(const PreparedMesh& mesh, Volume& v, const BuildO
     }
     return ran;
   };
-  if (std::getenv("HDT_WINDING_TRACE") && !mesh.surfaceOnly && mesh.insideTest == InsideTest::WindingNumber) {
-    const auto t0 = Clock::now();
-    const WindingTree tree = buildWindingTree(mesh.triangles);
-    std::fprintf(stderr, "winding trace: tree build %.3f ms (%zu nodes, %zu edges)\n", msSince(t0), tree.nodes.size(),
-                 tree.edges.size());
-  }
   const double windingMs = applyInsideTest(mesh, v, leafPass, uniformPass, freshPass);
   if (options.log && windingMs > 0)
     options.log("CUDA driver: winding pass " + std::to_string(msSince(windingStart)) + " ms, of which host tree + walk " +

@@ -33,15 +33,14 @@
 
 #include <cub/device/device_radix_sort.cuh>
 #include <cub/device/device_select.cuh>
+#include <tbb/parallel_for.h>
 
 #include <algorithm>
-#include <atomic>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <memory>
 #include <new>
-#include <thread>
 #include <utility>
 
 namespace hdt {
@@ -268,6 +267,13 @@ __global__ void freshCountsKernel(WindingTreeView t, const LeafOrigin* origins, 
 constexpr uint32_t kSeenOutside = 1, kSeenInside = 2, kSeenBoth = 3, kQueueFull = 4;
 constexpr uint32_t kNoJob = 0xFFFFFFFFu;
 constexpr uint32_t kUniformQueue = 1u << 23; // boxes per level (at least twice the jobs)
+
+// A queue's least capacity in boxes: `standard`, or HDT_WINDING_QUEUE_BOXES
+// (for tests: small enough that the queues overflow and the fallbacks run).
+uint32_t leastQueueBoxes(uint32_t standard) {
+  const char* boxes = std::getenv("HDT_WINDING_QUEUE_BOXES");
+  return boxes ? uint32_t(std::strtoul(boxes, nullptr, 10)) : standard;
+}
 
 struct QueuedBox {
   VoxelBox box;
@@ -566,11 +572,11 @@ private:
 uint64_t decideLeavesBreadthFirst(const WindingTreeView& t, const LeafOrigin* origins, uint32_t leaves, int L,
                                   const int16_t* counts, uint8_t* fits, uint32_t* words, QueueMemory& memory,
                                   std::vector<uint2>& hard) {
-  const uint32_t capacity = std::max<uint32_t>(2 * leaves, kLeafQueue);
+  const uint32_t capacity = std::max<uint32_t>(2 * leaves, leastQueueBoxes(kLeafQueue));
   Array<uint32_t> outCount(1), hardCount(1);
   Array<uint2> hardItems(kHardVoxels);
   hardCount.zero();
-  static const bool allHard = std::getenv("HDT_WINDING_HOST_VOXELS") != nullptr;
+  const bool allHard = std::getenv("HDT_WINDING_HOST_VOXELS") != nullptr;
   auto [in, out] = memory.queues<LeafBox>(capacity);
   firstLeafBoxesKernel<<<blocks(leaves), kBlock>>>(leaves, L, fits, in);
   checkLaunch("firstLeafBoxesKernel");
@@ -605,21 +611,13 @@ void decideHardVoxels(const WindingTreeView& t, const std::vector<std::array<int
                       const std::vector<uint2>& hard, const std::vector<uint8_t>& fits, uint32_t* words) {
   if (hard.empty()) return;
   std::vector<uint8_t> inside(hard.size(), 0);
-  std::atomic<size_t> next{0};
-  auto work = [&] {
-    for (size_t i; (i = next.fetch_add(1)) < hard.size();) {
-      const uint32_t leaf = hard[i].x, v = hard[i].y, uL = uint32_t(L);
-      if (!fits[leaf]) continue;
-      const std::array<int, 3>& o = origins[leaf];
-      inside[i] = windingInsideAt(t, o[0] + double(v % uL) + 0.5, o[1] + double((v / uL) % uL) + 0.5,
-                                  o[2] + double(v / (uL * uL)) + 0.5);
-    }
-  };
-  const unsigned threads = std::min<size_t>(std::max(1u, std::thread::hardware_concurrency()), hard.size());
-  std::vector<std::thread> pool;
-  for (unsigned k = 1; k < threads; ++k) pool.emplace_back(work);
-  work();
-  for (std::thread& th : pool) th.join();
+  tbb::parallel_for(size_t(0), hard.size(), [&](size_t i) {
+    const uint32_t leaf = hard[i].x, v = hard[i].y, uL = uint32_t(L);
+    if (!fits[leaf]) return;
+    const std::array<int, 3>& o = origins[leaf];
+    inside[i] = windingInsideAt(t, o[0] + double(v % uL) + 0.5, o[1] + double((v / uL) % uL) + 0.5,
+                                o[2] + double(v / (uL * uL)) + 0.5);
+  });
   for (size_t i = 0; i < hard.size(); ++i)
     if (inside[i]) {
       const uint32_t v = hard[i].y;
@@ -760,7 +758,7 @@ bool WindingDevicePass::uniform(const WindingTree& tree, const std::vector<Windi
     d.upload(jobs.data());
     Array<uint32_t> seen(jobs.size()), outCount(1);
     seen.zero();
-    const uint32_t capacity = std::max<uint32_t>(2 * count, kUniformQueue);
+    const uint32_t capacity = std::max<uint32_t>(2 * count, leastQueueBoxes(kUniformQueue));
     auto [in, out] = impl_->queues.queues<QueuedBox>(capacity);
     firstBoxesKernel<<<blocks(count), kBlock>>>(d.data(), count, in);
     checkLaunch("firstBoxesKernel");

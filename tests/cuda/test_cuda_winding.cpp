@@ -18,7 +18,9 @@
 
 #include <cstdlib>
 #include <fstream>
+#include <regex>
 #include <string>
+#include <vector>
 
 namespace hdt {
 namespace test {
@@ -138,6 +140,47 @@ TEST(CudaWindingRefined, TeapotSameBytesAsCpu) {
   const Volume gpu = build(mesh, cudaOptions());
   EXPECT_GT(gpu.stats.windingRefinedElements, 0u);
   EXPECT_TRUE(sameVolume(gpu, build(mesh, cpuOptions())));
+}
+
+// The device pass's fallbacks (winding_device.cu), forced through its test
+// switches: box queues that overflow (elements to the serial walk, leaves to
+// the host) and every single leaf voxel decided on the host.
+class ScopedEnv {
+public:
+  ScopedEnv(const char* name, const char* value) : name_(name) { setenv(name, value, 1); }
+  ~ScopedEnv() { unsetenv(name_); }
+
+private:
+  const char* name_;
+};
+
+// The numbers that `pattern`'s first group matches in the log lines, summed.
+uint64_t loggedCount(const std::vector<std::string>& lines, const std::string& pattern) {
+  const std::regex re(pattern);
+  uint64_t sum = 0;
+  std::smatch m;
+  for (const std::string& l : lines)
+    if (std::regex_search(l, m, re)) sum += std::stoull(m[1].str());
+  return sum;
+}
+
+TEST(CudaWindingFallbacks, SameBytesWhenQueuesOverflowOrVoxelsGoToTheHost) {
+  HDT_REQUIRE_CUDA();
+  for (const char* variable : {"HDT_WINDING_QUEUE_BOXES", "HDT_WINDING_HOST_VOXELS"}) {
+    const ScopedEnv forced(variable, "1");
+    uint64_t leftLeaves = 0, hostVoxels = 0;
+    for (const WindingShape& s : windingShapes()) {
+      const PreparedMesh mesh = prepareMesh(s.mesh, config(128, 4, 16, InsideTest::WindingNumber));
+      std::vector<std::string> log;
+      BuildOptions o = cudaOptions();
+      o.log = [&](const std::string& line) { log.push_back(line); };
+      EXPECT_TRUE(sameVolume(build(mesh, o), build(mesh, cpuOptions()))) << s.name << " " << variable;
+      leftLeaves += loggedCount(log, "([0-9]+) of [0-9]+ leaves left to the host");
+      hostVoxels += loggedCount(log, "([0-9]+) voxels on the host");
+    }
+    if (std::string(variable) == "HDT_WINDING_QUEUE_BOXES") EXPECT_GT(leftLeaves, 0u) << "no queue overflowed";
+    if (std::string(variable) == "HDT_WINDING_HOST_VOXELS") EXPECT_GT(hostVoxels, 0u) << "no voxel went to the host";
+  }
 }
 
 INSTANTIATE_TEST_SUITE_P(Files, CudaWindingShared,
