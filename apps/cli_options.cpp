@@ -60,11 +60,12 @@ std::string usageText() {
          "  --threads T      CPU threads, at most " + std::to_string(kMaxCpuThreads) +
          " (default 0: all cores)\n"
          "  --surface-only   mark surface voxels only; skip inside/outside classification\n"
-         "  --inside-test T  parity, winding or auto (default " + std::string(insideTestName(defaults.insideTest)) +
-         "): ray parity\n"
-         "                   (exact for closed meshes), the generalized winding number (inside\n"
-         "                   where w >= 1/2, exact at every voxel centre), or auto: parity for\n"
-         "                   closed meshes, winding for open ones\n"
+         "  --inside-test T  auto, parity or winding (default " + std::string(insideTestName(defaults.insideTest)) +
+         "): auto: ray parity\n"
+         "                   for closed meshes (exact), the winding number for open ones;\n"
+         "                   parity: ray parity always (open meshes: a heuristic); winding: the\n"
+         "                   generalized winding number (inside where w >= 1/2, exact at every\n"
+         "                   voxel centre) always\n"
          "  -o OUT.hdt       write the volume as an .hdt file (checked before the build,\n"
          "                   replaced atomically; never the input mesh)\n"
          "  --dense OUT.nrrd write a dense N^3 uint8 NRRD (0 outside, 1 inside, 2 surface; N <= 1024)\n"

@@ -108,9 +108,9 @@ public:
   ///@{
   /**
    * How inside voxels are told from outside ones (hdt::InsideTest):
-   * INSIDE_TEST_AUTO: exact ray parity for closed meshes, the
-   * generalized winding number (inside where w >= 1/2) for open ones;
-   * INSIDE_TEST_PARITY (default, as hdt::BuildConfig): ray parity always (open meshes: the majority of the
+   * INSIDE_TEST_AUTO (default, as hdt::BuildConfig): exact ray parity for closed
+   * meshes, the generalized winding number (inside where w >= 1/2) for open ones;
+   * INSIDE_TEST_PARITY: ray parity always (open meshes: the majority of the
    * +x, +y, +z parities, a heuristic; a warning says so);
    * INSIDE_TEST_WINDING: the winding number always. The field arrays
    * InsideTest and InsideTestReason say which ran and why.
@@ -276,7 +276,7 @@ protected:
   int LeafGridSize = 16;
   int Backend = BACKEND_AUTO;
   vtkTypeBool SurfaceOnly = false;
-  int InsideTest = INSIDE_TEST_PARITY;
+  int InsideTest = INSIDE_TEST_AUTO;
   int MaxDepth = -2;
   vtkTypeBool MaskOutside = false;
   int Threads = 0;

@@ -210,6 +210,13 @@ TEST(RangeExchange, WindingNumberBuildsAreNotDistributed) {
     EXPECT_EQ(e.kind(), hdt::ErrorKind::InvalidArgument);
     EXPECT_NE(std::string(e.what()).find("winding-number"), std::string::npos);
   }
+  mesh.requestedInsideTest = hdt::InsideTest::Auto; // the default on an open mesh: the error says why
+  try {
+    hdt::requireDistributable(mesh);
+    FAIL() << "an Auto build of an open mesh was accepted across ranks";
+  } catch (const hdt::Error& e) {
+    EXPECT_NE(std::string(e.what()).find("Auto inside test picked the winding number"), std::string::npos) << e.what();
+  }
   mesh.surfaceOnly = true; // no inside test runs
   EXPECT_NO_THROW(hdt::requireDistributable(mesh));
 }

@@ -61,6 +61,7 @@ TEST_P(SharedMesh, CpuBuildMatchesReference) {
   config.resolution = c.n;
   config.rootGrid = c.r;
   config.leafSize = c.l;
+  config.insideTest = InsideTest::Parity; // the reference's rules (open meshes: 3-axis majority)
   const PreparedMesh prepared = prepareMesh(mesh, config);
   const ReferenceVoxels ref = referenceVoxelize(prepared, false);
   if (prepared.closed) {

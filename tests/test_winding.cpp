@@ -177,6 +177,25 @@ TEST(WindingBuild, ClosedShapesEqualParity) {
   }
 }
 
+// Auto is the default (issue 16): a default config decides an open mesh by the
+// winding number and a closed one by exact parity, byte for byte as asked.
+TEST(WindingBuild, DefaultIsAuto) {
+  BuildConfig d;
+  EXPECT_EQ(d.insideTest, InsideTest::Auto);
+  d.resolution = 64;
+  d.rootGrid = 4;
+  d.leafSize = 8;
+  const TriangleMesh open = windingShapes()[0].mesh, closed = icosphere(2, 1.0);
+  const PreparedMesh openDefault = prepareMesh(open, d), closedDefault = prepareMesh(closed, d);
+  EXPECT_EQ(openDefault.requestedInsideTest, InsideTest::Auto);
+  EXPECT_EQ(openDefault.insideTest, InsideTest::WindingNumber);
+  EXPECT_EQ(closedDefault.insideTest, InsideTest::Parity);
+  expectSameBytes(buildWith(openDefault), buildWith(prepareMesh(open, windingConfig(64, InsideTest::WindingNumber))),
+                  "open, default");
+  expectSameBytes(buildWith(closedDefault), buildWith(prepareMesh(closed, windingConfig(64, InsideTest::Parity))),
+                  "closed, default");
+}
+
 TEST(WindingBuild, AutoIsParityWhenClosedAndWindingWhenOpen) {
   const PreparedMesh closed = prepareMesh(icosphere(2, 1.0), windingConfig(64, InsideTest::Auto));
   const PreparedMesh open = prepareMesh(windingShapes()[0].mesh, windingConfig(64, InsideTest::Auto));

@@ -8,6 +8,7 @@
 #include "hdt/builder.hpp"
 #include "hdt/mesh_io.hpp"
 #include "hdt/volume_walk.hpp"
+#include "hdt/winding_far.hpp"
 #include "hdt/winding_leaf.hpp"
 #include "hdt/winding_tree.hpp"
 #include "support/mesh_files.hpp"
@@ -16,6 +17,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 #include <utility>
@@ -55,7 +57,7 @@ ParityBuild parityBuild(const TriangleMesh& mesh, int n, int leafSize) {
 // Decides every leaf of a parity build by windingDecideLeaf with per-voxel
 // ray counts. Judges the voxels whose x + y + z is a multiple of `stride`
 // (large meshes).
-LeafCheck checkLeaves(const TriangleMesh& mesh, int n, int leafSize, int stride = 1) {
+LeafCheck checkLeaves(const TriangleMesh& mesh, int n, int leafSize, int stride = 1, bool linear = false) {
   const ParityBuild b = parityBuild(mesh, n, leafSize);
   const PreparedMesh& m = b.mesh;
   const Volume& v = b.volume;
@@ -78,7 +80,11 @@ LeafCheck checkLeaves(const TriangleMesh& mesh, int n, int leafSize, int stride 
           if (view.voxel(x, y, z) != VoxelState::Surface) EXPECT_TRUE(windingRayCrossings(t, P, N));
           counts[size_t(x + L * (y + L * z))] = int16_t(N);
         }
-    windingDecideLeaf(t, L, e.origin.data(), surface, counts.data(), words.data());
+    if (linear) {
+      windingDecideLeafLinear(t, L, e.origin.data(), surface, counts.data(), words.data());
+    } else {
+      windingDecideLeaf(t, L, e.origin.data(), surface, counts.data(), words.data());
+    }
     const LeafView decided{words.data(), L};
     for (int z = 0; z < L; ++z)
       for (int y = 0; y < L; ++y)
@@ -164,6 +170,55 @@ uint64_t checkFarGradientBounds(const TriangleMesh& mesh, int n, int leafSize) {
   return compared;
 }
 
+// The far part to first order (winding_far.hpp) against K_far itself: over
+// every anchor box, K_far at each voxel centre lies within the expansion's
+// stray of K_far(c) + g . (p - c). Pins the field's sign (kWindingFieldSign):
+// with the other sign the linear term points the wrong way. Returns the
+// number of voxel centres compared.
+uint64_t checkFarExpansions(const TriangleMesh& mesh, int n, int leafSize) {
+  const ParityBuild b = parityBuild(mesh, n, leafSize);
+  const Volume& v = b.volume;
+  const WindingTreeView t = b.tree.view();
+  const int L = v.grid.leafSize, M = std::min(kWindingLinearAnchorBox, L);
+  uint64_t compared = 0;
+  double worst = 0; // the largest |error| / stray seen
+  walkVolume(v, int(v.levelStart.size()) - 2, [&](const WalkedElement& e) {
+    if (e.state() != ElementState::Boundary) return true;
+    double lo[3], hi[3];
+    windingBoxCentres(e.origin.data(), VoxelBox{{0, 0, 0}, {L, L, L}}, lo, hi);
+    WindingLeafSplit split;
+    WindingFarLeaf far;
+    if (!windingSplitEdges(t, lo, hi, L, split) || 4 * uint32_t(split.nearCount) >= t.edgeCount ||
+        !windingFarLeaf(t, split, lo, hi, far))
+      return true;
+    for (int az = 0; az < L; az += M)
+      for (int ay = 0; ay < L; ay += M)
+        for (int ax = 0; ax < L; ax += M) {
+          double alo[3], ahi[3];
+          windingBoxCentres(e.origin.data(), VoxelBox{{ax, ay, az}, {ax + M, ay + M, az + M}}, alo, ahi);
+          WindingFarExpansion x;
+          if (!windingFarExpansion(t, split, far, alo, ahi, x)) continue;
+          for (int z = 0; z < M; ++z)
+            for (int y = 0; y < M; ++y)
+              for (int xx = 0; xx < M; ++xx) {
+                const double p[3] = {alo[0] + xx, alo[1] + y, alo[2] + z};
+                double K = 0, error = 0;
+                if (!windingPartStripSum(t, split, false, p, K, error)) continue;
+                double value = 0, stray = 0;
+                windingFarOverBox(x, p, p, value, stray);
+                EXPECT_LE(std::fabs(K - value), stray + error)
+                    << "leaf at " << e.origin[0] << "," << e.origin[1] << "," << e.origin[2] << ", voxel " << p[0]
+                    << "," << p[1] << "," << p[2];
+                worst = std::max(worst, std::fabs(K - value) / (stray + error));
+                ++compared;
+              }
+        }
+    return true;
+  });
+  ::testing::Test::RecordProperty("worst_error_over_stray", std::to_string(worst));
+  return compared;
+}
+
 class WindingLeafShape : public ::testing::TestWithParam<int> {};
 
 // The generated shapes of the winding suites (open rims through leaves,
@@ -200,6 +255,26 @@ TEST(WindingLeaf, FarGradientBoundHoldsBesideTheOpenEnds) {
         if (flip) q[axis] = -q[axis];
       }
       compared += checkFarGradientBounds(h, 64, 8);
+    }
+  EXPECT_GT(compared, 1000u);
+}
+
+// The first-order far part on the same hemispheres, and leaves decided with
+// it (windingDecideLeafLinear, the CPU driver's) against the brute force.
+TEST(WindingLeaf, FarExpansionHoldsBesideTheOpenEnds) {
+  uint64_t compared = 0;
+  for (int axis = 0; axis < 3; ++axis)
+    for (int flip = 0; flip < 2; ++flip) {
+      TriangleMesh h = uvHemisphere(12, 96, 1.0);
+      for (size_t i = 0; i < h.pointCount(); ++i) {
+        double* q = &h.points[3 * i];
+        std::swap(q[2], q[axis]);
+        if (flip) q[axis] = -q[axis];
+      }
+      compared += checkFarExpansions(h, 64, 8);
+      const LeafCheck c = checkLeaves(h, 64, 8, 1, true); // w = 1/2 exactly on the symmetry planes: ties
+      EXPECT_EQ(c.wrong, 0u);
+      EXPECT_GT(c.judged, 1000u);
     }
   EXPECT_GT(compared, 1000u);
 }
@@ -241,6 +316,8 @@ TEST(WindingLeaf, TeapotAt256NearAndFarEdges) {
   const std::string path = sharedMeshPath("teapot.obj", &why);
   if (path.empty()) GTEST_SKIP() << why;
   expectAllMatch(checkLeaves(readMesh(path), 256, 8, 41), "teapot 256");
+  expectAllMatch(checkLeaves(readMesh(path), 256, 8, 41, true), "teapot 256, first order");
+  EXPECT_GT(checkFarExpansions(readMesh(path), 256, 8), 1000u);
 }
 
 class WindingLeafSharedMesh : public ::testing::TestWithParam<const char*> {};
@@ -251,6 +328,7 @@ TEST_P(WindingLeafSharedMesh, EveryLeafVoxelMatchesBruteForce) {
   if (path.empty()) GTEST_SKIP() << why;
   const bool large = std::string(GetParam()) == "ogre.obj"; // 10x the teapot's triangles
   expectAllMatch(checkLeaves(readMesh(path), 64, 8, large ? 17 : 1), GetParam());
+  expectAllMatch(checkLeaves(readMesh(path), 64, 8, large ? 17 : 1, true), GetParam());
 }
 
 INSTANTIATE_TEST_SUITE_P(Files, WindingLeafSharedMesh, ::testing::Values("teapot.obj", "ogre.obj"),

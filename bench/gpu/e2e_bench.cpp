@@ -144,6 +144,7 @@ int main(int argc, char** argv) {
     BuildConfig config;
     config.resolution = a.res;
     config.surfaceOnly = a.surfaceOnly;
+    config.insideTest = InsideTest::Parity; // comparable with the earlier runs (Auto is the default since)
     BuildOptions options;
     options.backend = a.cuda ? Backend::Cuda : Backend::Cpu;
     if (a.cuda) setCudaPoolRetention(UINT64_MAX); // the warm check reuses the pool

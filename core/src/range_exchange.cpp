@@ -137,10 +137,13 @@ RangeTree placeholder(const GridSpec& g, RootRange cells) {
 } // namespace
 
 void requireDistributable(const PreparedMesh& mesh) {
-  if (!mesh.surfaceOnly && mesh.insideTest == InsideTest::WindingNumber)
-    throw Error(ErrorKind::InvalidArgument,
-                "the winding-number inside test does not run across MPI ranks yet: choose Parity "
-                "(or Auto on a closed mesh), or build in one process");
+  if (mesh.surfaceOnly || mesh.insideTest != InsideTest::WindingNumber) return;
+  const std::string why = mesh.requestedInsideTest == InsideTest::Auto
+                              ? "the mesh is open, so the Auto inside test picked the winding number, which"
+                              : "the winding-number inside test";
+  throw Error(ErrorKind::InvalidArgument,
+              why + " does not run across MPI ranks yet: choose Parity (a heuristic on open meshes), "
+                    "or build in one process");
 }
 
 std::vector<uint8_t> packBoundary(const RangeBoundary& b, int rowWords) {

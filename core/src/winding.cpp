@@ -7,6 +7,7 @@
 #include "hdt/mesh.hpp"
 #include "hdt/volume.hpp"
 #include "hdt/volume_walk.hpp"
+#include "hdt/winding_far.hpp"
 #include "hdt/winding_leaf.hpp"
 
 #include <algorithm>
@@ -402,6 +403,38 @@ void classifyLeaf(const WindingTreeView& t, uint32_t* words, int L, const std::a
   if (count < 0 || !allDecided) decideLeafVoxels(t, words, L, origin, decided);
 }
 
+// A fresh leaf (a child of a refined uniform element: no surface voxel) by
+// windingDecideLeaf, as the volume's leaves: N at each row's last voxel
+// centre by one ray walk (windingRayCrossings), the rest of the row from the
+// leaf's own crossings (a crossing with `before` = L lies ahead of the last
+// centre, so its walk counted it). False when a centre lies on a triangle or
+// a count does not fit 16 bits (then classifyLeaf).
+bool decideFreshLeaf(const WindingTreeView& t, uint32_t* words, int L, const std::array<int, 3>& origin) {
+  thread_local std::vector<int32_t> wide;
+  thread_local std::vector<int16_t> counts;
+  const size_t n = size_t(L) * size_t(L) * size_t(L);
+  wide.resize(n);
+  counts.resize(n);
+  for (int z = 0; z < L; ++z)
+    for (int y = 0; y < L; ++y) {
+      const int64_t P[3] = {latticeOfVoxelCentre(origin[0] + L - 1), latticeOfVoxelCentre(origin[1] + y),
+                            latticeOfVoxelCentre(origin[2] + z)};
+      int count = 0;
+      if (!windingRayCrossings(t, P, count)) return false;
+      std::fill_n(wide.data() + size_t(y + L * z) * size_t(L), L, count);
+    }
+  windingForEachLeafCrossing(t, origin.data(), L, [&](int row, int before, int sign) {
+    if (before >= L) return;
+    for (int x = 0; x < before; ++x) wide[size_t(row) * size_t(L) + size_t(x)] += sign;
+  });
+  for (size_t v = 0; v < n; ++v) {
+    if (wide[v] < INT16_MIN || wide[v] > INT16_MAX) return false;
+    counts[v] = int16_t(wide[v]);
+  }
+  windingDecideLeafLinear(t, L, origin.data(), words, counts.data(), words);
+  return true;
+}
+
 // A uniform element's verdict: inside, or split when its voxel centres lie
 // on both sides of w = 1/2 (then it must be refined).
 struct UniformVerdict {
@@ -567,7 +600,7 @@ uint64_t refineSplitElements(const WindingTree& tree, Volume& v, const std::vect
       std::copy_n(freshWords.data() + f * wc, wc, to);
     } else {
       std::fill_n(to, wc, 0u);
-      classifyLeaf(t, to, L, freshLeaves[f]);
+      if (!decideFreshLeaf(t, to, L, freshLeaves[f])) classifyLeaf(t, to, L, freshLeaves[f]);
     }
   });
   v.elements = std::move(elements);
@@ -641,7 +674,7 @@ void classifyLeavesByCrossings(const WindingTree& tree, Volume& volume,
       classifyLeaf(t, words, L, origins[leaf]);
       return;
     }
-    windingDecideLeaf(t, L, origins[leaf].data(), words, counts.data(), words);
+    windingDecideLeafLinear(t, L, origins[leaf].data(), words, counts.data(), words);
   });
 }
 

@@ -306,6 +306,14 @@ EOF2
   [[ $(grep -c "Parity inside test" "$work/stderr") == 0 ]] || fail "warned about parity under Auto"
   run 0 builtin:sphere --resolution 64 --root-grid 4 --inside-test auto
   stdout_has "Auto: the mesh is closed, exact ray parity"
+  # Auto is the default: the open mesh gets the winding number, the closed one parity.
+  run 0 "$work/open.stl" --resolution 64 --root-grid 4 --json
+  python3 -c 'import json,sys; d=json.load(open(sys.argv[1])); assert d["inside_test"] == "winding" and d["inside_test_requested"] == "auto", d' \
+    "$work/stdout" || fail "the default did not run the winding number on an open mesh"
+  [[ $(grep -c "Parity inside test" "$work/stderr") == 0 ]] || fail "warned about parity under the default"
+  run 0 builtin:sphere --resolution 64 --root-grid 4 --json
+  python3 -c 'import json,sys; d=json.load(open(sys.argv[1])); assert d["inside_test"] == "parity" and d["inside_test_requested"] == "auto", d' \
+    "$work/stdout" || fail "the default did not run parity on a closed mesh"
 }
 
 "case_${case_name//-/_}"

@@ -43,6 +43,7 @@ BuildConfig grid(int n, int r, int l) {
   c.resolution = n;
   c.rootGrid = r;
   c.leafSize = l;
+  c.insideTest = InsideTest::Parity; // the open parts' three-axis rule, on the device
   return c;
 }
 

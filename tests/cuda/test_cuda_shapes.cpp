@@ -64,6 +64,7 @@ TEST_P(CudaDense, SameBytesAsCpu) {
   config.rootGrid = 4;
   config.leafSize = c.l;
   config.surfaceOnly = c.surfaceOnly;
+  config.insideTest = InsideTest::Parity; // the parity build's bytes (the winding pass: test_cuda_winding.cpp)
   const PreparedMesh prepared = prepareMesh(mesh, config);
   EXPECT_TRUE(sameVolume(build(prepared, cudaOptions()), build(prepared, cpuOptions())));
 }

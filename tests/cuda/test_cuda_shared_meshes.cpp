@@ -54,6 +54,7 @@ TEST_P(CudaSharedMeshes, SameBytesAsCpu) {
   config.rootGrid = 16;
   config.leafSize = 16;
   config.surfaceOnly = std::get<2>(GetParam());
+  config.insideTest = InsideTest::Parity; // the parity build's bytes (the winding pass: test_cuda_winding.cpp)
   const PreparedMesh prepared = prepareMesh(mesh, config);
   const Volume cpu = build(prepared, cpuOptions());
   const Volume gpu = build(prepared, cudaOptions());

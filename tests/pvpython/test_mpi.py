@@ -10,7 +10,7 @@ union of the ranks' digests against the serial run's (`--reference`).
 Cases:
   sphere     a closed mesh that ParaView's Sphere source splits over the ranks
              (Backend Auto: per rank the GPU or, without one, the CPU)
-  open       an open cap (3-axis classification, cross-rank parities)
+  open       an open cap under Parity (3-axis classification, cross-rank parities)
   blocks     a multiblock whose blocks lie on different ranks (rank i holds
              block i only; ranks past the block count hold nothing)
   onecolumn  RootGridSize 1: one row of root cells, so K > 1 ranks have more
@@ -192,6 +192,8 @@ def main():
         # GPU: the CPU on every rank, as the serial run does).
         vox = HDTVoxelizer(Input=src, Resolution=64, RootGridSize=1 if case == "onecolumn" else 4,
                            LeafGridSize=8, Backend="Auto" if case == "sphere" else "CPU", MaxDepth=-1)
+        if case == "open":  # Auto's winding number does not run across ranks yet
+            vox.InsideTest = "Parity"
         pieces = {"htg": digest(vox, 0, os.path.join(tmp, case + "-htg-%d.json"), ranks),
                   "surface": digest(vox, 1, os.path.join(tmp, case + "-surface-%d.json"), ranks)}
         entry = merged(pieces, case, ranks)

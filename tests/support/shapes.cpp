@@ -218,6 +218,9 @@ BuildConfig Shape::config(int resolution, int rootGrid, int leafSize, bool surfa
   c.rootGrid = rootGrid;
   c.leafSize = leafSize;
   c.surfaceOnly = surfaceOnly;
+  // The shapes' references (reference_voxelizer) follow the parity rules, and
+  // open shapes would take the winding number under the default (Auto).
+  c.insideTest = InsideTest::Parity;
   c.hasBounds = hasBounds;
   c.boundsMin = boundsMin;
   c.boundsMax = boundsMax;

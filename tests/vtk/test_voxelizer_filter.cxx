@@ -22,6 +22,7 @@
 #include "vtkNew.h"
 #include "vtkPoints.h"
 #include "vtkPolyData.h"
+#include "vtkSphereSource.h"
 #include "vtkStringArray.h"
 #include "vtkStripper.h"
 #include "vtkUnsignedCharArray.h"
@@ -88,10 +89,26 @@ std::vector<uint8_t> statesOf(vtkHyperTreeGrid* htg)
   return std::vector<uint8_t>(a->GetPointer(0), a->GetPointer(0) + a->GetNumberOfTuples());
 }
 
+std::string fieldString(vtkHyperTreeGrid* htg, const char* name)
+{
+  auto* a = vtkStringArray::SafeDownCast(htg->GetFieldData()->GetAbstractArray(name));
+  return a ? a->GetValue(0) : std::string();
+}
+
 std::string backendOf(vtkHyperTreeGrid* htg)
 {
-  auto* a = vtkStringArray::SafeDownCast(htg->GetFieldData()->GetAbstractArray("Backend"));
-  return a ? a->GetValue(0) : std::string();
+  return fieldString(htg, "Backend");
+}
+
+// A sphere without its cap beyond 120 degrees: open.
+vtkSmartPointer<vtkPolyData> openSphere()
+{
+  vtkNew<vtkSphereSource> sphere;
+  sphere->SetThetaResolution(32);
+  sphere->SetPhiResolution(24);
+  sphere->SetEndPhi(120.0);
+  sphere->Update();
+  return sphere->GetOutput();
 }
 
 vtkSmartPointer<vtkPolyData> linesOnly()
@@ -494,4 +511,37 @@ TEST(VoxelizerWarnings, DoubledClosedMeshIsReported)
   EXPECT_TRUE(twice.Log->Errors.empty()) << joined(twice.Log->Errors);
   EXPECT_TRUE(anyContains(twice.Log->Warnings, "repeat another triangle's corners")) << joined(twice.Log->Warnings);
   EXPECT_TRUE(anyContains(twice.Log->Warnings, "no voxel is inside")) << joined(twice.Log->Warnings);
+}
+
+// Issue 16: the inside test defaults to Auto, which decides an open mesh by the
+// winding number and a closed one by exact parity (the same states as asking
+// for them), with no open-mesh warning; the field data say which ran and why.
+TEST(VoxelizerInsideTest, DefaultIsAutoWindingWhenOpenParityWhenClosed)
+{
+  Harness automatic;
+  EXPECT_EQ(automatic.Filter->GetInsideTest(), vtkHDTVoxelizer::INSIDE_TEST_AUTO);
+  const auto openMesh = openSphere();
+  vtkHyperTreeGrid* open = automatic.Run(openMesh);
+  EXPECT_TRUE(automatic.Log->Errors.empty()) << joined(automatic.Log->Errors);
+  EXPECT_FALSE(anyContains(automatic.Log->Warnings, "Parity inside test")) << joined(automatic.Log->Warnings);
+  EXPECT_EQ(fieldString(open, "InsideTest"), "winding");
+  EXPECT_EQ(fieldString(open, "InsideTestReason"), "Auto: the mesh is open, winding number");
+  const std::vector<uint8_t> openStates = statesOf(open);
+
+  Harness winding;
+  winding.Filter->SetInsideTest(vtkHDTVoxelizer::INSIDE_TEST_WINDING);
+  EXPECT_EQ(statesOf(winding.Run(openMesh)), openStates);
+  Harness parity;
+  parity.Filter->SetInsideTest(vtkHDTVoxelizer::INSIDE_TEST_PARITY);
+  vtkHyperTreeGrid* openParity = parity.Run(openMesh);
+  EXPECT_EQ(fieldString(openParity, "InsideTest"), "parity");
+  EXPECT_TRUE(anyContains(parity.Log->Warnings, "Parity inside test was asked for")) << joined(parity.Log->Warnings);
+
+  const auto closedMesh = hdtvtk::MakeSphere(16);
+  vtkHyperTreeGrid* closed = automatic.Run(closedMesh);
+  EXPECT_EQ(fieldString(closed, "InsideTest"), "parity");
+  EXPECT_EQ(fieldString(closed, "InsideTestReason"), "Auto: the mesh is closed, exact ray parity");
+  const std::vector<uint8_t> closedStates = statesOf(closed);
+  EXPECT_FALSE(closedStates.empty());
+  EXPECT_EQ(statesOf(parity.Run(closedMesh)), closedStates);
 }

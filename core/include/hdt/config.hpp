@@ -18,7 +18,7 @@ namespace hdt {
 //           and +z parities for open ones (the paper's rule).
 //   WindingNumber: the generalized winding number at the voxel centre is at
 //           least 1/2 (Jacobson et al. 2013), for any mesh.
-//   Auto: Parity for closed meshes, WindingNumber for open ones.
+//   Auto (the default): Parity for closed meshes, WindingNumber for open ones.
 // A built Volume records the test that ran (never Auto).
 enum class InsideTest : uint8_t { Auto = 0, Parity = 1, WindingNumber = 2 };
 
@@ -27,7 +27,7 @@ struct BuildConfig {
   int rootGrid = 16;     // R
   int leafSize = 16;     // L: 8, 16 or 32
   bool surfaceOnly = false;
-  InsideTest insideTest = InsideTest::Parity;
+  InsideTest insideTest = InsideTest::Auto;
   // Optional explicit placement box; when set the grid covers this box
   // instead of the mesh's bounding box (same centring and margin rule).
   bool hasBounds = false;
