@@ -20,6 +20,7 @@
 #include "hdt/labels.hpp"
 #include "hdt/host_memory.hpp"
 #include "hdt/mesh_io.hpp"
+#include "hdt/range_exchange.hpp"
 #include "hdt/warm_pages.hpp"
 
 #include <signal.h>
@@ -244,7 +245,8 @@ int run(int argc, const char* const* argv, const MpiSession& session, Clock::tim
   TriangleMesh mesh = about(options.mesh, [&] { return loadMesh(options.mesh, options.labels, arrays); });
   report.io.read = msSince(t);
   hostWarmUp.join(); // long done: the read takes longer
-  const PreparedMesh prepared = about(options.mesh, [&] { return prepareMesh(mesh, options.config); });
+  PreparedMesh prepared = about(options.mesh, [&] { return prepareMesh(mesh, options.config); });
+  if (session.size() > 1) fallBackToParityAcrossRanks(prepared); // the report's warnings say so
   trimWarmPages(); // what prepareMesh did not use
   const bool labelled = options.labels.kind != MeshLabelSource::Kind::None;
   if (prepared.closed && !labelled) warmUp.meshIsClosed(); // a labelled build's parts may be open

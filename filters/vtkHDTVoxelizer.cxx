@@ -15,6 +15,7 @@
 #include "hdt/error.hpp"
 #include "hdt/labels.hpp"
 #include "hdt/mesh.hpp"
+#include "hdt/range_exchange.hpp"
 #include "hdt/transfer.hpp"
 #include "hdt/volume.hpp"
 #include "hdt/winding_tree.hpp"
@@ -576,7 +577,11 @@ int vtkHDTVoxelizer::RequestData(
       const auto t0 = Clock::now();
       this->SetProgressText("preparing mesh");
       this->UpdateProgress(0.0);
-      const hdt::PreparedMesh prepared = hdt::prepareMesh(mesh, config);
+      hdt::PreparedMesh prepared = hdt::prepareMesh(mesh, config);
+      if (ranks)
+      {
+        hdt::fallBackToParityAcrossRanks(prepared); // the warnings below say so
+      }
       const bool transfers = this->Internal->Transfers();
       if (this->LabelBy == LABEL_NONE && !transfers)
       {

@@ -7,6 +7,7 @@
 #include "hdt/error.hpp"
 #include "hdt/mesh.hpp"
 #include "hdt/range_exchange.hpp"
+#include "hdt/winding_tree.hpp"
 #include "hdt/voxel_surface.hpp"
 #include "support/shapes.hpp"
 
@@ -219,4 +220,22 @@ TEST(RangeExchange, WindingNumberBuildsAreNotDistributed) {
   }
   mesh.surfaceOnly = true; // no inside test runs
   EXPECT_NO_THROW(hdt::requireDistributable(mesh));
+}
+
+// Auto's winding number on an open mesh falls back to parity across
+// processes (and says why); an explicit Winding request still fails.
+TEST(RangeExchange, AutoOnAnOpenMeshTakesParityAcrossRanks) {
+  hdt::PreparedMesh mesh;
+  mesh.requestedInsideTest = hdt::InsideTest::Auto;
+  mesh.insideTest = hdt::InsideTest::WindingNumber;
+  EXPECT_TRUE(hdt::fallBackToParityAcrossRanks(mesh));
+  EXPECT_EQ(mesh.insideTest, hdt::InsideTest::Parity);
+  EXPECT_NO_THROW(hdt::requireDistributable(mesh));
+  EXPECT_NE(hdt::insideTestReason(hdt::InsideTest::Auto, hdt::InsideTest::Parity, false).find("MPI ranks"),
+            std::string::npos);
+  EXPECT_FALSE(hdt::fallBackToParityAcrossRanks(mesh)); // already parity
+  mesh.requestedInsideTest = hdt::InsideTest::WindingNumber;
+  mesh.insideTest = hdt::InsideTest::WindingNumber;
+  EXPECT_FALSE(hdt::fallBackToParityAcrossRanks(mesh));
+  EXPECT_THROW(hdt::requireDistributable(mesh), hdt::Error);
 }

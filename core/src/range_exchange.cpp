@@ -146,6 +146,13 @@ void requireDistributable(const PreparedMesh& mesh) {
                     "or build in one process");
 }
 
+bool fallBackToParityAcrossRanks(PreparedMesh& mesh) {
+  if (mesh.surfaceOnly || mesh.requestedInsideTest != InsideTest::Auto || mesh.insideTest != InsideTest::WindingNumber)
+    return false;
+  mesh.insideTest = InsideTest::Parity;
+  return true;
+}
+
 std::vector<uint8_t> packBoundary(const RangeBoundary& b, int rowWords) {
   Writer w;
   w.value(kBoundaryTag);

@@ -47,6 +47,19 @@ run_case knot builtin:knot --resolution 128 --root-grid 8 --leaf-size 8
 run_case cap cap.obj --resolution 128 --root-grid 4 --leaf-size 8 --inside-test parity
 run_case surface builtin:torus --resolution 128 --root-grid 4 --leaf-size 8 --surface-only
 run_case onerow builtin:sphere --resolution 64 --root-grid 1 --leaf-size 16
+# Auto (the default) on the open cap: the winding number it picks does not
+# run across ranks yet, so a distributed build takes parity and says so.
+mpiexec --oversubscribe -n 2 "$mpi" cap.obj --resolution 128 --root-grid 4 --leaf-size 8 --backend cpu --quiet \
+  --json -o cap-auto-2.hdt > cap-auto.json
+python3 "$here/compare_hdt.py" cap-serial.hdt cap-auto-2.hdt > /dev/null
+python3 - cap-auto.json <<'PY'
+import json, sys
+r = json.load(open(sys.argv[1]))
+assert r["inside_test"] == "parity" and r["inside_test_requested"] == "auto", r["inside_test"]
+assert "MPI ranks" in r["inside_test_reason"], r["inside_test_reason"]
+assert any("does not run across MPI ranks" in w for w in r["warnings"]), r["warnings"]
+PY
+echo "mpi_cases: Auto on an open mesh across ranks: parity, with a warning"
 # The per-rank report: one row a rank, whose ranges cover the root grid and
 # whose leaf grids add up to the volume's.
 mpiexec --oversubscribe -n 3 "$mpi" builtin:knot --resolution 128 --root-grid 8 --leaf-size 8 --backend cpu \
