@@ -280,26 +280,6 @@ struct QueuedBox {
   uint32_t job;
 };
 
-// windingCarriedBoxVerdict without its last resort: where the crossings and
-// strips cannot be evaluated at the box's centre (it lies in a strip's
-// plane), the box is split instead of refining the tree's sum there (up to
-// kWindingSeedOpenings openings on one thread: a single such box took over
-// 100 ms, the whole level waiting on it).
-__device__ int carriedBoxVerdict(const WindingTreeView& t, const VoxelBox& b) {
-  double lo[3], hi[3], centre[3], reach2 = 0;
-  for (int a = 0; a < 3; ++a) {
-    lo[a] = b.lo[a];
-    hi[a] = b.hi[a];
-    centre[a] = 0.5 * (lo[a] + hi[a]);
-    const double half = 0.5 * (b.size(a) - 1); // to the farthest voxel centre
-    reach2 = reach2 + half * half;
-  }
-  const double reach = sqrt(reach2) * (1 + 1e-12);
-  const double gradient = windingGradientBound(t, lo, hi);
-  if (!(reach * gradient < 2.0 * kWindingPi)) return kWindingUnsure;
-  return windingCarriedVerdict(windingCrossingSumAt(t, centre), reach, gradient, t.triangleCount);
-}
-
 __global__ void uniformBoxesKernel(WindingTreeView t, const QueuedBox* in, uint32_t count, QueuedBox* out,
                                    uint32_t* outCount, uint32_t capacity, uint32_t* seen) {
   const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
@@ -314,7 +294,7 @@ __global__ void uniformBoxesKernel(WindingTreeView t, const QueuedBox* in, uint3
     atomicOr(seen + q.job, inside ? kSeenInside : kSeenOutside);
     return;
   }
-  const int v = carriedBoxVerdict(t, b);
+  const int v = windingCarriedBoxVerdict(t, b, false);
   if (v != kWindingUnsure) {
     atomicOr(seen + q.job, v == kWindingInside ? kSeenInside : kSeenOutside);
     return;
@@ -604,7 +584,7 @@ uint64_t decideLeavesBreadthFirst(const WindingTreeView& t, const LeafOrigin* or
   return total;
 }
 
-// The listed voxels by windingInsideAt on the host (threads share the list;
+// The listed voxels by windingInsideAt on the host (in parallel over the list;
 // the bits are set afterwards, in list order), in the downloaded words of
 // the leaves that fit (the others are the host's whole leaves anyway).
 void decideHardVoxels(const WindingTreeView& t, const std::vector<std::array<int, 3>>& origins, int L,

@@ -690,7 +690,11 @@ struct VoxelBox {
 // The carried verdict over a box of voxels whose closed box meets no
 // triangle: one certified sum at the box's centre (at least half a voxel from
 // every triangle), carried along straight segments to every voxel centre.
-HDT_HD int windingCarriedBoxVerdict(const WindingTreeView& t, const VoxelBox& b) {
+// Where the crossings and strips cannot be evaluated at the centre (it lies
+// in a strip's plane), the tree's sum is refined there, unless
+// `refineInTree` is false (the device: up to kWindingSeedOpenings openings on
+// one thread would hold a whole level; it splits the box instead).
+HDT_HD int windingCarriedBoxVerdict(const WindingTreeView& t, const VoxelBox& b, bool refineInTree = true) {
   double lo[3], hi[3], centre[3], reach2 = 0;
   for (int a = 0; a < 3; ++a) {
     lo[a] = b.lo[a];
@@ -703,7 +707,7 @@ HDT_HD int windingCarriedBoxVerdict(const WindingTreeView& t, const VoxelBox& b)
   const double gradient = windingGradientBound(t, lo, hi);
   if (!(reach * gradient < 2.0 * kWindingPi)) return kWindingUnsure;
   const WindingSum c = windingCrossingSumAt(t, centre);
-  if (c.ok) return windingCarriedVerdict(c, reach, gradient, t.triangleCount);
+  if (c.ok || !refineInTree) return windingCarriedVerdict(c, reach, gradient, t.triangleCount);
   if (!(reach * gradient < kWindingPi)) return kWindingUnsure;
   const WindingSum s = windingSumOverBox(t, centre, centre, kWindingSeedOpenings, reach * gradient);
   return windingCarriedVerdict(s, reach, gradient, t.triangleCount);

@@ -197,45 +197,7 @@ HDT_HD void windingDecideAnchoredLinear(const WindingTreeView& t, const int* ori
     windingBoxCentres(origin, b, lo, hi);
     double farK = 0, farStray = 0;
     windingFarOverBox(x, lo, hi, farK, farStray);
-    if (b.single()) {
-      const uint32_t v = w.index(b.lo[0], b.lo[1], b.lo[2]);
-      double nearK = 0, nearError = 0;
-      int verdict = kWindingUnsure;
-      if (windingPartStripSum(t, split, true, lo, nearK, nearError)) {
-        const double whole = 4.0 * kWindingPi * double(N[v]);
-        const double K = nearK + farK;
-        const WindingSum s{whole + K,
-                           nearError + farStray +
-                               4.0 * kWindingUlp * (fabs(whole) + fabs(nearK) + fabs(farK) + fabs(K)),
-                           true};
-        verdict = windingVerdict(s, t.triangleCount);
-      }
-      const bool inside = verdict != kWindingUnsure ? verdict == kWindingInside : windingInsideWithCount(t, lo, int(N[v]));
-      if (inside) w.setInside(v);
-      continue;
-    }
-    bool sheet = false;
-    for (int k = 0; k < split.nearCount && !sheet; ++k) sheet = windingSheetMeetsBox(t.edges[split.near[k]], lo, hi);
-    if (!sheet) {
-      double c[3], reach2 = 0;
-      for (int a = 0; a < 3; ++a) {
-        c[a] = 0.5 * (lo[a] + hi[a]);
-        reach2 = reach2 + 0.25 * (hi[a] - lo[a]) * (hi[a] - lo[a]);
-      }
-      const double nearGradient = windingPartGradientBound(t, split, true, lo, hi);
-      const double spread = sqrt(reach2) * (1 + 1e-12) * nearGradient + farStray;
-      double nearK = 0, nearError = 0;
-      int T = 0;
-      if (spread < 2.0 * kWindingPi && windingPartStripSum(t, split, true, c, nearK, nearError)) {
-        const double K = nearK + farK;
-        const double error = nearError + 4.0 * kWindingUlp * (fabs(nearK) + fabs(farK));
-        if (windingThresholdFrom(t, K, error, spread, T)) {
-          w.settle(b, N, T);
-          continue;
-        }
-      }
-    }
-    windingPushHalves(b, sheet, stack, known, top, INFINITY);
+    windingAnchoredBoxStep(t, N, w, split, b, lo, hi, farK, 0.0, farStray, stack, known, top);
   }
 }
 
@@ -243,24 +205,13 @@ HDT_HD void windingDecideAnchoredLinear(const WindingTreeView& t, const int* ori
 // (the CPU driver's; the same bits as windingDecideLeaf).
 HDT_HD void windingDecideLeafLinear(const WindingTreeView& t, int L, const int* origin, const uint32_t* surfaceWords,
                                     const int16_t* N, uint32_t* insideWords) {
-  const uint32_t wordCount = leafWordCount(L);
-  for (uint32_t i = 0; i < wordCount; ++i) insideWords[i] = surfaceWords[i] & kSurfacePlaneBits;
+  WindingLeafStart start;
+  if (!windingStartLeaf(t, L, origin, surfaceWords, N, insideWords, start)) return;
   const WindingLeafWords w{insideWords, uint32_t(L)};
-  const VoxelBox leaf{{0, 0, 0}, {L, L, L}};
-  if (!w.open(leaf)) return;
-  double lo[3], hi[3];
-  windingBoxCentres(origin, leaf, lo, hi);
-  const bool sheet = windingSheetsMeetBox(t, lo, hi);
-  double gradient = INFINITY;
-  int T = 0;
-  if (!sheet && windingBoxThreshold(t, lo, hi, T, gradient)) {
-    w.settle(leaf, N, T);
-    return;
-  }
   WindingLeafSplit split;
   WindingFarLeaf far;
-  if (t.edgeCount > uint32_t(kWindingNearEdges) && windingSplitEdges(t, lo, hi, L, split) &&
-      4 * uint32_t(split.nearCount) < t.edgeCount && windingFarLeaf(t, split, lo, hi, far)) {
+  if (t.edgeCount > uint32_t(kWindingNearEdges) && windingSplitEdges(t, start.lo, start.hi, L, split) &&
+      4 * uint32_t(split.nearCount) < t.edgeCount && windingFarLeaf(t, split, start.lo, start.hi, far)) {
     const int M = kWindingLinearAnchorBox < L ? kWindingLinearAnchorBox : L;
     for (int z = 0; z < L; z += M)
       for (int y = 0; y < L; y += M)
@@ -268,14 +219,7 @@ HDT_HD void windingDecideLeafLinear(const WindingTreeView& t, int L, const int* 
           windingDecideAnchoredLinear(t, origin, N, w, VoxelBox{{x, y, z}, {x + M, y + M, z + M}}, split, far);
     return;
   }
-  VoxelBox halves[8];
-  double known[8];
-  int count = 0;
-  windingPushHalves(leaf, sheet, halves, known, count, gradient);
-  while (count > 0) {
-    --count;
-    windingDecideBoxes(t, origin, N, w, halves[count], known[count]);
-  }
+  windingDecideLeafHalves(t, origin, N, w, L, start);
 }
 
 } // namespace hdt

@@ -431,6 +431,56 @@ HDT_HD void windingDecideBoxes(const WindingTreeView& t, const int* origin, cons
   }
 }
 
+// One box of an anchored walk: K = K_near (summed here over the split's
+// near edges) + K_far, K_far known to farK within farError at the anchor's
+// centre and farSpread more over the box. A single voxel is decided at its
+// centre; a sheet-free box is settled by one threshold where that holds;
+// otherwise its halves are pushed.
+HDT_HD void windingAnchoredBoxStep(const WindingTreeView& t, const int16_t* N, const WindingLeafWords& w,
+                                   const WindingLeafSplit& split, const VoxelBox& b, const double* lo,
+                                   const double* hi, double farK, double farError, double farSpread,
+                                   VoxelBox* stack, double* known, int& top) {
+  if (b.single()) {
+    const uint32_t v = w.index(b.lo[0], b.lo[1], b.lo[2]);
+    double nearK = 0, nearError = 0;
+    int verdict = kWindingUnsure;
+    if (windingPartStripSum(t, split, true, lo, nearK, nearError)) {
+      const double whole = 4.0 * kWindingPi * double(N[v]);
+      const double K = nearK + farK;
+      const WindingSum s{whole + K,
+                         nearError + farError + farSpread +
+                             4.0 * kWindingUlp * (fabs(whole) + fabs(nearK) + fabs(farK) + fabs(K)),
+                         true};
+      verdict = windingVerdict(s, t.triangleCount);
+    }
+    const bool inside = verdict != kWindingUnsure ? verdict == kWindingInside : windingInsideWithCount(t, lo, int(N[v]));
+    if (inside) w.setInside(v);
+    return;
+  }
+  bool sheet = false;
+  for (int k = 0; k < split.nearCount && !sheet; ++k) sheet = windingSheetMeetsBox(t.edges[split.near[k]], lo, hi);
+  if (!sheet) {
+    double c[3], reach2 = 0;
+    for (int a = 0; a < 3; ++a) {
+      c[a] = 0.5 * (lo[a] + hi[a]);
+      reach2 = reach2 + 0.25 * (hi[a] - lo[a]) * (hi[a] - lo[a]);
+    }
+    const double nearGradient = windingPartGradientBound(t, split, true, lo, hi);
+    const double spread = sqrt(reach2) * (1 + 1e-12) * nearGradient + farSpread;
+    double nearK = 0, nearError = 0;
+    int T = 0;
+    if (spread < 2.0 * kWindingPi && windingPartStripSum(t, split, true, c, nearK, nearError)) {
+      const double K = nearK + farK;
+      const double error = nearError + farError + 4.0 * kWindingUlp * (fabs(nearK) + fabs(farK));
+      if (windingThresholdFrom(t, K, error, spread, T)) {
+        w.settle(b, N, T);
+        return;
+      }
+    }
+  }
+  windingPushHalves(b, sheet, stack, known, top, INFINITY);
+}
+
 // The boxes of `anchor` (at most kWindingAnchorBox^3 voxels) with K_far taken
 // once at its centre: K(p) = K_near(p) + K_far(p), K_far(p) within G_far |p -
 // centre| of its value there, K_near evaluated per box and bounded over it.
@@ -465,46 +515,49 @@ HDT_HD void windingDecideAnchored(const WindingTreeView& t, const int* origin, c
     if (!w.open(b)) continue;
     double lo[3], hi[3];
     windingBoxCentres(origin, b, lo, hi);
-    const double farSpread = farGradient * farthest(lo, hi);
-    if (b.single()) {
-      const uint32_t v = w.index(b.lo[0], b.lo[1], b.lo[2]);
-      double nearK = 0, nearError = 0;
-      int verdict = kWindingUnsure;
-      if (windingPartStripSum(t, split, true, lo, nearK, nearError)) {
-        const double whole = 4.0 * kWindingPi * double(N[v]);
-        const double K = nearK + farK;
-        const WindingSum s{whole + K,
-                           nearError + farError + farSpread +
-                               4.0 * kWindingUlp * (fabs(whole) + fabs(nearK) + fabs(farK) + fabs(K)),
-                           true};
-        verdict = windingVerdict(s, t.triangleCount);
-      }
-      const bool inside = verdict != kWindingUnsure ? verdict == kWindingInside : windingInsideWithCount(t, lo, int(N[v]));
-      if (inside) w.setInside(v);
-      continue;
-    }
-    bool sheet = false;
-    for (int k = 0; k < split.nearCount && !sheet; ++k) sheet = windingSheetMeetsBox(t.edges[split.near[k]], lo, hi);
-    if (!sheet) {
-      double c[3], reach2 = 0;
-      for (int a = 0; a < 3; ++a) {
-        c[a] = 0.5 * (lo[a] + hi[a]);
-        reach2 = reach2 + 0.25 * (hi[a] - lo[a]) * (hi[a] - lo[a]);
-      }
-      const double nearGradient = windingPartGradientBound(t, split, true, lo, hi);
-      const double spread = sqrt(reach2) * (1 + 1e-12) * nearGradient + farSpread;
-      double nearK = 0, nearError = 0;
-      int T = 0;
-      if (spread < 2.0 * kWindingPi && windingPartStripSum(t, split, true, c, nearK, nearError)) {
-        const double K = nearK + farK;
-        const double error = nearError + farError + 4.0 * kWindingUlp * (fabs(nearK) + fabs(farK));
-        if (windingThresholdFrom(t, K, error, spread, T)) {
-          w.settle(b, N, T);
-          continue;
-        }
-      }
-    }
-    windingPushHalves(b, sheet, stack, known, top, INFINITY);
+    windingAnchoredBoxStep(t, N, w, split, b, lo, hi, farK, farError, farGradient * farthest(lo, hi), stack, known,
+                           top);
+  }
+}
+
+// What the first step of a leaf's decision leaves to the next ones.
+struct WindingLeafStart {
+  double lo[3], hi[3]; // the leaf's voxel centres' box
+  bool sheet;          // a strip sheet meets it
+  double gradient;     // windingBoxThreshold's bound (INFINITY: none)
+};
+
+// The first step of windingDecideLeaf: insideWords gets the surface plane,
+// then the whole leaf by one threshold where that holds. False when nothing
+// is left to decide.
+HDT_HD bool windingStartLeaf(const WindingTreeView& t, int L, const int* origin, const uint32_t* surfaceWords,
+                             const int16_t* N, uint32_t* insideWords, WindingLeafStart& start) {
+  const uint32_t wordCount = leafWordCount(L);
+  for (uint32_t i = 0; i < wordCount; ++i) insideWords[i] = surfaceWords[i] & kSurfacePlaneBits;
+  const WindingLeafWords w{insideWords, uint32_t(L)};
+  const VoxelBox leaf{{0, 0, 0}, {L, L, L}};
+  if (!w.open(leaf)) return false;
+  windingBoxCentres(origin, leaf, start.lo, start.hi);
+  start.sheet = windingSheetsMeetBox(t, start.lo, start.hi);
+  start.gradient = INFINITY;
+  int T = 0;
+  if (!start.sheet && windingBoxThreshold(t, start.lo, start.hi, T, start.gradient)) {
+    w.settle(leaf, N, T);
+    return false;
+  }
+  return true;
+}
+
+// The last resort of windingDecideLeaf: the leaf's halves by windingDecideBoxes.
+HDT_HD void windingDecideLeafHalves(const WindingTreeView& t, const int* origin, const int16_t* N,
+                                    const WindingLeafWords& w, int L, const WindingLeafStart& start) {
+  VoxelBox halves[8];
+  double known[8];
+  int count = 0;
+  windingPushHalves(VoxelBox{{0, 0, 0}, {L, L, L}}, start.sheet, halves, known, count, start.gradient);
+  while (count > 0) {
+    --count;
+    windingDecideBoxes(t, origin, N, w, halves[count], known[count]);
   }
 }
 
@@ -522,22 +575,11 @@ HDT_HD void windingDecideAnchored(const WindingTreeView& t, const int* origin, c
 // the leaf by windingDecideBoxes.
 HDT_HD void windingDecideLeaf(const WindingTreeView& t, int L, const int* origin, const uint32_t* surfaceWords,
                               const int16_t* N, uint32_t* insideWords) {
-  const uint32_t wordCount = leafWordCount(L);
-  for (uint32_t i = 0; i < wordCount; ++i) insideWords[i] = surfaceWords[i] & kSurfacePlaneBits;
+  WindingLeafStart start;
+  if (!windingStartLeaf(t, L, origin, surfaceWords, N, insideWords, start)) return;
   const WindingLeafWords w{insideWords, uint32_t(L)};
-  const VoxelBox leaf{{0, 0, 0}, {L, L, L}};
-  if (!w.open(leaf)) return;
-  double lo[3], hi[3];
-  windingBoxCentres(origin, leaf, lo, hi);
-  const bool sheet = windingSheetsMeetBox(t, lo, hi);
-  double gradient = INFINITY;
-  int T = 0;
-  if (!sheet && windingBoxThreshold(t, lo, hi, T, gradient)) {
-    w.settle(leaf, N, T);
-    return;
-  }
   WindingLeafSplit split;
-  if (t.edgeCount > uint32_t(kWindingNearEdges) && windingSplitEdges(t, lo, hi, L, split) &&
+  if (t.edgeCount > uint32_t(kWindingNearEdges) && windingSplitEdges(t, start.lo, start.hi, L, split) &&
       4 * uint32_t(split.nearCount) < t.edgeCount) {
     const int M = kWindingAnchorBox;
     for (int z = 0; z < L; z += M)
@@ -545,14 +587,7 @@ HDT_HD void windingDecideLeaf(const WindingTreeView& t, int L, const int* origin
         for (int x = 0; x < L; x += M) windingDecideAnchored(t, origin, N, w, VoxelBox{{x, y, z}, {x + M, y + M, z + M}}, split);
     return;
   }
-  VoxelBox halves[8];
-  double known[8];
-  int count = 0;
-  windingPushHalves(leaf, sheet, halves, known, count, gradient);
-  while (count > 0) {
-    --count;
-    windingDecideBoxes(t, origin, N, w, halves[count], known[count]);
-  }
+  windingDecideLeafHalves(t, origin, N, w, L, start);
 }
 
 } // namespace hdt
