@@ -24,6 +24,10 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   config.leafSize = (pick & 4) ? 16 : 8;
   config.resolution = (pick & 8) ? 64 : 32;
   config.surfaceOnly = (pick & 16) != 0;
+  // The reference voxelizer follows the parity rules (Auto, the default, would
+  // take the winding number on open meshes; its brute-force check is
+  // tests/test_winding.cpp's).
+  config.insideTest = hdt::InsideTest::Parity;
   const size_t points = 3 + data[1] % 32;
   size_t at = 2;
   if (size < at + 3 * points) return 0;
