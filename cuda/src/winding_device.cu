@@ -48,6 +48,7 @@ namespace cuda {
 namespace {
 
 constexpr unsigned kBlock = 128;
+constexpr unsigned kBoxBlock = 64; // the box queues' kernels (double-heavy threads)
 
 unsigned blocks(uint64_t n) { return unsigned((n + kBlock - 1) / kBlock); }
 
@@ -547,36 +548,46 @@ private:
   std::unique_ptr<Array<uint8_t>> block_;
 };
 
+// One queue's levels: launch(in, n, out) per level until a level queues no
+// box; the queues swap between levels. Returns the boxes taken.
+template <class Box, class Launch>
+uint64_t runQueueLevels(const char* name, uint32_t first, uint32_t capacity, Box* in, Box* out, Launch launch) {
+  Array<uint32_t> outCount(1);
+  uint64_t total = 0;
+  LevelTrace trace(name);
+  for (uint32_t n = first, level = 0; n > 0; ++level) {
+    total += n;
+    outCount.zero();
+    trace.start();
+    launch(in, n, out, outCount.data());
+    trace.stop(int(level), n);
+    outCount.download(&n);
+    n = std::min(n, capacity);
+    std::swap(in, out);
+  }
+  return total;
+}
+
 // The leaves' boxes level by level (leafBoxesKernel); returns the boxes taken.
 // hard: on return the voxels left to the host (decideHardVoxels).
 uint64_t decideLeavesBreadthFirst(const WindingTreeView& t, const LeafOrigin* origins, uint32_t leaves, int L,
                                   const int16_t* counts, uint8_t* fits, uint32_t* words, QueueMemory& memory,
                                   std::vector<uint2>& hard) {
   const uint32_t capacity = std::max<uint32_t>(2 * leaves, leastQueueBoxes(kLeafQueue));
-  Array<uint32_t> outCount(1), hardCount(1);
+  Array<uint32_t> hardCount(1);
   Array<uint2> hardItems(kHardVoxels);
   hardCount.zero();
   const bool allHard = std::getenv("HDT_WINDING_HOST_VOXELS") != nullptr;
   auto [in, out] = memory.queues<LeafBox>(capacity);
   firstLeafBoxesKernel<<<blocks(leaves), kBlock>>>(leaves, L, fits, in);
   checkLaunch("firstLeafBoxesKernel");
-  constexpr unsigned kBoxBlock = 64;
-  uint64_t total = 0;
-  LevelTrace trace("leaves");
-  for (uint32_t n = leaves, level = 0; n > 0; ++level) {
-    total += n;
-    outCount.zero();
-    trace.start();
-    leafBoxesKernel<<<(n + kBoxBlock - 1) / kBoxBlock, kBoxBlock>>>(t, origins, L, counts, fits, words, in, n, out,
-                                                                     outCount.data(), capacity,
-                                                                     HardVoxels{hardItems.data(), hardCount.data(), kHardVoxels},
-                                                                     allHard);
-    checkLaunch("leafBoxesKernel");
-    trace.stop(int(level), n);
-    outCount.download(&n);
-    n = std::min(n, capacity);
-    std::swap(in, out);
-  }
+  const HardVoxels hardVoxels{hardItems.data(), hardCount.data(), kHardVoxels};
+  const uint64_t total =
+      runQueueLevels("leaves", leaves, capacity, in, out, [&](LeafBox* from, uint32_t n, LeafBox* to, uint32_t* toCount) {
+        leafBoxesKernel<<<(n + kBoxBlock - 1) / kBoxBlock, kBoxBlock>>>(t, origins, L, counts, fits, words, from, n, to,
+                                                                         toCount, capacity, hardVoxels, allHard);
+        checkLaunch("leafBoxesKernel");
+      });
   uint32_t n = 0;
   hardCount.download(&n);
   hard.resize(std::min(n, kHardVoxels));
@@ -736,27 +747,18 @@ bool WindingDevicePass::uniform(const WindingTree& tree, const std::vector<Windi
     const uint32_t count = uint32_t(jobs.size());
     Array<WindingUniformJob> d(jobs.size());
     d.upload(jobs.data());
-    Array<uint32_t> seen(jobs.size()), outCount(1);
+    Array<uint32_t> seen(jobs.size());
     seen.zero();
     const uint32_t capacity = std::max<uint32_t>(2 * count, leastQueueBoxes(kUniformQueue));
     auto [in, out] = impl_->queues.queues<QueuedBox>(capacity);
     firstBoxesKernel<<<blocks(count), kBlock>>>(d.data(), count, in);
     checkLaunch("firstBoxesKernel");
-    constexpr unsigned kBoxBlock = 64;
-    uint64_t total = 0;
-    LevelTrace trace("uniform");
-    for (uint32_t n = count, level = 0; n > 0; ++level) {
-      total += n;
-      outCount.zero();
-      trace.start();
-      uniformBoxesKernel<<<(n + kBoxBlock - 1) / kBoxBlock, kBoxBlock>>>(t.view(), in, n, out,
-                                                                         outCount.data(), capacity, seen.data());
-      checkLaunch("uniformBoxesKernel");
-      trace.stop(int(level), n);
-      outCount.download(&n);
-      n = std::min(n, capacity);
-      std::swap(in, out);
-    }
+    const uint64_t total =
+        runQueueLevels("uniform", count, capacity, in, out, [&](QueuedBox* from, uint32_t n, QueuedBox* to, uint32_t* toCount) {
+          uniformBoxesKernel<<<(n + kBoxBlock - 1) / kBoxBlock, kBoxBlock>>>(t.view(), from, n, to, toCount, capacity,
+                                                                             seen.data());
+          checkLaunch("uniformBoxesKernel");
+        });
     std::vector<uint32_t> state(jobs.size());
     seen.download(state.data());
     std::vector<WindingUniformJob> serial; // whose boxes did not fit the queue
