@@ -10,7 +10,11 @@ union of the ranks' digests against the serial run's (`--reference`).
 Cases:
   sphere     a closed mesh that ParaView's Sphere source splits over the ranks
              (Backend Auto: per rank the GPU or, without one, the CPU)
-  open       an open cap under Parity (3-axis classification, cross-rank parities)
+  open       an open cap under the default inside test (Auto): serially Auto
+             would take the winding number, which does not run across ranks,
+             so the serial reference asks for Parity and the ranks must fall
+             back to it by themselves, saying so (3-axis classification,
+             cross-rank parities)
   blocks     a multiblock whose blocks lie on different ranks (rank i holds
              block i only; ranks past the block count hold nothing)
   onecolumn  RootGridSize 1: one row of root cells, so K > 1 ranks have more
@@ -112,6 +116,8 @@ for name in STATS:
     else:
         stats[name] = list(a.GetTuple(0))
 out["stats"] = stats
+out["inside"] = [fd.GetAbstractArray(n).GetValue(0) if fd.GetAbstractArray(n) is not None else None
+                 for n in ("InsideTest", "InsideTestReason")]
 json.dump(out, open(PATH % rank, "w"))
 if c:
     c.Barrier()
@@ -126,17 +132,6 @@ def digest(proxy, port, path, ranks):
     f.UpdatePipeline()
     simple.Delete(f)
     return [json.load(open(path % r)) for r in range(ranks)]
-
-
-def make_input(case):
-    if case == "sphere" or case == "onecolumn":
-        return simple.Sphere(ThetaResolution=48, PhiResolution=32)
-    if case == "open":
-        return simple.Sphere(ThetaResolution=48, PhiResolution=32, EndPhi=120.0)
-    src = simple.ProgrammableSource()
-    src.OutputDataSetType = "vtkMultiblockDataSet"
-    src.Script = BLOCKS_SCRIPT
-    return src
 
 
 def hdt_sections(path):
@@ -169,6 +164,7 @@ def merged(pieces, case, ranks):
     for p in pieces["surface"]:
         quads += p["quads"]
     return {"trees": trees, "quads": sorted(quads), "stats": [p["stats"] for p in pieces["htg"]],
+            "inside": [p.get("inside") for p in pieces["htg"]],
             "surface_stats": [p["stats"] for p in pieces["surface"]]}
 
 
@@ -192,7 +188,7 @@ def main():
         # GPU: the CPU on every rank, as the serial run does).
         vox = HDTVoxelizer(Input=src, Resolution=64, RootGridSize=1 if case == "onecolumn" else 4,
                            LeafGridSize=8, Backend="Auto" if case == "sphere" else "CPU", MaxDepth=-1)
-        if case == "open":  # Auto's winding number does not run across ranks yet
+        if case == "open" and ranks == 1:  # the reference: what Auto falls back to across ranks
             vox.InsideTest = "Parity"
         pieces = {"htg": digest(vox, 0, os.path.join(tmp, case + "-htg-%d.json"), ranks),
                   "surface": digest(vox, 1, os.path.join(tmp, case + "-surface-%d.json"), ranks)}
@@ -228,6 +224,11 @@ def main():
         t.check_equal(got["file"], want["file"], "%s: the .hdt (every section but the statistics)" % case)
         t.check(got["read_trees"] == want["trees"], "%s: the reader's shares are the serial trees" % case)
         t.check(got["read_quads"] == want["quads"], "%s: the reader's surfaces are the serial surface" % case)
+        if case == "open" and ranks > 1:
+            for r, (test, reason) in enumerate(got["inside"]):
+                t.check_equal(test, "parity", "open: rank %d ran parity under Auto" % r)
+                t.check("does not run across MPI ranks" in (reason or ""),
+                        "open: rank %d says why Auto took parity (%r)" % (r, reason))
     if t._failures:
         t.finish()  # prints them and exits non-zero
     # On success the script returns: pvbatch then finalizes MPI (sys.exit
