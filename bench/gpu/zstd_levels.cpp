@@ -4,6 +4,9 @@
 // compressed on all cores as the writer does (one-shot, one frame a block).
 //
 //   hdt_zstd_levels FILE.hdt [--repeat R] [--out RUNS.jsonl] [SETTING...]
+//   hdt_zstd_levels --same A.hdt B.hdt   (exit 0 when both hold the same volume
+//       once decoded, whatever their levels: every section but the run's
+//       measurements, compared as raw-leaf files)
 //
 // SETTING: a level (3, 1, -1, ...), or LEVEL:nolit (literals stored raw),
 // LEVEL:lit (literals Huffman-coded even at negative levels), then any of
@@ -66,6 +69,23 @@ Setting parseSetting(const std::string& s) {
   return t;
 }
 
+// A's and B's volumes written with raw leaves and without the measurements
+// that differ between any two runs: the same bytes or not.
+int sameDecoded(const char* a, const char* b) {
+  auto rawBytes = [](const char* path) {
+    hdt::Volume v = hdt::readHdt(path);
+    v.stats.time = {};
+    v.stats.peakHostBytes = v.stats.peakDeviceBytes = 0;
+    v.stats.threads = 0;
+    hdt::HdtWriteOptions raw;
+    raw.compressLeaves = false;
+    return hdt::serializeHdt(v, raw);
+  };
+  const bool same = rawBytes(a) == rawBytes(b);
+  std::cout << (same ? "same decoded volume: " : "DIFFERENT decoded volumes: ") << a << " " << b << std::endl;
+  return same ? 0 : 1;
+}
+
 double msSince(Clock::time_point t) {
   return std::chrono::duration<double, std::milli>(Clock::now() - t).count();
 }
@@ -77,6 +97,7 @@ int main(int argc, char** argv) {
     std::cerr << "usage: hdt_zstd_levels FILE.hdt [--repeat R] [--out RUNS.jsonl] [SETTING...]\n";
     return 2;
   }
+  if (std::string(argv[1]) == "--same" && argc == 4) return sameDecoded(argv[2], argv[3]);
   int repeat = 3;
   std::string out;
   std::vector<Setting> settings;
