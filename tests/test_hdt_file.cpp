@@ -838,6 +838,24 @@ TEST(HdtFileV3, LeafBlocksFollowTheSpec) {
   expectSameVolume(v, deserializeHdt(bytes.data(), bytes.size()), "blocks");
 }
 
+// A file longer than a write-back step (the writer starts the disk writes every
+// 4 MiB): the same bytes as serialized, read back as the volume.
+TEST(HdtFileV3, FileOfManyWriteBackStepsEqualsSerializedBytes) {
+  const Volume v = multiBlockVolume();
+  const std::string path = tempPath("write_back_steps.hdt");
+  HdtWriteOptions raw;
+  raw.compressLeaves = false;
+  for (const HdtWriteOptions& o : {raw, compressed()}) {
+    writeHdt(v, path, o);
+    std::ifstream in(path, std::ios::binary);
+    const std::vector<uint8_t> file((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    EXPECT_TRUE(file == serializeHdt(v, o));
+    expectSameVolume(v, readHdt(path), "file");
+  }
+  EXPECT_GT(v.leafWords.size() * 4, size_t(4) << 20) << "the raw file spans more than one step";
+  std::remove(path.c_str());
+}
+
 TEST(HdtFileV3, BytesDoNotDependOnTheThreadCount) {
   if (!haveZstd()) GTEST_SKIP() << "built without zstd";
   const Volume v = multiBlockVolume();
