@@ -960,6 +960,45 @@ TEST(HdtFileV3, StreamedLeafBlocksNotCoveringTheVolumeAreNotUsed) {
   EXPECT_FALSE(streamed.usedByWriter()) << "abandoned";
 }
 
+// Written as zstd blocks, the leaf words are counted by the tasks that
+// compress them (whether streamed during the build or by the writer), not by
+// the checker: a refused volume gets the same message either way.
+TEST(HdtFileV3, RefusalsAreTheSameWhereTheBlocksCountTheLeaves) {
+  if (!haveZstd()) GTEST_SKIP() << "built without zstd";
+  const Volume good = multiBlockVolume();
+  HdtWriteOptions raw;
+  raw.compressLeaves = false;
+  auto refusal = [](const Volume& v, const HdtWriteOptions& o, HdtLeafEncoder* streamed) -> std::string {
+    try {
+      serializeHdt(v, o, streamed);
+    } catch (const Error& e) {
+      EXPECT_EQ(e.kind(), ErrorKind::InvalidArgument) << e.what();
+      return e.what();
+    }
+    return "accepted";
+  };
+  const struct {
+    const char* fragment;
+    std::function<void(Volume&)> edit;
+  } cases[] = {
+      {"invalid state 3 (word 2045)", [](Volume& v) { v.leafWords[v.leafWords.size() - 3] |= 3u; }}, // the last block
+      {"invalid state 3 (word 0)", [](Volume& v) { v.leafWords[0] = 0xFFFFFFFFu; }},
+      {"active voxels", [](Volume& v) { v.stats.activeVoxels += 1; }},
+      {"inside voxels", [](Volume& v) { v.stats.insideVoxels -= 1; }},
+  };
+  for (const auto& c : cases) {
+    Volume v = good;
+    c.edit(v);
+    const std::string checker = refusal(v, raw, nullptr);
+    EXPECT_NE(checker.find(c.fragment), std::string::npos) << checker;
+    EXPECT_EQ(refusal(v, compressed(), nullptr), checker);
+    HdtLeafEncoder streamed;
+    streamed.begin(v.leafWords.data(), v.leafWords.size());
+    streamed.arrived(v.leafWords.size());
+    EXPECT_EQ(refusal(v, compressed(), &streamed), checker);
+  }
+}
+
 TEST(HdtFileCorrupt, ZstdBlocks) {
   if (!haveZstd()) GTEST_SKIP() << "built without zstd";
   const Volume v = multiBlockVolume();

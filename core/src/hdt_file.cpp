@@ -376,61 +376,23 @@ TreeCounts checkElements(const std::vector<ElementWord>& elements, const std::ve
   return counts;
 }
 
-struct LeafCounts {
-  uint64_t surface = 0, inside = 0, invalidWords = 0; // invalidWords: 0, or some (not a count)
-};
-
-// Where the compiler can pick the processor's bit count at load time (one
-// copy of the function with POPCNT, one without, chosen by the loader), the
-// leaf scan uses it: baseline x86-64 has none, and the portable bit count
-// (popcount32) made this scan cost as much CPU as the leaves' compression.
-#if defined(__x86_64__) && defined(__linux__) && defined(__has_attribute)
-#if __has_attribute(target_clones)
-#define HDT_POPCNT_CLONES __attribute__((target_clones("popcnt", "default")))
-#endif
-#endif
-#ifndef HDT_POPCNT_CLONES
-#define HDT_POPCNT_CLONES
-#endif
-
-// The voxel counts of `n` leaf words, two words a step; words with a field in
-// the invalid state 3 are only flagged (checkLeaves finds the first).
-HDT_POPCNT_CLONES LeafCounts countLeafWords(const uint32_t* words, size_t n) {
-  constexpr uint64_t inside = uint64_t(kInsidePlaneBits) << 32 | kInsidePlaneBits;
-  uint64_t surfaceCount = 0, insideCount = 0, invalid = 0;
-  size_t i = 0;
-  for (; i + 2 <= n; i += 2) {
-    uint64_t x;
-    std::memcpy(&x, words + i, sizeof x); // words i and i + 1; the planes' bits keep their meaning
-    insideCount += uint64_t(__builtin_popcountll(x & inside));
-    surfaceCount += uint64_t(__builtin_popcountll(x & (inside << 1)));
-    invalid |= x & (x >> 1) & inside;
-  }
-  for (; i < n; ++i) {
-    insideCount += planeCount(words[i], kInsidePlane);
-    surfaceCount += planeCount(words[i], kSurfacePlane);
-    invalid |= invalidFields(words[i]);
-  }
-  return LeafCounts{surfaceCount, insideCount, invalid != 0 ? 1u : 0u};
-}
+void checkLeafCounts(const LeafCounts& c, const LeafWordVector& words, int leafSize, bool surfaceOnly);
 
 // Rule 19, and the voxel counts the statistics must match.
 LeafCounts checkLeaves(const LeafWordVector& words, int leafSize, bool surfaceOnly) {
   const LeafCounts c = tbb::parallel_reduce(
       tbb::blocked_range<size_t>(0, words.size(), 1 << 16), LeafCounts{},
       [&](const tbb::blocked_range<size_t>& r, LeafCounts c) {
-        const LeafCounts part = countLeafWords(words.data() + r.begin(), r.size());
-        c.surface += part.surface;
-        c.inside += part.inside;
-        c.invalidWords += part.invalidWords;
-        return c;
+        return c += countLeafWords(words.data() + r.begin(), r.size());
       },
-      [](LeafCounts a, const LeafCounts& b) {
-        a.surface += b.surface;
-        a.inside += b.inside;
-        a.invalidWords += b.invalidWords;
-        return a;
-      });
+      [](LeafCounts a, const LeafCounts& b) { return a += b; });
+  checkLeafCounts(c, words, leafSize, surfaceOnly);
+  return c;
+}
+
+// Rule 19 from the counts of all the leaf words (checkLeaves, or the writer's
+// zstd blocks): the first invalid field is looked for only when there is one.
+void checkLeafCounts(const LeafCounts& c, const LeafWordVector& words, int leafSize, bool surfaceOnly) {
   if (c.invalidWords != 0) {
     const auto bad = std::find_if(words.begin(), words.end(),
                                   [](uint32_t w) { return invalidFields(w) != 0; });
@@ -441,7 +403,6 @@ LeafCounts checkLeaves(const LeafWordVector& words, int leafSize, bool surfaceOn
   // Inside and Surface are exclusive states, so the popcounts above count voxels.
   if (surfaceOnly && c.inside != 0)
     invalid("leaf data: " + str(c.inside) + " Inside voxels in a surface-only volume");
-  return c;
 }
 
 // Rule 12: the statistics that are functions of the contents must agree with them.
@@ -600,8 +561,9 @@ void checkLabels(const Volume& v) {
   checkLabelNames(v.labels.names);
 }
 
-// Everything at once, for the writer.
-void checkVolume(const Volume& v, StatisticsOf statistics = StatisticsOf::Contents) {
+// The checks before the leaf words' contents: grid, statistics fields, level
+// table, elements, the number of leaf words.
+TreeCounts checkVolumeTree(const Volume& v) {
   const GridSpec& g = v.grid;
   checkGrid(g.resolution, g.rootGrid, g.leafSize, g.height, g.origin, g.voxelSize);
   checkInsideTest(uint32_t(v.insideTest));
@@ -614,7 +576,11 @@ void checkVolume(const Volume& v, StatisticsOf statistics = StatisticsOf::Conten
   if (v.leafWords.size() != tree.leaves * leafWordCount(g.leafSize)) {
     invalid(str(v.leafWords.size()) + " leaf words for " + str(tree.leaves) + " Boundary elements");
   }
-  const auto leaves = checkLeaves(v.leafWords, g.leafSize, v.surfaceOnly);
+  return tree;
+}
+
+// The checks after the leaf words' contents (`leaves`, already checked).
+void checkVolumeRest(const Volume& v, const TreeCounts& tree, const LeafCounts& leaves, StatisticsOf statistics) {
   if (statistics == StatisticsOf::Contents) checkStructure(v.stats, v, tree, leaves);
   checkLabels(v);
   try {
@@ -622,6 +588,12 @@ void checkVolume(const Volume& v, StatisticsOf statistics = StatisticsOf::Conten
   } catch (const Error& e) {
     invalid(e.what());
   }
+}
+
+// Everything at once.
+void checkVolume(const Volume& v, StatisticsOf statistics = StatisticsOf::Contents) {
+  const TreeCounts tree = checkVolumeTree(v);
+  checkVolumeRest(v, tree, checkLeaves(v.leafWords, v.grid.leafSize, v.surfaceOnly), statistics);
 }
 
 // ---- zstd ---------------------------------------------------------------------------
@@ -707,9 +679,19 @@ void decompressLeaves(const uint8_t* src, size_t srcSize, uint8_t* dst, size_t d
 }
 
 // The leaf words as zstd blocks (encoding 2), from their little-endian bytes.
-zstd_blocks::Encoded compressLeafBlocks(const LeafWordVector& words, int level) {
+// On little-endian hosts `counts` (when not null) receives the leaf counts,
+// taken block by block beside the compression.
+zstd_blocks::Encoded compressLeafBlocks(const LeafWordVector& words, int level, LeafCounts* counts = nullptr) {
   const size_t bytes = words.size() * sizeof(words[0]);
-  if (kLittleEndianHost) return zstd_blocks::compress(reinterpret_cast<const uint8_t*>(words.data()), bytes, level);
+  if (kLittleEndianHost) {
+    const uint8_t* data = reinterpret_cast<const uint8_t*>(words.data());
+    if (!counts) return zstd_blocks::compress(data, bytes, level);
+    BlockLeafCounts blockCounts((uint64_t(bytes) + (size_t(1) << zstd_blocks::kWriterBlockLog) - 1) >>
+                                zstd_blocks::kWriterBlockLog);
+    zstd_blocks::Encoded e = zstd_blocks::compress(data, bytes, level, zstd_blocks::kWriterBlockLog, blockCounts.visitor());
+    *counts = blockCounts.total();
+    return e;
+  }
   std::vector<uint32_t> le(words.size());
   for (size_t i = 0; i < words.size(); ++i) le[i] = byteSwap(words[i]);
   return zstd_blocks::compress(reinterpret_cast<const uint8_t*>(le.data()), bytes, level);
@@ -927,16 +909,21 @@ void encodeArrays(const Volume& v, EncodedVolume& e) {
       optionalSectionCrc(Section::ArrayValues, Encoding::Raw, e.arrayValueBytes, e.arrayValueBytes, crc);
 }
 
-EncodedVolume encodeRequired(const Volume& v, const HdtWriteOptions& options, HdtLeafEncoder* streamed);
+EncodedVolume encodeRequired(const Volume& v, const HdtWriteOptions& options, HdtLeafEncoder* streamed,
+                             LeafCounts* leafCounts);
 
-EncodedVolume encode(const Volume& v, const HdtWriteOptions& options, HdtLeafEncoder* streamed) {
-  EncodedVolume e = encodeRequired(v, options, streamed);
+// `leafCounts`: see encodeRequired.
+EncodedVolume encode(const Volume& v, const HdtWriteOptions& options, HdtLeafEncoder* streamed, LeafCounts* leafCounts) {
+  EncodedVolume e = encodeRequired(v, options, streamed, leafCounts);
   encodeLabels(v, options, e);
   encodeArrays(v, e);
   return e;
 }
 
-EncodedVolume encodeRequired(const Volume& v, const HdtWriteOptions& options, HdtLeafEncoder* streamed) {
+// Where the leaves go as zstd blocks on a little-endian host (leafCountsFromBlocks),
+// `leafCounts` receives their counts, taken as the blocks were compressed.
+EncodedVolume encodeRequired(const Volume& v, const HdtWriteOptions& options, HdtLeafEncoder* streamed,
+                             LeafCounts* leafCounts) {
   EncodedVolume e;
   const GridSpec& g = v.grid;
   {
@@ -980,8 +967,9 @@ EncodedVolume encodeRequired(const Volume& v, const HdtWriteOptions& options, Hd
 #if defined(HDT_HAVE_ZSTD)
   if (options.compressLeaves && !v.leafWords.empty() && options.leafBlocks) {
     e.leafEncoding = Encoding::ZstdBlocks;
-    std::unique_ptr<zstd_blocks::Encoded> done = streamed ? takeStreamedLeafBlocks(*streamed, v.leafWords, options) : nullptr;
-    e.blocks = done ? std::move(*done) : compressLeafBlocks(v.leafWords, options.zstdLevel);
+    std::unique_ptr<zstd_blocks::Encoded> done =
+        streamed ? takeStreamedLeafBlocks(*streamed, v.leafWords, options, leafCounts) : nullptr;
+    e.blocks = done ? std::move(*done) : compressLeafBlocks(v.leafWords, options.zstdLevel, leafCounts);
     e.leafCrc = e.blocks.crc;
     return e;
   }
@@ -995,6 +983,7 @@ EncodedVolume encodeRequired(const Volume& v, const HdtWriteOptions& options, Hd
   (void)options;
   (void)streamed;
 #endif
+  (void)leafCounts;
   e.leafCrc = crcOfWords(v.leafWords);
   return e;
 }
@@ -1104,6 +1093,17 @@ void emit(const EncodedVolume& e, const Volume& v, Sink& out) {
   writeSectionHeader(out, Section::End, Encoding::Raw, 0, 0, 0);
 }
 
+// Whether encodeRequired counts the leaf words as it compresses them.
+bool leafCountsFromBlocks(const Volume& v, const HdtWriteOptions& options) {
+#if defined(HDT_HAVE_ZSTD)
+  return kLittleEndianHost && options.compressLeaves && options.leafBlocks && !v.leafWords.empty();
+#else
+  (void)v;
+  (void)options;
+  return false;
+#endif
+}
+
 // Checks the volume and the options, then encodes; throws hdt::Error.
 EncodedVolume prepare(const Volume& v, const HdtWriteOptions& options, const std::string& name,
                       HdtLeafEncoder* streamed) {
@@ -1116,26 +1116,40 @@ EncodedVolume prepare(const Volume& v, const HdtWriteOptions& options, const std
   }
 #endif
   // The checks and the encoding both only read the volume: they run at the
-  // same time (zstd's workers leave cores idle for the checks). The checks'
-  // verdict comes first, as if they had run alone.
+  // same time. Leaves written as zstd blocks are counted by the tasks that
+  // compress them, block by block while the block is in cache (a second pass
+  // over the volume cost as much as a third of the compression); the checker
+  // leaves them out. The checks' verdict comes first, as if they had run alone.
+  const bool countsFromBlocks = leafCountsFromBlocks(v, options);
   std::exception_ptr checkError;
+  TreeCounts tree;
+  LeafCounts leaves;
   std::thread checker([&] {
     try {
-      checkVolume(v);
+      tree = checkVolumeTree(v);
+      if (!countsFromBlocks) leaves = checkLeaves(v.leafWords, v.grid.leafSize, v.surfaceOnly);
     } catch (...) {
       checkError = std::current_exception();
     }
   });
   EncodedVolume e;
+  LeafCounts blockLeaves;
   std::exception_ptr encodeError;
   try {
-    e = encode(v, options, streamed);
+    e = encode(v, options, streamed, countsFromBlocks ? &blockLeaves : nullptr);
   } catch (...) {
     encodeError = std::current_exception();
   }
   checker.join();
   try {
     if (checkError) std::rethrow_exception(checkError);
+    if (countsFromBlocks && !encodeError) {
+      checkLeafCounts(blockLeaves, v.leafWords, v.grid.leafSize, v.surfaceOnly);
+      leaves = blockLeaves;
+    } else if (countsFromBlocks) {
+      leaves = checkLeaves(v.leafWords, v.grid.leafSize, v.surfaceOnly); // the encoding failed before counting
+    }
+    checkVolumeRest(v, tree, leaves, StatisticsOf::Contents);
   } catch (const Invalid& x) {
     throw Error(ErrorKind::InvalidArgument, name + ": refusing to write an inconsistent volume: " + x.what());
   }

@@ -13,6 +13,7 @@
 #include <atomic>
 #include <memory>
 #include <new>
+#include <utility>
 
 namespace hdt {
 namespace zstd_blocks {
@@ -59,6 +60,7 @@ struct BlockCompressor::State {
   size_t size;
   int level;
   uint32_t blockLog;
+  BlockVisitor visit;
   Encoded e;
   std::vector<uint32_t> crcs;
   // Each thread compresses into its own worst-case buffer, then keeps an
@@ -70,8 +72,9 @@ struct BlockCompressor::State {
   tbb::enumerable_thread_specific<Worker> workers;
 };
 
-BlockCompressor::BlockCompressor(size_t size, int level, uint32_t blockLog) : state_(new State) {
+BlockCompressor::BlockCompressor(size_t size, int level, uint32_t blockLog, BlockVisitor visit) : state_(new State) {
   state_->size = size;
+  state_->visit = std::move(visit);
   state_->level = level;
   state_->blockLog = blockLog;
   const uint64_t n = blockCount(size, blockLog);
@@ -91,6 +94,7 @@ void BlockCompressor::compressBlocks(const uint8_t* data, uint64_t first, uint64
     if (!w.cctx) throw std::bad_alloc();
     if (w.scratch.size() < bound) w.scratch.resize(bound);
     const size_t bytes = blockBytes(st.size, st.blockLog, i);
+    if (st.visit) st.visit(i, data + (i << st.blockLog), bytes);
     // One-shot: the frame states its content size, and the output depends
     // only on the block and the level (no workers, no shared state).
     const size_t c =
@@ -116,8 +120,8 @@ Encoded BlockCompressor::finish() {
   return e;
 }
 
-Encoded compress(const uint8_t* data, size_t size, int level, uint32_t blockLog) {
-  BlockCompressor c(size, level, blockLog);
+Encoded compress(const uint8_t* data, size_t size, int level, uint32_t blockLog, const BlockVisitor& visit) {
+  BlockCompressor c(size, level, blockLog, visit);
   c.compressBlocks(data, 0, c.blocks());
   return c.finish();
 }

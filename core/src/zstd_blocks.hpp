@@ -9,6 +9,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -39,16 +40,22 @@ struct Encoded {
   uint64_t storedBytes() const;
 };
 
+// Called with each block's bytes by the task that compresses it, just before:
+// a pass over the same bytes while they are in that core's cache (the
+// writer's leaf checks). Blocks of one call run at once: write per block.
+using BlockVisitor = std::function<void(uint64_t block, const uint8_t* bytes, size_t n)>;
+
 // Compresses `size` bytes (already little-endian) at `level`. Throws
 // hdt::Error(OutOfResources) when zstd fails.
-Encoded compress(const uint8_t* data, size_t size, int level, uint32_t blockLog = kWriterBlockLog);
+Encoded compress(const uint8_t* data, size_t size, int level, uint32_t blockLog = kWriterBlockLog,
+                 const BlockVisitor& visit = {});
 
 // The same encoding a few blocks at a time, as their bytes become final
 // (hdt::HdtLeafEncoder): compress() is this over all blocks at once, so the
 // bytes are the same however the blocks are handed in.
 class BlockCompressor {
 public:
-  BlockCompressor(size_t size, int level, uint32_t blockLog = kWriterBlockLog);
+  BlockCompressor(size_t size, int level, uint32_t blockLog = kWriterBlockLog, BlockVisitor visit = {});
   ~BlockCompressor();
   BlockCompressor(const BlockCompressor&) = delete;
   BlockCompressor& operator=(const BlockCompressor&) = delete;
