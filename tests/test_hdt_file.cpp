@@ -996,6 +996,24 @@ TEST(HdtFileV3, RefusalsAreTheSameWhereTheBlocksCountTheLeaves) {
     streamed.begin(v.leafWords.data(), v.leafWords.size());
     streamed.arrived(v.leafWords.size());
     EXPECT_EQ(refusal(v, compressed(), &streamed), checker);
+    // To a file, the streamed frames are written as they are compressed,
+    // before the verdict: still refused the same way, and no file is left.
+    const std::string path = tempPath("streamed_refused.hdt");
+    std::remove(path.c_str());
+    auto fileRefusal = [&](const HdtWriteOptions& o, HdtLeafEncoder* s) -> std::string {
+      try {
+        writeHdt(v, path, o, s);
+      } catch (const Error& e) {
+        return e.what();
+      }
+      return "accepted";
+    };
+    HdtLeafEncoder toFile;
+    toFile.begin(v.leafWords.data(), v.leafWords.size());
+    toFile.arrived(v.leafWords.size());
+    EXPECT_EQ(fileRefusal(compressed(), &toFile), fileRefusal(raw, nullptr));
+    EXPECT_TRUE(toFile.usedByWriter()) << "the streaming writer took the blocks";
+    EXPECT_EQ(std::fopen(path.c_str(), "rb"), nullptr);
   }
 }
 

@@ -31,6 +31,7 @@
 
 #include <fcntl.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cerrno>
@@ -749,6 +750,20 @@ public:
     written_ += size;
     if (written_ - started_ >= kWriteBackStep) startWriteBack();
   }
+  uint64_t position() const { return written_; }
+  // Rewrites `size` bytes at `at` (< position()), where zeros were reserved.
+  void patch(uint64_t at, const void* data, size_t size) {
+    if (std::fflush(f_) != 0) fail();
+    const uint8_t* p = static_cast<const uint8_t*>(data);
+    while (size > 0) {
+      const ssize_t n = ::pwrite(fileno(f_), p, size, off_t(at));
+      if (n < 0 && errno == EINTR) continue;
+      if (n <= 0) fail();
+      p += n;
+      at += uint64_t(n);
+      size -= size_t(n);
+    }
+  }
 
 private:
   static constexpr uint64_t kWriteBackStep = uint64_t(4) << 20;
@@ -922,9 +937,9 @@ EncodedVolume encode(const Volume& v, const HdtWriteOptions& options, HdtLeafEnc
 
 // Where the leaves go as zstd blocks on a little-endian host (leafCountsFromBlocks),
 // `leafCounts` receives their counts, taken as the blocks were compressed.
-EncodedVolume encodeRequired(const Volume& v, const HdtWriteOptions& options, HdtLeafEncoder* streamed,
-                             LeafCounts* leafCounts) {
-  EncodedVolume e;
+// The required sections but the leaf data: grid, statistics, level table, the
+// elements' CRC.
+void encodeSmallSections(const Volume& v, EncodedVolume& e) {
   const GridSpec& g = v.grid;
   {
     ByteWriter w;
@@ -962,8 +977,13 @@ EncodedVolume encodeRequired(const Volume& v, const HdtWriteOptions& options, Hd
     e.levels = w.bytes();
   }
   e.elementsCrc = crcOfWords(v.elements);
-
   e.leafRawBytes = uint64_t(v.leafWords.size()) * 4;
+}
+
+EncodedVolume encodeRequired(const Volume& v, const HdtWriteOptions& options, HdtLeafEncoder* streamed,
+                             LeafCounts* leafCounts) {
+  EncodedVolume e;
+  encodeSmallSections(v, e);
 #if defined(HDT_HAVE_ZSTD)
   if (options.compressLeaves && !v.leafWords.empty() && options.leafBlocks) {
     e.leafEncoding = Encoding::ZstdBlocks;
@@ -1053,7 +1073,8 @@ void emitArrays(const EncodedVolume& e, const Volume& v, Sink& out) {
     forEachLittleEndianChunk(a.values.data(), a.values.size(), [&](const uint8_t* p, size_t k) { out.write(p, k); });
 }
 
-void emit(const EncodedVolume& e, const Volume& v, Sink& out) {
+// The file header and the required sections before the leaf data.
+void emitHead(const EncodedVolume& e, const Volume& v, Sink& out) {
   ByteWriter header;
   header.raw(kMagic, 4);
   header.u32(e.leafEncoding == Encoding::ZstdBlocks ? kFirstBlocksVersion : 2u);
@@ -1068,7 +1089,9 @@ void emit(const EncodedVolume& e, const Volume& v, Sink& out) {
   writeSectionHeader(out, Section::Elements, Encoding::Raw, elementBytes, elementBytes, e.elementsCrc);
   forEachLittleEndianChunk(v.elements.data(), v.elements.size(),
                            [&](const uint8_t* p, size_t n) { out.write(p, n); });
+}
 
+void emitLeaves(const EncodedVolume& e, const Volume& v, Sink& out) {
   writeSectionHeader(out, Section::LeafData, e.leafEncoding, e.leafStoredBytes(), e.leafRawBytes, e.leafCrc);
   bool leavesWritten = false;
 #if defined(HDT_HAVE_ZSTD)
@@ -1086,11 +1109,20 @@ void emit(const EncodedVolume& e, const Volume& v, Sink& out) {
     forEachLittleEndianChunk(v.leafWords.data(), v.leafWords.size(),
                              [&](const uint8_t* p, size_t n) { out.write(p, n); });
   }
+}
 
+// The optional sections after the leaf data, then the end.
+void emitTail(const EncodedVolume& e, const Volume& v, Sink& out) {
   emitLabels(e, v, out);
   emitArrays(e, v, out);
   emitCompactLabelVoxels(e, out);
   writeSectionHeader(out, Section::End, Encoding::Raw, 0, 0, 0);
+}
+
+void emit(const EncodedVolume& e, const Volume& v, Sink& out) {
+  emitHead(e, v, out);
+  emitLeaves(e, v, out);
+  emitTail(e, v, out);
 }
 
 // Whether encodeRequired counts the leaf words as it compresses them.
@@ -1104,9 +1136,44 @@ bool leafCountsFromBlocks(const Volume& v, const HdtWriteOptions& options) {
 #endif
 }
 
-// Checks the volume and the options, then encodes; throws hdt::Error.
-EncodedVolume prepare(const Volume& v, const HdtWriteOptions& options, const std::string& name,
-                      HdtLeafEncoder* streamed) {
+#if defined(HDT_HAVE_ZSTD)
+// The leaf frames written as the build's streamed blocks are compressed,
+// during the compression rather than after it (so the emit and the disk's
+// write-back overlap it); the leaf section's header and block table, which
+// need every frame's size and the CRC, are written last over zeros reserved
+// for them. The same bytes as encode + emit.
+void emitStreaming(const Volume& v, const HdtWriteOptions& options, HdtLeafEncoder& streamed,
+                   zstd_blocks::BlockCompressor& blocks, FileSink& out, LeafCounts* blockLeaves) {
+  EncodedVolume e;
+  encodeSmallSections(v, e);
+  e.leafEncoding = Encoding::ZstdBlocks;
+  encodeLabels(v, options, e);
+  encodeArrays(v, e);
+  emitHead(e, v, out);
+  const uint64_t leafAt = out.position(), n = blocks.blocks();
+  const std::vector<uint8_t> reserved(kSectionHeaderBytes + zstd_blocks::kTableHeaderBytes + 8 * size_t(n));
+  out.write(reserved.data(), reserved.size());
+  for (uint64_t i = 0; i < n; ++i) {
+    const std::vector<uint8_t>* frame = blocks.waitForBlock(i);
+    if (!frame) break; // a compression failed: taking the blocks rethrows its error
+    out.write(frame->data(), frame->size());
+  }
+  std::unique_ptr<zstd_blocks::Encoded> done = takeStreamedLeafBlocks(streamed, v.leafWords, options, blockLeaves);
+  if (!done) throw std::logic_error("the streamed leaf blocks stopped covering the volume");
+  e.blocks = std::move(*done);
+  e.leafCrc = e.blocks.crc;
+  std::vector<uint8_t> head;
+  VectorSink headSink(head);
+  writeSectionHeader(headSink, Section::LeafData, e.leafEncoding, e.leafStoredBytes(), e.leafRawBytes, e.leafCrc);
+  headSink.write(e.blocks.table.data(), e.blocks.table.size());
+  if (head.size() != reserved.size()) throw std::logic_error("the leaf block table's size changed");
+  out.patch(leafAt, head.data(), head.size());
+  emitTail(e, v, out);
+}
+#endif
+
+// The zstd level is one zstd has.
+void checkLevel(const HdtWriteOptions& options) {
 #if defined(HDT_HAVE_ZSTD)
   if (options.compressLeaves &&
       (options.zstdLevel < ZSTD_minCLevel() || options.zstdLevel > ZSTD_maxCLevel())) {
@@ -1114,7 +1181,17 @@ EncodedVolume prepare(const Volume& v, const HdtWriteOptions& options, const std
                                                 " is out of range [" + std::to_string(ZSTD_minCLevel()) +
                                                 ", " + std::to_string(ZSTD_maxCLevel()) + "]");
   }
+#else
+  (void)options;
 #endif
+}
+
+// Checks the volume beside `encodeStep(LeafCounts* blockLeaves)`, which
+// encodes (and may write): the checks' verdict comes first, as if they had
+// run alone, then the encoding's error. Throws hdt::Error.
+template <class EncodeStep>
+void checkedEncode(const Volume& v, const HdtWriteOptions& options, const std::string& name, EncodeStep&& encodeStep) {
+  checkLevel(options);
   // The checks and the encoding both only read the volume: they run at the
   // same time. Leaves written as zstd blocks are counted by the tasks that
   // compress them, block by block while the block is in cache (a second pass
@@ -1132,11 +1209,10 @@ EncodedVolume prepare(const Volume& v, const HdtWriteOptions& options, const std
       checkError = std::current_exception();
     }
   });
-  EncodedVolume e;
   LeafCounts blockLeaves;
   std::exception_ptr encodeError;
   try {
-    e = encode(v, options, streamed, countsFromBlocks ? &blockLeaves : nullptr);
+    encodeStep(countsFromBlocks ? &blockLeaves : nullptr);
   } catch (...) {
     encodeError = std::current_exception();
   }
@@ -1155,11 +1231,19 @@ EncodedVolume prepare(const Volume& v, const HdtWriteOptions& options, const std
   }
   try {
     if (encodeError) std::rethrow_exception(encodeError);
-  } catch (const Error& x) { // zstd failures
+  } catch (const Error& x) { // zstd failures; the file's own errors name it already
+    if (x.kind() == ErrorKind::OutputFailed) throw;
     throw Error(x.kind(), name + ": " + x.what());
   } catch (const std::bad_alloc&) {
     throw Error(ErrorKind::OutOfResources, name + ": out of memory while encoding the volume");
   }
+}
+
+// Checks the volume and the options, then encodes; throws hdt::Error.
+EncodedVolume prepare(const Volume& v, const HdtWriteOptions& options, const std::string& name,
+                      HdtLeafEncoder* streamed) {
+  EncodedVolume e;
+  checkedEncode(v, options, name, [&](LeafCounts* blockLeaves) { e = encode(v, options, streamed, blockLeaves); });
   return e;
 }
 
@@ -1789,7 +1873,31 @@ std::vector<uint8_t> serializeHdt(const Volume& volume, const HdtWriteOptions& o
   return bytes;
 }
 
+// Writes with the leaf frames streamed to the file (emitStreaming) where the
+// build's blocks cover the volume; false, having written nothing, otherwise.
+bool writeStreaming(const Volume& volume, std::FILE* f, const std::string& path, const HdtWriteOptions& options,
+                    HdtLeafEncoder* streamed) {
+#if defined(HDT_HAVE_ZSTD)
+  zstd_blocks::BlockCompressor* blocks =
+      streamed ? streamingLeafBlocks(*streamed, volume.leafWords, options) : nullptr;
+  if (!blocks) return false;
+  FileSink sink(f, path);
+  checkedEncode(volume, options, path, [&](LeafCounts* blockLeaves) {
+    emitStreaming(volume, options, *streamed, *blocks, sink, blockLeaves);
+  });
+  return true;
+#else
+  (void)volume;
+  (void)f;
+  (void)path;
+  (void)options;
+  (void)streamed;
+  return false;
+#endif
+}
+
 void writeHdt(const Volume& volume, AtomicFile& out, const HdtWriteOptions& options, HdtLeafEncoder* streamed) {
+  if (writeStreaming(volume, out.stream(), out.path(), options, streamed)) return;
   const EncodedVolume e = prepare(volume, options, out.path(), streamed);
   FileSink sink(out.stream(), out.path());
   emit(e, volume, sink);
@@ -1797,8 +1905,17 @@ void writeHdt(const Volume& volume, AtomicFile& out, const HdtWriteOptions& opti
 
 void writeHdt(const Volume& volume, const std::string& path, const HdtWriteOptions& options,
               HdtLeafEncoder* streamed) {
-  // Encode first: a refused volume must not leave a file behind. The bytes go
-  // to a temporary file renamed over `path` only once complete (atomic_file.hpp).
+  // The bytes go to a temporary file renamed over `path` only once complete
+  // (atomic_file.hpp): a refused volume leaves no file behind.
+#if defined(HDT_HAVE_ZSTD)
+  if (streamed && streamingLeafBlocks(*streamed, volume.leafWords, options)) {
+    AtomicFile out(path);
+    writeStreaming(volume, out.stream(), path, options, streamed);
+    out.commit();
+    return;
+  }
+#endif
+  // Encode first, then create the file.
   const EncodedVolume e = prepare(volume, options, path, streamed);
   AtomicFile out(path);
   FileSink sink(out.stream(), path);

@@ -145,14 +145,25 @@ void HdtLeafEncoder::arrived(size_t count) {
 }
 
 #if defined(HDT_HAVE_ZSTD)
+namespace {
+bool covers(const HdtLeafEncoder::State& s, const LeafWordVector& words, const HdtWriteOptions& options) {
+  return s.compressor && s.words == words.data() && s.count == words.size() && s.arrivedWords == s.count &&
+         s.handedOut == s.compressor->blocks() && options.compressLeaves && options.leafBlocks &&
+         options.zstdLevel == s.options.zstdLevel;
+}
+} // namespace
+
+zstd_blocks::BlockCompressor* streamingLeafBlocks(HdtLeafEncoder& encoder, const LeafWordVector& words,
+                                                  const HdtWriteOptions& options) {
+  HdtLeafEncoder::State& s = leafEncoderState(encoder);
+  return covers(s, words, options) ? &*s.compressor : nullptr;
+}
+
 std::unique_ptr<zstd_blocks::Encoded> takeStreamedLeafBlocks(HdtLeafEncoder& encoder, const LeafWordVector& words,
                                                              const HdtWriteOptions& options, LeafCounts* counts) {
   HdtLeafEncoder::State& s = leafEncoderState(encoder);
   s.wait();
-  const bool covers = s.compressor && s.words == words.data() && s.count == words.size() &&
-                      s.arrivedWords == s.count && s.handedOut == s.compressor->blocks() &&
-                      options.compressLeaves && options.leafBlocks && options.zstdLevel == s.options.zstdLevel;
-  if (!covers) return nullptr;
+  if (!covers(s, words, options)) return nullptr;
   auto e = std::make_unique<zstd_blocks::Encoded>(s.compressor->finish());
   if (counts) *counts = s.counts->total();
   s.compressor.reset();

@@ -49,6 +49,13 @@ private:
 // Waits for the blocks in flight, then hands over the encoded leaf data when
 // the encoder was fed exactly `words` (all of them) at the options' level;
 // null otherwise (the writer then compresses). Rethrows a compression error.
+// The encoder's blocks when they cover exactly `words` with the options' level
+// (every word has arrived and every block is handed to a task), so that a
+// writer may write each frame as soon as it is compressed (waitForBlock), then
+// take the blocks; null otherwise. Does not wait.
+zstd_blocks::BlockCompressor* streamingLeafBlocks(HdtLeafEncoder& encoder, const LeafWordVector& words,
+                                                  const HdtWriteOptions& options);
+
 // `counts` (when not null) receives the blocks' leaf counts.
 std::unique_ptr<zstd_blocks::Encoded> takeStreamedLeafBlocks(HdtLeafEncoder& encoder, const LeafWordVector& words,
                                                              const HdtWriteOptions& options, LeafCounts* counts = nullptr);

@@ -63,11 +63,17 @@ public:
   // Blocks [first, end) of `data` (the whole `size` bytes; only those blocks
   // are read), in parallel. Calls for disjoint ranges may run at once.
   void compressBlocks(const uint8_t* data, uint64_t first, uint64_t end);
+  // Waits until block i is compressed and returns its frame, valid until
+  // finish(); null once a compression has failed (the caller that runs the
+  // tasks gets the error). For a writer that writes each frame as soon as it
+  // is there.
+  const std::vector<uint8_t>* waitForBlock(uint64_t i);
   // Once every block is compressed: the table and the CRC; the compressor is
   // then empty.
   Encoded finish();
 
 private:
+  void compressBlock(uint64_t i, const uint8_t* data, size_t bound);
   struct State;
   State* state_;
 };
