@@ -68,6 +68,10 @@ std::string usageText() {
          "                   voxel centre) always\n"
          "  -o OUT.hdt       write the volume as an .hdt file (checked before the build,\n"
          "                   replaced atomically; never the input mesh)\n"
+         "  --compression-level Z  zstd level of -o's leaf data, " + std::to_string(kMinCompressionLevel) + " (fastest) to " +
+         std::to_string(kMaxCompressionLevel) + " (smallest)\n"
+         "                   (default " + std::to_string(HdtWriteOptions{}.zstdLevel) +
+         "); every level gives a file every reader reads\n"
          "  --dense OUT.nrrd write a dense N^3 uint8 NRRD (0 outside, 1 inside, 2 surface; N <= 1024)\n"
          "  --labels SOURCE  label the voxels by part: ply:PROPERTY (an integer face property),\n"
          "                   obj:group, obj:material, or components (connected components)\n"
@@ -157,6 +161,13 @@ Options parseOptions(int argc, const char* const* argv) {
     else if (arg == "--surface-only") set(o.config.surfaceOnly);
     else if (arg == "--inside-test") o.config.insideTest = parseInsideTest(value());
     else if (arg == "-o" || arg == "--output") o.hdtPath = value();
+    else if (arg == "--compression-level") {
+      o.compressionLevel = parseInt(arg, value(), kMinCompressionLevel);
+      if (o.compressionLevel > kMaxCompressionLevel) {
+        throw UsageError("--compression-level must be at most " + std::to_string(kMaxCompressionLevel) + ", got " +
+                         std::to_string(o.compressionLevel));
+      }
+    }
     else if (arg == "--dense") o.densePath = value();
     else if (arg == "--labels") o.labels = parseLabelSource(value());
     else if (arg == "--overlap") o.overlap = parseOverlap(value());

@@ -3,6 +3,7 @@
 
 #include "hdt/builder.hpp"
 #include "hdt/config.hpp"
+#include "hdt/hdt_file.hpp"
 #include "hdt/labels.hpp"
 #include "hdt/mesh_io.hpp"
 
@@ -12,11 +13,17 @@
 
 namespace hdt::cli {
 
+// --compression-level: zstd's levels without its "ultra" ones (20-22 need far
+// more memory) and without the negative ones (on leaf data they save little
+// time for much larger files: bench/results/end-to-end.md), as ParaView's writer.
+constexpr int kMinCompressionLevel = 1, kMaxCompressionLevel = 19;
+
 struct Options {
   std::string mesh;           // a file path or builtin:NAME
   BuildConfig config;         // resolution, root grid, leaf size, surface-only
   BuildOptions build;         // backend, device, threads
   std::string hdtPath;        // -o
+  int compressionLevel = HdtWriteOptions{}.zstdLevel; // --compression-level: -o's zstd level
   std::string densePath;      // --dense
   MeshLabelSource labels;     // --labels
   LabelOptions overlap;       // --overlap

@@ -126,6 +126,12 @@ void checkOutputs(const Options& options) {
   }
 }
 
+HdtWriteOptions hdtWriteOptions(const Options& options) {
+  HdtWriteOptions w;
+  w.zstdLevel = options.compressionLevel;
+  return w;
+}
+
 // Writes -o and --dense to temporary files and renames them into place only
 // when both are complete: a failed --dense leaves no new -o file behind.
 // `streamed`: the leaf blocks compressed during the build's copy back.
@@ -133,7 +139,7 @@ void writeOutputs(const Options& options, const Volume& volume, HdtLeafEncoder& 
   std::unique_ptr<AtomicFile> hdt, dense, labels;
   if (!options.hdtPath.empty()) {
     hdt = std::make_unique<AtomicFile>(options.hdtPath);
-    about(options.hdtPath, [&] { writeHdt(volume, *hdt, HdtWriteOptions{}, &streamed); });
+    about(options.hdtPath, [&] { writeHdt(volume, *hdt, hdtWriteOptions(options), &streamed); });
   }
   if (!options.densePath.empty()) {
     dense = std::make_unique<AtomicFile>(options.densePath);
@@ -277,7 +283,7 @@ int run(int argc, const char* const* argv, const MpiSession& session, Clock::tim
   build.progress = [&](double fraction, const char* phase) { return progress.update(fraction, phase); };
   build.log = [&](const std::string& text) { progress.note(text); };
   // -o's leaf blocks are compressed while the CUDA driver copies them back.
-  HdtLeafEncoder streamedLeaves;
+  HdtLeafEncoder streamedLeaves(hdtWriteOptions(options));
   if (!options.hdtPath.empty() && !labelled && session.size() == 1) build.leafSink = &streamedLeaves;
   t = Clock::now();
   Volume volume = about(options.mesh, [&] {

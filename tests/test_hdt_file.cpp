@@ -838,6 +838,24 @@ TEST(HdtFileV3, LeafBlocksFollowTheSpec) {
   expectSameVolume(v, deserializeHdt(bytes.data(), bytes.size()), "blocks");
 }
 
+// A file longer than a write-back step (the writer starts the disk writes every
+// 4 MiB): the same bytes as serialized, read back as the volume.
+TEST(HdtFileV3, FileOfManyWriteBackStepsEqualsSerializedBytes) {
+  const Volume v = multiBlockVolume();
+  const std::string path = tempPath("write_back_steps.hdt");
+  HdtWriteOptions raw;
+  raw.compressLeaves = false;
+  for (const HdtWriteOptions& o : {raw, compressed()}) {
+    writeHdt(v, path, o);
+    std::ifstream in(path, std::ios::binary);
+    const std::vector<uint8_t> file((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    EXPECT_TRUE(file == serializeHdt(v, o));
+    expectSameVolume(v, readHdt(path), "file");
+  }
+  EXPECT_GT(v.leafWords.size() * 4, size_t(4) << 20) << "the raw file spans more than one step";
+  std::remove(path.c_str());
+}
+
 TEST(HdtFileV3, BytesDoNotDependOnTheThreadCount) {
   if (!haveZstd()) GTEST_SKIP() << "built without zstd";
   const Volume v = multiBlockVolume();
@@ -910,8 +928,8 @@ TEST(HdtFileV3, StreamedLeafBlocksNotCoveringTheVolumeAreNotUsed) {
   const Volume v = multiBlockVolume();
   const size_t n = v.leafWords.size();
   const Volume copy = v; // the same words elsewhere
-  HdtWriteOptions level1 = compressed();
-  level1.zstdLevel = 1;
+  HdtWriteOptions otherLevel = compressed();
+  otherLevel.zstdLevel = HdtWriteOptions{}.zstdLevel + 2; // the encoder's is the default
   struct Case {
     const char* what;
     const uint32_t* words;
@@ -922,7 +940,7 @@ TEST(HdtFileV3, StreamedLeafBlocksNotCoveringTheVolumeAreNotUsed) {
       {"not all arrived", v.leafWords.data(), n, n - 1, compressed()},
       {"another volume's words", copy.leafWords.data(), n, n, compressed()},
       {"fewer words", v.leafWords.data(), n - 1, n - 1, compressed()},
-      {"another level", v.leafWords.data(), n, n, level1},
+      {"another level", v.leafWords.data(), n, n, otherLevel},
       {"one frame (version 2)", v.leafWords.data(), n, n, oneFrame()},
   };
   for (const Case& c : cases) {
@@ -940,6 +958,63 @@ TEST(HdtFileV3, StreamedLeafBlocksNotCoveringTheVolumeAreNotUsed) {
   streamed.abandon();
   EXPECT_TRUE(serializeHdt(v, compressed(), &streamed) == serializeHdt(v, compressed()));
   EXPECT_FALSE(streamed.usedByWriter()) << "abandoned";
+}
+
+// Written as zstd blocks, the leaf words are counted by the tasks that
+// compress them (whether streamed during the build or by the writer), not by
+// the checker: a refused volume gets the same message either way.
+TEST(HdtFileV3, RefusalsAreTheSameWhereTheBlocksCountTheLeaves) {
+  if (!haveZstd()) GTEST_SKIP() << "built without zstd";
+  const Volume good = multiBlockVolume();
+  HdtWriteOptions raw;
+  raw.compressLeaves = false;
+  auto refusal = [](const Volume& v, const HdtWriteOptions& o, HdtLeafEncoder* streamed) -> std::string {
+    try {
+      serializeHdt(v, o, streamed);
+    } catch (const Error& e) {
+      EXPECT_EQ(e.kind(), ErrorKind::InvalidArgument) << e.what();
+      return e.what();
+    }
+    return "accepted";
+  };
+  const struct {
+    const char* fragment;
+    std::function<void(Volume&)> edit;
+  } cases[] = {
+      {"invalid state 3 (word 2045)", [](Volume& v) { v.leafWords[v.leafWords.size() - 3] |= 3u; }}, // the last block
+      {"invalid state 3 (word 0)", [](Volume& v) { v.leafWords[0] = 0xFFFFFFFFu; }},
+      {"active voxels", [](Volume& v) { v.stats.activeVoxels += 1; }},
+      {"inside voxels", [](Volume& v) { v.stats.insideVoxels -= 1; }},
+  };
+  for (const auto& c : cases) {
+    Volume v = good;
+    c.edit(v);
+    const std::string checker = refusal(v, raw, nullptr);
+    EXPECT_NE(checker.find(c.fragment), std::string::npos) << checker;
+    EXPECT_EQ(refusal(v, compressed(), nullptr), checker);
+    HdtLeafEncoder streamed;
+    streamed.begin(v.leafWords.data(), v.leafWords.size());
+    streamed.arrived(v.leafWords.size());
+    EXPECT_EQ(refusal(v, compressed(), &streamed), checker);
+    // To a file, the streamed frames are written as they are compressed,
+    // before the verdict: still refused the same way, and no file is left.
+    const std::string path = tempPath("streamed_refused.hdt");
+    std::remove(path.c_str());
+    auto fileRefusal = [&](const HdtWriteOptions& o, HdtLeafEncoder* s) -> std::string {
+      try {
+        writeHdt(v, path, o, s);
+      } catch (const Error& e) {
+        return e.what();
+      }
+      return "accepted";
+    };
+    HdtLeafEncoder toFile;
+    toFile.begin(v.leafWords.data(), v.leafWords.size());
+    toFile.arrived(v.leafWords.size());
+    EXPECT_EQ(fileRefusal(compressed(), &toFile), fileRefusal(raw, nullptr));
+    EXPECT_TRUE(toFile.usedByWriter()) << "the streaming writer took the blocks";
+    EXPECT_EQ(std::fopen(path.c_str(), "rb"), nullptr);
+  }
 }
 
 TEST(HdtFileCorrupt, ZstdBlocks) {

@@ -29,7 +29,9 @@
 #include <zstd.h>
 #endif
 
+#include <fcntl.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cerrno>
@@ -375,29 +377,23 @@ TreeCounts checkElements(const std::vector<ElementWord>& elements, const std::ve
   return counts;
 }
 
-struct LeafCounts {
-  uint64_t surface = 0, inside = 0, invalidWords = 0;
-};
+void checkLeafCounts(const LeafCounts& c, const LeafWordVector& words, int leafSize, bool surfaceOnly);
 
 // Rule 19, and the voxel counts the statistics must match.
 LeafCounts checkLeaves(const LeafWordVector& words, int leafSize, bool surfaceOnly) {
   const LeafCounts c = tbb::parallel_reduce(
       tbb::blocked_range<size_t>(0, words.size(), 1 << 16), LeafCounts{},
       [&](const tbb::blocked_range<size_t>& r, LeafCounts c) {
-        for (size_t i = r.begin(); i != r.end(); ++i) {
-          const uint32_t w = words[i];
-          c.surface += planeCount(w, kSurfacePlane);
-          c.inside += planeCount(w, kInsidePlane);
-          c.invalidWords += invalidFields(w) != 0;
-        }
-        return c;
+        return c += countLeafWords(words.data() + r.begin(), r.size());
       },
-      [](LeafCounts a, const LeafCounts& b) {
-        a.surface += b.surface;
-        a.inside += b.inside;
-        a.invalidWords += b.invalidWords;
-        return a;
-      });
+      [](LeafCounts a, const LeafCounts& b) { return a += b; });
+  checkLeafCounts(c, words, leafSize, surfaceOnly);
+  return c;
+}
+
+// Rule 19 from the counts of all the leaf words (checkLeaves, or the writer's
+// zstd blocks): the first invalid field is looked for only when there is one.
+void checkLeafCounts(const LeafCounts& c, const LeafWordVector& words, int leafSize, bool surfaceOnly) {
   if (c.invalidWords != 0) {
     const auto bad = std::find_if(words.begin(), words.end(),
                                   [](uint32_t w) { return invalidFields(w) != 0; });
@@ -408,7 +404,6 @@ LeafCounts checkLeaves(const LeafWordVector& words, int leafSize, bool surfaceOn
   // Inside and Surface are exclusive states, so the popcounts above count voxels.
   if (surfaceOnly && c.inside != 0)
     invalid("leaf data: " + str(c.inside) + " Inside voxels in a surface-only volume");
-  return c;
 }
 
 // Rule 12: the statistics that are functions of the contents must agree with them.
@@ -567,8 +562,9 @@ void checkLabels(const Volume& v) {
   checkLabelNames(v.labels.names);
 }
 
-// Everything at once, for the writer.
-void checkVolume(const Volume& v, StatisticsOf statistics = StatisticsOf::Contents) {
+// The checks before the leaf words' contents: grid, statistics fields, level
+// table, elements, the number of leaf words.
+TreeCounts checkVolumeTree(const Volume& v) {
   const GridSpec& g = v.grid;
   checkGrid(g.resolution, g.rootGrid, g.leafSize, g.height, g.origin, g.voxelSize);
   checkInsideTest(uint32_t(v.insideTest));
@@ -581,7 +577,11 @@ void checkVolume(const Volume& v, StatisticsOf statistics = StatisticsOf::Conten
   if (v.leafWords.size() != tree.leaves * leafWordCount(g.leafSize)) {
     invalid(str(v.leafWords.size()) + " leaf words for " + str(tree.leaves) + " Boundary elements");
   }
-  const auto leaves = checkLeaves(v.leafWords, g.leafSize, v.surfaceOnly);
+  return tree;
+}
+
+// The checks after the leaf words' contents (`leaves`, already checked).
+void checkVolumeRest(const Volume& v, const TreeCounts& tree, const LeafCounts& leaves, StatisticsOf statistics) {
   if (statistics == StatisticsOf::Contents) checkStructure(v.stats, v, tree, leaves);
   checkLabels(v);
   try {
@@ -589,6 +589,12 @@ void checkVolume(const Volume& v, StatisticsOf statistics = StatisticsOf::Conten
   } catch (const Error& e) {
     invalid(e.what());
   }
+}
+
+// Everything at once.
+void checkVolume(const Volume& v, StatisticsOf statistics = StatisticsOf::Contents) {
+  const TreeCounts tree = checkVolumeTree(v);
+  checkVolumeRest(v, tree, checkLeaves(v.leafWords, v.grid.leafSize, v.surfaceOnly), statistics);
 }
 
 // ---- zstd ---------------------------------------------------------------------------
@@ -674,9 +680,19 @@ void decompressLeaves(const uint8_t* src, size_t srcSize, uint8_t* dst, size_t d
 }
 
 // The leaf words as zstd blocks (encoding 2), from their little-endian bytes.
-zstd_blocks::Encoded compressLeafBlocks(const LeafWordVector& words, int level) {
+// On little-endian hosts `counts` (when not null) receives the leaf counts,
+// taken block by block beside the compression.
+zstd_blocks::Encoded compressLeafBlocks(const LeafWordVector& words, int level, LeafCounts* counts = nullptr) {
   const size_t bytes = words.size() * sizeof(words[0]);
-  if (kLittleEndianHost) return zstd_blocks::compress(reinterpret_cast<const uint8_t*>(words.data()), bytes, level);
+  if (kLittleEndianHost) {
+    const uint8_t* data = reinterpret_cast<const uint8_t*>(words.data());
+    if (!counts) return zstd_blocks::compress(data, bytes, level);
+    BlockLeafCounts blockCounts((uint64_t(bytes) + (size_t(1) << zstd_blocks::kWriterBlockLog) - 1) >>
+                                zstd_blocks::kWriterBlockLog);
+    zstd_blocks::Encoded e = zstd_blocks::compress(data, bytes, level, zstd_blocks::kWriterBlockLog, blockCounts.visitor());
+    *counts = blockCounts.total();
+    return e;
+  }
   std::vector<uint32_t> le(words.size());
   for (size_t i = 0; i < words.size(); ++i) le[i] = byteSwap(words[i]);
   return zstd_blocks::compress(reinterpret_cast<const uint8_t*>(le.data()), bytes, level);
@@ -720,18 +736,51 @@ private:
   std::vector<uint8_t>& out_;
 };
 
+// Every few MiB it asks the kernel to start writing what it has to the disk
+// (Linux: sync_file_range, a hint), so that the disk writes while the rest is
+// emitted and the fsync of AtomicFile::commit() waits for the last part only.
 class FileSink final : public Sink {
 public:
-  FileSink(std::FILE* f, const std::string& path) : f_(f), path_(path) {}
+  FileSink(std::FILE* f, const std::string& path) : f_(f), path_(path) {
+    const long at = std::ftell(f);
+    written_ = started_ = at > 0 ? uint64_t(at) : 0;
+  }
   void write(const void* data, size_t size) override {
-    if (size != 0 && std::fwrite(data, 1, size, f_) != size) {
-      throw Error(ErrorKind::OutputFailed, path_ + ": cannot write: " + std::strerror(errno));
+    if (size != 0 && std::fwrite(data, 1, size, f_) != size) fail();
+    written_ += size;
+    if (written_ - started_ >= kWriteBackStep) startWriteBack();
+  }
+  uint64_t position() const { return written_; }
+  // Rewrites `size` bytes at `at` (< position()), where zeros were reserved.
+  void patch(uint64_t at, const void* data, size_t size) {
+    if (std::fflush(f_) != 0) fail();
+    const uint8_t* p = static_cast<const uint8_t*>(data);
+    while (size > 0) {
+      const ssize_t n = ::pwrite(fileno(f_), p, size, off_t(at));
+      if (n < 0 && errno == EINTR) continue;
+      if (n <= 0) fail();
+      p += n;
+      at += uint64_t(n);
+      size -= size_t(n);
     }
   }
 
 private:
+  static constexpr uint64_t kWriteBackStep = uint64_t(4) << 20;
+  [[noreturn]] void fail() const {
+    throw Error(ErrorKind::OutputFailed, path_ + ": cannot write: " + std::strerror(errno));
+  }
+  void startWriteBack() {
+#if defined(__linux__) && defined(SYNC_FILE_RANGE_WRITE)
+    if (std::fflush(f_) != 0) fail();
+    // Errors are not reported here: the fsync at the commit reports them.
+    ::sync_file_range(fileno(f_), off_t(started_), off_t(written_ - started_), SYNC_FILE_RANGE_WRITE);
+#endif
+    started_ = written_;
+  }
   std::FILE* f_;
   const std::string& path_;
+  uint64_t written_ = 0, started_ = 0;
 };
 
 // A volume ready to be written: small sections encoded, bulk sections
@@ -875,17 +924,22 @@ void encodeArrays(const Volume& v, EncodedVolume& e) {
       optionalSectionCrc(Section::ArrayValues, Encoding::Raw, e.arrayValueBytes, e.arrayValueBytes, crc);
 }
 
-EncodedVolume encodeRequired(const Volume& v, const HdtWriteOptions& options, HdtLeafEncoder* streamed);
+EncodedVolume encodeRequired(const Volume& v, const HdtWriteOptions& options, HdtLeafEncoder* streamed,
+                             LeafCounts* leafCounts);
 
-EncodedVolume encode(const Volume& v, const HdtWriteOptions& options, HdtLeafEncoder* streamed) {
-  EncodedVolume e = encodeRequired(v, options, streamed);
+// `leafCounts`: see encodeRequired.
+EncodedVolume encode(const Volume& v, const HdtWriteOptions& options, HdtLeafEncoder* streamed, LeafCounts* leafCounts) {
+  EncodedVolume e = encodeRequired(v, options, streamed, leafCounts);
   encodeLabels(v, options, e);
   encodeArrays(v, e);
   return e;
 }
 
-EncodedVolume encodeRequired(const Volume& v, const HdtWriteOptions& options, HdtLeafEncoder* streamed) {
-  EncodedVolume e;
+// Where the leaves go as zstd blocks on a little-endian host (leafCountsFromBlocks),
+// `leafCounts` receives their counts, taken as the blocks were compressed.
+// The required sections but the leaf data: grid, statistics, level table, the
+// elements' CRC.
+void encodeSmallSections(const Volume& v, EncodedVolume& e) {
   const GridSpec& g = v.grid;
   {
     ByteWriter w;
@@ -923,13 +977,19 @@ EncodedVolume encodeRequired(const Volume& v, const HdtWriteOptions& options, Hd
     e.levels = w.bytes();
   }
   e.elementsCrc = crcOfWords(v.elements);
-
   e.leafRawBytes = uint64_t(v.leafWords.size()) * 4;
+}
+
+EncodedVolume encodeRequired(const Volume& v, const HdtWriteOptions& options, HdtLeafEncoder* streamed,
+                             LeafCounts* leafCounts) {
+  EncodedVolume e;
+  encodeSmallSections(v, e);
 #if defined(HDT_HAVE_ZSTD)
   if (options.compressLeaves && !v.leafWords.empty() && options.leafBlocks) {
     e.leafEncoding = Encoding::ZstdBlocks;
-    std::unique_ptr<zstd_blocks::Encoded> done = streamed ? takeStreamedLeafBlocks(*streamed, v.leafWords, options) : nullptr;
-    e.blocks = done ? std::move(*done) : compressLeafBlocks(v.leafWords, options.zstdLevel);
+    std::unique_ptr<zstd_blocks::Encoded> done =
+        streamed ? takeStreamedLeafBlocks(*streamed, v.leafWords, options, leafCounts) : nullptr;
+    e.blocks = done ? std::move(*done) : compressLeafBlocks(v.leafWords, options.zstdLevel, leafCounts);
     e.leafCrc = e.blocks.crc;
     return e;
   }
@@ -943,6 +1003,7 @@ EncodedVolume encodeRequired(const Volume& v, const HdtWriteOptions& options, Hd
   (void)options;
   (void)streamed;
 #endif
+  (void)leafCounts;
   e.leafCrc = crcOfWords(v.leafWords);
   return e;
 }
@@ -1012,7 +1073,8 @@ void emitArrays(const EncodedVolume& e, const Volume& v, Sink& out) {
     forEachLittleEndianChunk(a.values.data(), a.values.size(), [&](const uint8_t* p, size_t k) { out.write(p, k); });
 }
 
-void emit(const EncodedVolume& e, const Volume& v, Sink& out) {
+// The file header and the required sections before the leaf data.
+void emitHead(const EncodedVolume& e, const Volume& v, Sink& out) {
   ByteWriter header;
   header.raw(kMagic, 4);
   header.u32(e.leafEncoding == Encoding::ZstdBlocks ? kFirstBlocksVersion : 2u);
@@ -1027,7 +1089,9 @@ void emit(const EncodedVolume& e, const Volume& v, Sink& out) {
   writeSectionHeader(out, Section::Elements, Encoding::Raw, elementBytes, elementBytes, e.elementsCrc);
   forEachLittleEndianChunk(v.elements.data(), v.elements.size(),
                            [&](const uint8_t* p, size_t n) { out.write(p, n); });
+}
 
+void emitLeaves(const EncodedVolume& e, const Volume& v, Sink& out) {
   writeSectionHeader(out, Section::LeafData, e.leafEncoding, e.leafStoredBytes(), e.leafRawBytes, e.leafCrc);
   bool leavesWritten = false;
 #if defined(HDT_HAVE_ZSTD)
@@ -1045,16 +1109,71 @@ void emit(const EncodedVolume& e, const Volume& v, Sink& out) {
     forEachLittleEndianChunk(v.leafWords.data(), v.leafWords.size(),
                              [&](const uint8_t* p, size_t n) { out.write(p, n); });
   }
+}
 
+// The optional sections after the leaf data, then the end.
+void emitTail(const EncodedVolume& e, const Volume& v, Sink& out) {
   emitLabels(e, v, out);
   emitArrays(e, v, out);
   emitCompactLabelVoxels(e, out);
   writeSectionHeader(out, Section::End, Encoding::Raw, 0, 0, 0);
 }
 
-// Checks the volume and the options, then encodes; throws hdt::Error.
-EncodedVolume prepare(const Volume& v, const HdtWriteOptions& options, const std::string& name,
-                      HdtLeafEncoder* streamed) {
+void emit(const EncodedVolume& e, const Volume& v, Sink& out) {
+  emitHead(e, v, out);
+  emitLeaves(e, v, out);
+  emitTail(e, v, out);
+}
+
+// Whether encodeRequired counts the leaf words as it compresses them.
+bool leafCountsFromBlocks(const Volume& v, const HdtWriteOptions& options) {
+#if defined(HDT_HAVE_ZSTD)
+  return kLittleEndianHost && options.compressLeaves && options.leafBlocks && !v.leafWords.empty();
+#else
+  (void)v;
+  (void)options;
+  return false;
+#endif
+}
+
+#if defined(HDT_HAVE_ZSTD)
+// The leaf frames written as the build's streamed blocks are compressed,
+// during the compression rather than after it (so the emit and the disk's
+// write-back overlap it); the leaf section's header and block table, which
+// need every frame's size and the CRC, are written last over zeros reserved
+// for them. The same bytes as encode + emit.
+void emitStreaming(const Volume& v, const HdtWriteOptions& options, HdtLeafEncoder& streamed,
+                   zstd_blocks::BlockCompressor& blocks, FileSink& out, LeafCounts* blockLeaves) {
+  EncodedVolume e;
+  encodeSmallSections(v, e);
+  e.leafEncoding = Encoding::ZstdBlocks;
+  encodeLabels(v, options, e);
+  encodeArrays(v, e);
+  emitHead(e, v, out);
+  const uint64_t leafAt = out.position(), n = blocks.blocks();
+  const std::vector<uint8_t> reserved(kSectionHeaderBytes + zstd_blocks::kTableHeaderBytes + 8 * size_t(n));
+  out.write(reserved.data(), reserved.size());
+  for (uint64_t i = 0; i < n; ++i) {
+    const std::vector<uint8_t>* frame = blocks.waitForBlock(i);
+    if (!frame) break; // a compression failed: taking the blocks rethrows its error
+    out.write(frame->data(), frame->size());
+  }
+  std::unique_ptr<zstd_blocks::Encoded> done = takeStreamedLeafBlocks(streamed, v.leafWords, options, blockLeaves);
+  if (!done) throw std::logic_error("the streamed leaf blocks stopped covering the volume");
+  e.blocks = std::move(*done);
+  e.leafCrc = e.blocks.crc;
+  std::vector<uint8_t> head;
+  VectorSink headSink(head);
+  writeSectionHeader(headSink, Section::LeafData, e.leafEncoding, e.leafStoredBytes(), e.leafRawBytes, e.leafCrc);
+  headSink.write(e.blocks.table.data(), e.blocks.table.size());
+  if (head.size() != reserved.size()) throw std::logic_error("the leaf block table's size changed");
+  out.patch(leafAt, head.data(), head.size());
+  emitTail(e, v, out);
+}
+#endif
+
+// The zstd level is one zstd has.
+void checkLevel(const HdtWriteOptions& options) {
 #if defined(HDT_HAVE_ZSTD)
   if (options.compressLeaves &&
       (options.zstdLevel < ZSTD_minCLevel() || options.zstdLevel > ZSTD_maxCLevel())) {
@@ -1062,38 +1181,69 @@ EncodedVolume prepare(const Volume& v, const HdtWriteOptions& options, const std
                                                 " is out of range [" + std::to_string(ZSTD_minCLevel()) +
                                                 ", " + std::to_string(ZSTD_maxCLevel()) + "]");
   }
+#else
+  (void)options;
 #endif
+}
+
+// Checks the volume beside `encodeStep(LeafCounts* blockLeaves)`, which
+// encodes (and may write): the checks' verdict comes first, as if they had
+// run alone, then the encoding's error. Throws hdt::Error.
+template <class EncodeStep>
+void checkedEncode(const Volume& v, const HdtWriteOptions& options, const std::string& name, EncodeStep&& encodeStep) {
+  checkLevel(options);
   // The checks and the encoding both only read the volume: they run at the
-  // same time (zstd's workers leave cores idle for the checks). The checks'
-  // verdict comes first, as if they had run alone.
+  // same time. Leaves written as zstd blocks are counted by the tasks that
+  // compress them, block by block while the block is in cache (a second pass
+  // over the volume cost as much as a third of the compression); the checker
+  // leaves them out. The checks' verdict comes first, as if they had run alone.
+  const bool countsFromBlocks = leafCountsFromBlocks(v, options);
   std::exception_ptr checkError;
+  TreeCounts tree;
+  LeafCounts leaves;
   std::thread checker([&] {
     try {
-      checkVolume(v);
+      tree = checkVolumeTree(v);
+      if (!countsFromBlocks) leaves = checkLeaves(v.leafWords, v.grid.leafSize, v.surfaceOnly);
     } catch (...) {
       checkError = std::current_exception();
     }
   });
-  EncodedVolume e;
+  LeafCounts blockLeaves;
   std::exception_ptr encodeError;
   try {
-    e = encode(v, options, streamed);
+    encodeStep(countsFromBlocks ? &blockLeaves : nullptr);
   } catch (...) {
     encodeError = std::current_exception();
   }
   checker.join();
   try {
     if (checkError) std::rethrow_exception(checkError);
+    if (countsFromBlocks && !encodeError) {
+      checkLeafCounts(blockLeaves, v.leafWords, v.grid.leafSize, v.surfaceOnly);
+      leaves = blockLeaves;
+    } else if (countsFromBlocks) {
+      leaves = checkLeaves(v.leafWords, v.grid.leafSize, v.surfaceOnly); // the encoding failed before counting
+    }
+    checkVolumeRest(v, tree, leaves, StatisticsOf::Contents);
   } catch (const Invalid& x) {
     throw Error(ErrorKind::InvalidArgument, name + ": refusing to write an inconsistent volume: " + x.what());
   }
   try {
     if (encodeError) std::rethrow_exception(encodeError);
-  } catch (const Error& x) { // zstd failures
+  } catch (const Error& x) { // zstd failures; the file's own errors name it already
+    if (x.kind() == ErrorKind::OutputFailed) throw;
     throw Error(x.kind(), name + ": " + x.what());
   } catch (const std::bad_alloc&) {
     throw Error(ErrorKind::OutOfResources, name + ": out of memory while encoding the volume");
   }
+}
+
+// Checks the volume and the options, then encodes; throws hdt::Error.
+EncodedVolume prepare(const Volume& v, const HdtWriteOptions& options, const std::string& name,
+                      HdtLeafEncoder* streamed) {
+  EncodedVolume e;
+  checkedEncode(v, options, name, [&](LeafCounts* blockLeaves) { e = encode(v, options, streamed, blockLeaves); });
   return e;
 }
 
@@ -1723,7 +1873,31 @@ std::vector<uint8_t> serializeHdt(const Volume& volume, const HdtWriteOptions& o
   return bytes;
 }
 
+// Writes with the leaf frames streamed to the file (emitStreaming) where the
+// build's blocks cover the volume; false, having written nothing, otherwise.
+bool writeStreaming(const Volume& volume, std::FILE* f, const std::string& path, const HdtWriteOptions& options,
+                    HdtLeafEncoder* streamed) {
+#if defined(HDT_HAVE_ZSTD)
+  zstd_blocks::BlockCompressor* blocks =
+      streamed ? streamingLeafBlocks(*streamed, volume.leafWords, options) : nullptr;
+  if (!blocks) return false;
+  FileSink sink(f, path);
+  checkedEncode(volume, options, path, [&](LeafCounts* blockLeaves) {
+    emitStreaming(volume, options, *streamed, *blocks, sink, blockLeaves);
+  });
+  return true;
+#else
+  (void)volume;
+  (void)f;
+  (void)path;
+  (void)options;
+  (void)streamed;
+  return false;
+#endif
+}
+
 void writeHdt(const Volume& volume, AtomicFile& out, const HdtWriteOptions& options, HdtLeafEncoder* streamed) {
+  if (writeStreaming(volume, out.stream(), out.path(), options, streamed)) return;
   const EncodedVolume e = prepare(volume, options, out.path(), streamed);
   FileSink sink(out.stream(), out.path());
   emit(e, volume, sink);
@@ -1731,8 +1905,17 @@ void writeHdt(const Volume& volume, AtomicFile& out, const HdtWriteOptions& opti
 
 void writeHdt(const Volume& volume, const std::string& path, const HdtWriteOptions& options,
               HdtLeafEncoder* streamed) {
-  // Encode first: a refused volume must not leave a file behind. The bytes go
-  // to a temporary file renamed over `path` only once complete (atomic_file.hpp).
+  // The bytes go to a temporary file renamed over `path` only once complete
+  // (atomic_file.hpp): a refused volume leaves no file behind.
+#if defined(HDT_HAVE_ZSTD)
+  if (streamed && streamingLeafBlocks(*streamed, volume.leafWords, options)) {
+    AtomicFile out(path);
+    writeStreaming(volume, out.stream(), path, options, streamed);
+    out.commit();
+    return;
+  }
+#endif
+  // Encode first, then create the file.
   const EncodedVolume e = prepare(volume, options, path, streamed);
   AtomicFile out(path);
   FileSink sink(out.stream(), path);

@@ -11,8 +11,11 @@
 
 #include <algorithm>
 #include <atomic>
+#include <condition_variable>
+#include <mutex>
 #include <memory>
 #include <new>
+#include <utility>
 
 namespace hdt {
 namespace zstd_blocks {
@@ -59,8 +62,22 @@ struct BlockCompressor::State {
   size_t size;
   int level;
   uint32_t blockLog;
+  BlockVisitor visit;
   Encoded e;
   std::vector<uint32_t> crcs;
+  // Which blocks are compressed, for waitForBlock.
+  std::unique_ptr<std::atomic<bool>[]> done;
+  bool failed = false; // under `m`
+  std::mutex m;
+  std::condition_variable blockDone;
+  void announce(uint64_t i, bool ok) {
+    {
+      std::lock_guard<std::mutex> lock(m); // a waiter sees the flag or gets the notification
+      if (ok) done[size_t(i)].store(true, std::memory_order_release);
+      else failed = true;
+    }
+    blockDone.notify_all();
+  }
   // Each thread compresses into its own worst-case buffer, then keeps an
   // exact-size copy: the working set is one bound a thread, not a block.
   struct Worker {
@@ -70,13 +87,26 @@ struct BlockCompressor::State {
   tbb::enumerable_thread_specific<Worker> workers;
 };
 
-BlockCompressor::BlockCompressor(size_t size, int level, uint32_t blockLog) : state_(new State) {
+BlockCompressor::BlockCompressor(size_t size, int level, uint32_t blockLog, BlockVisitor visit) : state_(new State) {
   state_->size = size;
+  state_->visit = std::move(visit);
   state_->level = level;
   state_->blockLog = blockLog;
   const uint64_t n = blockCount(size, blockLog);
   state_->e.frames.resize(static_cast<size_t>(n));
   state_->crcs.resize(static_cast<size_t>(n));
+  state_->done.reset(new std::atomic<bool>[size_t(n)]);
+  for (uint64_t i = 0; i < n; ++i) state_->done[size_t(i)].store(false, std::memory_order_relaxed);
+}
+
+const std::vector<uint8_t>* BlockCompressor::waitForBlock(uint64_t i) {
+  State& st = *state_;
+  if (!st.done[size_t(i)].load(std::memory_order_acquire)) {
+    std::unique_lock<std::mutex> lock(st.m);
+    st.blockDone.wait(lock, [&] { return st.failed || st.done[size_t(i)].load(std::memory_order_acquire); });
+    if (!st.done[size_t(i)].load(std::memory_order_acquire)) return nullptr;
+  }
+  return &st.e.frames[size_t(i)];
 }
 
 BlockCompressor::~BlockCompressor() { delete state_; }
@@ -87,18 +117,30 @@ void BlockCompressor::compressBlocks(const uint8_t* data, uint64_t first, uint64
   State& st = *state_;
   const size_t bound = ZSTD_compressBound(size_t(1) << st.blockLog);
   tbb::parallel_for(first, end, [&](uint64_t i) {
-    State::Worker& w = st.workers.local();
-    if (!w.cctx) throw std::bad_alloc();
-    if (w.scratch.size() < bound) w.scratch.resize(bound);
-    const size_t bytes = blockBytes(st.size, st.blockLog, i);
-    // One-shot: the frame states its content size, and the output depends
-    // only on the block and the level (no workers, no shared state).
-    const size_t c =
-        ZSTD_compressCCtx(w.cctx.get(), w.scratch.data(), bound, data + (i << st.blockLog), bytes, st.level);
-    if (ZSTD_isError(c)) throw Error(ErrorKind::OutOfResources, std::string("zstd compress: ") + ZSTD_getErrorName(c));
-    st.e.frames[size_t(i)].assign(w.scratch.data(), w.scratch.data() + c);
-    st.crcs[size_t(i)] = crcOf(st.e.frames[size_t(i)].data(), c);
+    try {
+      compressBlock(i, data, bound);
+    } catch (...) {
+      st.announce(i, false);
+      throw;
+    }
+    st.announce(i, true);
   });
+}
+
+void BlockCompressor::compressBlock(uint64_t i, const uint8_t* data, size_t bound) {
+  State& st = *state_;
+  State::Worker& w = st.workers.local();
+  if (!w.cctx) throw std::bad_alloc();
+  if (w.scratch.size() < bound) w.scratch.resize(bound);
+  const size_t bytes = blockBytes(st.size, st.blockLog, i);
+  if (st.visit) st.visit(i, data + (i << st.blockLog), bytes);
+  // One-shot: the frame states its content size, and the output depends
+  // only on the block and the level (no workers, no shared state).
+  const size_t c =
+      ZSTD_compressCCtx(w.cctx.get(), w.scratch.data(), bound, data + (i << st.blockLog), bytes, st.level);
+  if (ZSTD_isError(c)) throw Error(ErrorKind::OutOfResources, std::string("zstd compress: ") + ZSTD_getErrorName(c));
+  st.e.frames[size_t(i)].assign(w.scratch.data(), w.scratch.data() + c);
+  st.crcs[size_t(i)] = crcOf(st.e.frames[size_t(i)].data(), c);
 }
 
 Encoded BlockCompressor::finish() {
@@ -112,12 +154,13 @@ Encoded BlockCompressor::finish() {
   e.crc = static_cast<uint32_t>(crc);
   st.e = Encoded();
   st.crcs.clear();
+  st.done.reset();
   st.workers.clear();
   return e;
 }
 
-Encoded compress(const uint8_t* data, size_t size, int level, uint32_t blockLog) {
-  BlockCompressor c(size, level, blockLog);
+Encoded compress(const uint8_t* data, size_t size, int level, uint32_t blockLog, const BlockVisitor& visit) {
+  BlockCompressor c(size, level, blockLog, visit);
   c.compressBlocks(data, 0, c.blocks());
   return c.finish();
 }

@@ -9,6 +9,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -39,16 +40,22 @@ struct Encoded {
   uint64_t storedBytes() const;
 };
 
+// Called with each block's bytes by the task that compresses it, just before:
+// a pass over the same bytes while they are in that core's cache (the
+// writer's leaf checks). Blocks of one call run at once: write per block.
+using BlockVisitor = std::function<void(uint64_t block, const uint8_t* bytes, size_t n)>;
+
 // Compresses `size` bytes (already little-endian) at `level`. Throws
 // hdt::Error(OutOfResources) when zstd fails.
-Encoded compress(const uint8_t* data, size_t size, int level, uint32_t blockLog = kWriterBlockLog);
+Encoded compress(const uint8_t* data, size_t size, int level, uint32_t blockLog = kWriterBlockLog,
+                 const BlockVisitor& visit = {});
 
 // The same encoding a few blocks at a time, as their bytes become final
 // (hdt::HdtLeafEncoder): compress() is this over all blocks at once, so the
 // bytes are the same however the blocks are handed in.
 class BlockCompressor {
 public:
-  BlockCompressor(size_t size, int level, uint32_t blockLog = kWriterBlockLog);
+  BlockCompressor(size_t size, int level, uint32_t blockLog = kWriterBlockLog, BlockVisitor visit = {});
   ~BlockCompressor();
   BlockCompressor(const BlockCompressor&) = delete;
   BlockCompressor& operator=(const BlockCompressor&) = delete;
@@ -56,11 +63,17 @@ public:
   // Blocks [first, end) of `data` (the whole `size` bytes; only those blocks
   // are read), in parallel. Calls for disjoint ranges may run at once.
   void compressBlocks(const uint8_t* data, uint64_t first, uint64_t end);
+  // Waits until block i is compressed and returns its frame, valid until
+  // finish(); null once a compression has failed (the caller that runs the
+  // tasks gets the error). For a writer that writes each frame as soon as it
+  // is there.
+  const std::vector<uint8_t>* waitForBlock(uint64_t i);
   // Once every block is compressed: the table and the CRC; the compressor is
   // then empty.
   Encoded finish();
 
 private:
+  void compressBlock(uint64_t i, const uint8_t* data, size_t bound);
   struct State;
   State* state_;
 };

@@ -110,6 +110,27 @@ case_output() {
   stdout_has "wrote"
 }
 
+# --compression-level: zstd's level of -o's leaf data; the default is level 1,
+# 19 packs the same volume tighter; out-of-range levels are refused before the build.
+case_compression_level() {
+  for z in 0 -1 20; do
+    run 2 builtin:torus --resolution 256 --compression-level "$z" -o "$work/bad.hdt"
+    stderr_has "--compression-level must be at"
+    [[ ! -e $work/bad.hdt ]] || fail "--compression-level $z wrote a file anyway"
+  done
+  run 0 builtin:torus --resolution 256 --quiet -o "$work/default.hdt"
+  run 0 builtin:torus --resolution 256 --quiet --compression-level 1 -o "$work/level1.hdt"
+  run 0 builtin:torus --resolution 256 --quiet --compression-level 19 -o "$work/level19.hdt"
+  python3 "$(dirname "$0")/compare_hdt.py" "$work/default.hdt" "$work/level1.hdt" >/dev/null ||
+    fail "the default level is not level 1"
+  ! python3 "$(dirname "$0")/compare_hdt.py" "$work/default.hdt" "$work/level19.hdt" >/dev/null ||
+    fail "--compression-level 19 wrote level 1's bytes"
+  (($(stat -c %s "$work/level19.hdt") < $(stat -c %s "$work/default.hdt"))) ||
+    fail "level 19 is not smaller than level 1"
+  run 0 --help
+  stdout_has "--compression-level"
+}
+
 case_dense_too_large() {
   run 2 builtin:sphere --resolution 2048 --dense "$work/big.nrrd"
   stderr_has "limited to N <= 1024"

@@ -15,7 +15,9 @@ class AtomicFile;
 
 struct HdtWriteOptions {
   bool compressLeaves = true; // zstd, when the build has it
-  int zstdLevel = 3;
+  // zstd's level: 1 is as small as 3 on leaf data and faster
+  // (bench/results/end-to-end.md); any level is read by every reader.
+  int zstdLevel = 1;
   // Compressed leaves as independent zstd blocks, compressed (and read) in
   // parallel: format version 3. false: one zstd frame, format version 2, for
   // readers that predate version 3. Either way the bytes do not depend on the
