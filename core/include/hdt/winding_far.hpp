@@ -95,20 +95,15 @@ HDT_HD bool windingFarLeaf(const WindingTreeView& t, const WindingLeafSplit& spl
   }
   const double rho = sqrt(rho2) * (1 + 1e-12);
   double H = 0;
-  int k = 0;
-  for (uint32_t i = 0; i < t.edgeCount; ++i) {
-    if (k < split.nearCount && split.near[k] == i) {
-      ++k;
-      continue;
-    }
-    const WindingEdge& e = t.edges[i];
+  const bool clear = windingForEachFarEdge(t, split, [&](const WindingEdge& e) {
     const double d = windingEdgeDistance(e, lo, hi, c, rho);
     if (!(d > 0)) return false;
     const double byLength = 2.0 * e.length / (d * d * d), byDistance = 4.0 / (d * d);
     H = H + e.weight * (byLength < byDistance ? byLength : byDistance);
-  }
+    return true;
+  });
   f.edgeHessian = H;
-  return true;
+  return clear;
 }
 
 // The far part of one anchor: K_far at its centre, the gradient there and
@@ -131,15 +126,10 @@ HDT_HD bool windingFarExpansion(const WindingTreeView& t, const WindingLeafSplit
   }
   const double* endCoef = f.endCoef;
   double H = f.edgeHessian, gErr = 0;
-  int k = 0;
-  for (uint32_t i = 0; i < t.edgeCount; ++i) {
-    if (k < split.nearCount && split.near[k] == i) {
-      ++k;
-      continue;
-    }
-    const WindingEdge& e = t.edges[i];
+  windingForEachFarEdge(t, split, [&](const WindingEdge& e) {
     windingAddSegmentField(e.a, e.b, e.length, x.c, e.net, x.g, gErr);
-  }
+    return true;
+  });
   for (int j = 0; j < split.endCount; ++j) {
     if (endCoef[j] == 0) continue;
     const double d = windingRayDistance(split.end[j], lo, hi);
@@ -186,19 +176,11 @@ HDT_HD void windingDecideAnchoredLinear(const WindingTreeView& t, const int* ori
     windingDecideBoxes(t, origin, N, w, anchor, INFINITY);
     return;
   }
-  VoxelBox stack[kWindingLeafStack];
-  double known[kWindingLeafStack]; // unused here: the near bound is cheap
-  int top = 0;
-  stack[top++] = anchor;
-  while (top > 0) {
-    const VoxelBox b = stack[--top];
-    if (!w.open(b)) continue;
-    double lo[3], hi[3];
-    windingBoxCentres(origin, b, lo, hi);
-    double farK = 0, farStray = 0;
-    windingFarOverBox(x, lo, hi, farK, farStray);
-    windingAnchoredBoxStep(t, N, w, split, b, lo, hi, farK, 0.0, farStray, stack, known, top);
-  }
+  windingWalkAnchor(t, origin, N, w, anchor, split,
+                    [&](const double* lo, const double* hi, double& value, double& error, double& spread) {
+                      windingFarOverBox(x, lo, hi, value, spread);
+                      error = 0.0; // windingFarOverBox's stray holds K_far(c)'s rounding
+                    });
 }
 
 // windingDecideLeaf with windingDecideAnchoredLinear for the anchored boxes
