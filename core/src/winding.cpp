@@ -614,6 +614,90 @@ uint64_t refineSplitElements(const WindingTree& tree, Volume& v, const std::vect
 
 // ---- leaves from signed crossing counts (winding_leaf.hpp) --------------------
 
+// Leaves are grouped in aligned blocks of kCoarseLeaves leaf edges a side; a block
+// that no strip sheet meets and whose K range holds no tie
+// (windingBoxThreshold over the block's voxel centres) gives every leaf in
+// it the threshold T at once: each non-surface voxel is inside iff N >= T,
+// the verdict windingDecideLeaf's first step would certify leaf by leaf.
+constexpr int kCoarseLeaves = 4;
+
+struct CoarseThresholds {
+  std::vector<uint64_t> keys; // ascending block keys
+  std::vector<int> T;
+  std::vector<uint8_t> holds;
+  // The threshold of the block holding `origin`, or false.
+  bool find(uint64_t key, int& threshold) const {
+    const auto it = std::lower_bound(keys.begin(), keys.end(), key);
+    if (it == keys.end() || *it != key || !holds[size_t(it - keys.begin())]) return false;
+    threshold = T[size_t(it - keys.begin())];
+    return true;
+  }
+};
+
+uint64_t coarseKey(const std::array<int, 3>& origin, int blockEdge) {
+  return mortonKey(uint64_t(origin[0] / blockEdge), uint64_t(origin[1] / blockEdge), uint64_t(origin[2] / blockEdge));
+}
+
+// The blocks holding the leaves at `origins`, each clipped to the volume's
+// `resolution` voxels a side.
+CoarseThresholds coarseThresholds(const WindingTreeView& t, const std::vector<std::array<int, 3>>& origins, int L,
+                                  int resolution) {
+  const int blockEdge = kCoarseLeaves * L;
+  CoarseThresholds c;
+  c.keys.reserve(origins.size());
+  for (const std::array<int, 3>& o : origins) c.keys.push_back(coarseKey(o, blockEdge));
+  std::sort(c.keys.begin(), c.keys.end());
+  c.keys.erase(std::unique(c.keys.begin(), c.keys.end()), c.keys.end());
+  c.T.assign(c.keys.size(), 0);
+  c.holds.assign(c.keys.size(), 0);
+  std::vector<std::array<int, 3>> corner(c.keys.size());
+  for (const std::array<int, 3>& o : origins) {
+    const uint64_t key = coarseKey(o, blockEdge);
+    const size_t i = size_t(std::lower_bound(c.keys.begin(), c.keys.end(), key) - c.keys.begin());
+    for (int a = 0; a < 3; ++a) corner[i][size_t(a)] = o[size_t(a)] / blockEdge * blockEdge;
+  }
+  tbb::parallel_for(size_t(0), c.keys.size(), [&](size_t i) {
+    double lo[3], hi[3];
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = corner[i][size_t(a)] + 0.5;
+      hi[a] = std::min(corner[i][size_t(a)] + blockEdge, resolution) - 0.5;
+    }
+    double gradient = INFINITY;
+    c.holds[i] = !windingSheetsMeetBox(t, lo, hi) && windingBoxThreshold(t, lo, hi, c.T[i], gradient);
+  });
+  return c;
+}
+
+// One +x crossing of a leaf's row (windingForEachLeafCrossing): it counts
+// for the row's voxel centres x < before.
+struct LeafCrossing {
+  uint16_t row;
+  uint8_t before;
+  int8_t sign;
+};
+
+// A leaf in a block whose threshold holds: the surface plane kept, each
+// non-surface voxel inside iff its count N >= T, N walked down each row from
+// the count beyond the leaf (`exit`) and the row's crossings, with no count
+// array.
+void settleLeafByThreshold(uint32_t* words, int L, const int32_t* exit, const std::vector<LeafCrossing>& crossings,
+                           int T) {
+  thread_local std::vector<int32_t> step; // step[row L + x]: the crossings counting from x down
+  step.assign(size_t(L) * size_t(L) * size_t(L), 0);
+  for (const LeafCrossing& c : crossings)
+    if (c.before > 0) step[size_t(c.row) * size_t(L) + size_t(c.before - 1)] += c.sign;
+  for (uint32_t i = 0; i < leafWordCount(L); ++i) words[i] &= kSurfacePlaneBits;
+  const WindingLeafWords w{words, uint32_t(L)};
+  for (int row = 0; row < L * L; ++row) {
+    int32_t n = exit[row];
+    for (int x = L - 1; x >= 0; --x) {
+      const uint32_t v = uint32_t(row * L + x);
+      n += step[v];
+      if (n >= T && !w.surface(v)) w.setInside(v);
+    }
+  }
+}
+
 // Every leaf of the volume by windingDecideLeaf: the signed crossings of each
 // leaf's rows summed per row, their suffix sums along each line of leaves
 // (between two leaves of a line lie only uniform elements, which hold no
@@ -626,9 +710,15 @@ void classifyLeavesByCrossings(const WindingTree& tree, Volume& volume,
   const int L = volume.grid.leafSize;
   const size_t rows = size_t(L) * size_t(L), leaves = origins.size();
   std::vector<int32_t> exits(leaves * rows, 0); // the leaf's own row totals, then the counts beyond it
+  // Each leaf's crossings, kept for its counts below (one walk of the tree a leaf).
+  std::vector<std::vector<LeafCrossing>> crossings(leaves);
   tbb::parallel_for(size_t(0), leaves, [&](size_t leaf) {
     int32_t* total = exits.data() + leaf * rows;
-    windingForEachLeafCrossing(t, origins[leaf].data(), L, [&](int row, int, int sign) { total[row] += sign; });
+    std::vector<LeafCrossing>& own = crossings[leaf];
+    windingForEachLeafCrossing(t, origins[leaf].data(), L, [&](int row, int before, int sign) {
+      total[row] += sign;
+      own.push_back({uint16_t(row), uint8_t(before), int8_t(sign)});
+    });
   });
   // Lines of leaves (same y, z), each walked from its +x end.
   std::vector<uint32_t> order(leaves);
@@ -655,6 +745,7 @@ void classifyLeavesByCrossings(const WindingTree& tree, Volume& volume,
       }
     }
   });
+  const CoarseThresholds coarse = coarseThresholds(t, origins, L, volume.grid.resolution);
   tbb::parallel_for(size_t(0), leaves, [&](size_t leaf) {
     thread_local std::vector<int32_t> wide;
     thread_local std::vector<int16_t> counts;
@@ -662,12 +753,18 @@ void classifyLeavesByCrossings(const WindingTree& tree, Volume& volume,
     wide.resize(n);
     counts.resize(n);
     const int32_t* exit = exits.data() + leaf * rows;
+    uint32_t* words = volume.leafWords.data() + leafWordOffset(leaf, L);
+    int T = 0;
+    if (coarse.find(coarseKey(origins[leaf], kCoarseLeaves * L), T)) {
+      settleLeafByThreshold(words, L, exit, crossings[leaf], T);
+      std::vector<LeafCrossing>().swap(crossings[leaf]);
+      return;
+    }
     for (size_t r = 0; r < rows; ++r)
       for (int x = 0; x < L; ++x) wide[r * size_t(L) + size_t(x)] = exit[r];
-    windingForEachLeafCrossing(t, origins[leaf].data(), L, [&](int row, int before, int sign) {
-      for (int x = 0; x < before; ++x) wide[size_t(row) * size_t(L) + size_t(x)] += sign;
-    });
-    uint32_t* words = volume.leafWords.data() + leafWordOffset(leaf, L);
+    for (const LeafCrossing& c : crossings[leaf])
+      for (int x = 0; x < c.before; ++x) wide[size_t(c.row) * size_t(L) + size_t(x)] += c.sign;
+    std::vector<LeafCrossing>().swap(crossings[leaf]);
     bool fits = true;
     for (size_t v = 0; v < n; ++v) {
       fits = fits && wide[v] >= INT16_MIN && wide[v] <= INT16_MAX;
