@@ -438,6 +438,65 @@ bool decideFreshLeaf(const WindingTreeView& t, uint32_t* words, int L, const std
   return true;
 }
 
+// Leaves and uniform elements are grouped in aligned blocks of kCoarseLeaves
+// leaf edges a side; a block that no strip sheet meets and whose K range holds
+// no tie (windingBoxThreshold over the block's voxel centres) certifies one
+// threshold T for every point in it: inside iff N >= T. A leaf in it is
+// settled by T at once (the verdict windingDecideLeaf's first step would
+// certify leaf by leaf); a uniform element in it takes the verdict of one of
+// its voxel centres (N there by one ray walk): w is continuous over the
+// element (no triangle touches it) and never 1/2 in the block.
+constexpr int kCoarseLeaves = 4;
+
+uint64_t coarseKey(const std::array<int, 3>& origin, int blockEdge) {
+  return mortonKey(uint64_t(origin[0] / blockEdge), uint64_t(origin[1] / blockEdge), uint64_t(origin[2] / blockEdge));
+}
+
+struct CoarseThresholds {
+  int blockEdge = 0;
+  std::vector<uint64_t> keys; // ascending block keys
+  std::vector<int> T;
+  std::vector<uint8_t> holds;
+  // The threshold of the block holding the voxel `origin`, or false.
+  bool find(const std::array<int, 3>& origin, int& threshold) const {
+    const auto it = std::lower_bound(keys.begin(), keys.end(), coarseKey(origin, blockEdge));
+    if (it == keys.end() || *it != coarseKey(origin, blockEdge) || !holds[size_t(it - keys.begin())]) return false;
+    threshold = T[size_t(it - keys.begin())];
+    return true;
+  }
+};
+
+// The blocks holding the voxels `origins`, each clipped to the volume's
+// `resolution` voxels a side.
+CoarseThresholds coarseThresholds(const WindingTreeView& t, const std::vector<std::array<int, 3>>& origins, int L,
+                                  int resolution) {
+  const int blockEdge = kCoarseLeaves * L;
+  CoarseThresholds c;
+  c.blockEdge = blockEdge;
+  c.keys.reserve(origins.size());
+  for (const std::array<int, 3>& o : origins) c.keys.push_back(coarseKey(o, blockEdge));
+  std::sort(c.keys.begin(), c.keys.end());
+  c.keys.erase(std::unique(c.keys.begin(), c.keys.end()), c.keys.end());
+  c.T.assign(c.keys.size(), 0);
+  c.holds.assign(c.keys.size(), 0);
+  std::vector<std::array<int, 3>> corner(c.keys.size());
+  for (const std::array<int, 3>& o : origins) {
+    const uint64_t key = coarseKey(o, blockEdge);
+    const size_t i = size_t(std::lower_bound(c.keys.begin(), c.keys.end(), key) - c.keys.begin());
+    for (int a = 0; a < 3; ++a) corner[i][size_t(a)] = o[size_t(a)] / blockEdge * blockEdge;
+  }
+  tbb::parallel_for(size_t(0), c.keys.size(), [&](size_t i) {
+    double lo[3], hi[3];
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = corner[i][size_t(a)] + 0.5;
+      hi[a] = std::min(corner[i][size_t(a)] + blockEdge, resolution) - 0.5;
+    }
+    double gradient = INFINITY;
+    c.holds[i] = !windingSheetsMeetBox(t, lo, hi) && windingBoxThreshold(t, lo, hi, c.T[i], gradient);
+  });
+  return c;
+}
+
 // A uniform element's verdict: inside, or split when its voxel centres lie
 // on both sides of w = 1/2 (then it must be refined).
 struct UniformVerdict {
@@ -462,10 +521,27 @@ UniformVerdict classifyUniform(const WindingTreeView& t, const std::array<int, 3
   return {seen[1], false};
 }
 
+// An element within a block whose threshold holds: N at one voxel centre
+// against T. False when the ray walk cannot say (then classifyUniform).
+bool uniformByBlock(const WindingTreeView& t, const WindingUniformJob& job, const CoarseThresholds* coarse,
+                    UniformVerdict& verdict) {
+  int T = 0;
+  if (coarse == nullptr || job.edge > coarse->blockEdge || !coarse->find(job.origin, T)) return false;
+  const int64_t P[3] = {latticeOfVoxelCentre(job.origin[0] + job.edge / 2),
+                        latticeOfVoxelCentre(job.origin[1] + job.edge / 2),
+                        latticeOfVoxelCentre(job.origin[2] + job.edge / 2)};
+  int N = 0;
+  if (!windingRayCrossings(t, P, N)) return false;
+  verdict = UniformVerdict{N >= T, false};
+  return true;
+}
+
 // The verdicts of uniform elements: by the pass when there is one and it
-// runs (verdict bit 0 inside, bit 1 split), classifyUniform here otherwise.
+// runs (verdict bit 0 inside, bit 1 split), here otherwise (by their block's
+// threshold where `coarse` has one, else classifyUniform).
 std::vector<UniformVerdict> decideUniformJobs(const WindingTree& tree, const std::vector<WindingUniformJob>& jobs,
-                                              const WindingUniformPass& pass) {
+                                              const WindingUniformPass& pass,
+                                              const CoarseThresholds* coarse = nullptr) {
   std::vector<UniformVerdict> out(jobs.size());
   std::vector<uint8_t> verdicts;
   if (pass && pass(tree, jobs, verdicts)) {
@@ -473,8 +549,9 @@ std::vector<UniformVerdict> decideUniformJobs(const WindingTree& tree, const std
     return out;
   }
   const WindingTreeView t = tree.view();
-  tbb::parallel_for(size_t(0), jobs.size(),
-                    [&](size_t i) { out[i] = classifyUniform(t, jobs[i].origin, jobs[i].edge); });
+  tbb::parallel_for(size_t(0), jobs.size(), [&](size_t i) {
+    if (!uniformByBlock(t, jobs[i], coarse, out[i])) out[i] = classifyUniform(t, jobs[i].origin, jobs[i].edge);
+  });
   return out;
 }
 
@@ -614,60 +691,6 @@ uint64_t refineSplitElements(const WindingTree& tree, Volume& v, const std::vect
 
 // ---- leaves from signed crossing counts (winding_leaf.hpp) --------------------
 
-// Leaves are grouped in aligned blocks of kCoarseLeaves leaf edges a side; a block
-// that no strip sheet meets and whose K range holds no tie
-// (windingBoxThreshold over the block's voxel centres) gives every leaf in
-// it the threshold T at once: each non-surface voxel is inside iff N >= T,
-// the verdict windingDecideLeaf's first step would certify leaf by leaf.
-constexpr int kCoarseLeaves = 4;
-
-struct CoarseThresholds {
-  std::vector<uint64_t> keys; // ascending block keys
-  std::vector<int> T;
-  std::vector<uint8_t> holds;
-  // The threshold of the block holding `origin`, or false.
-  bool find(uint64_t key, int& threshold) const {
-    const auto it = std::lower_bound(keys.begin(), keys.end(), key);
-    if (it == keys.end() || *it != key || !holds[size_t(it - keys.begin())]) return false;
-    threshold = T[size_t(it - keys.begin())];
-    return true;
-  }
-};
-
-uint64_t coarseKey(const std::array<int, 3>& origin, int blockEdge) {
-  return mortonKey(uint64_t(origin[0] / blockEdge), uint64_t(origin[1] / blockEdge), uint64_t(origin[2] / blockEdge));
-}
-
-// The blocks holding the leaves at `origins`, each clipped to the volume's
-// `resolution` voxels a side.
-CoarseThresholds coarseThresholds(const WindingTreeView& t, const std::vector<std::array<int, 3>>& origins, int L,
-                                  int resolution) {
-  const int blockEdge = kCoarseLeaves * L;
-  CoarseThresholds c;
-  c.keys.reserve(origins.size());
-  for (const std::array<int, 3>& o : origins) c.keys.push_back(coarseKey(o, blockEdge));
-  std::sort(c.keys.begin(), c.keys.end());
-  c.keys.erase(std::unique(c.keys.begin(), c.keys.end()), c.keys.end());
-  c.T.assign(c.keys.size(), 0);
-  c.holds.assign(c.keys.size(), 0);
-  std::vector<std::array<int, 3>> corner(c.keys.size());
-  for (const std::array<int, 3>& o : origins) {
-    const uint64_t key = coarseKey(o, blockEdge);
-    const size_t i = size_t(std::lower_bound(c.keys.begin(), c.keys.end(), key) - c.keys.begin());
-    for (int a = 0; a < 3; ++a) corner[i][size_t(a)] = o[size_t(a)] / blockEdge * blockEdge;
-  }
-  tbb::parallel_for(size_t(0), c.keys.size(), [&](size_t i) {
-    double lo[3], hi[3];
-    for (int a = 0; a < 3; ++a) {
-      lo[a] = corner[i][size_t(a)] + 0.5;
-      hi[a] = std::min(corner[i][size_t(a)] + blockEdge, resolution) - 0.5;
-    }
-    double gradient = INFINITY;
-    c.holds[i] = !windingSheetsMeetBox(t, lo, hi) && windingBoxThreshold(t, lo, hi, c.T[i], gradient);
-  });
-  return c;
-}
-
 // One +x crossing of a leaf's row (windingForEachLeafCrossing): it counts
 // for the row's voxel centres x < before.
 struct LeafCrossing {
@@ -705,7 +728,7 @@ void settleLeafByThreshold(uint32_t* words, int L, const int32_t* exit, const st
 // crossings the count at each voxel centre. A leaf whose counts do not fit
 // 16 bits takes the pieces-and-seeds decision (classifyLeaf).
 void classifyLeavesByCrossings(const WindingTree& tree, Volume& volume,
-                               const std::vector<std::array<int, 3>>& origins) {
+                               const std::vector<std::array<int, 3>>& origins, const CoarseThresholds& coarse) {
   const WindingTreeView t = tree.view();
   const int L = volume.grid.leafSize;
   const size_t rows = size_t(L) * size_t(L), leaves = origins.size();
@@ -745,7 +768,6 @@ void classifyLeavesByCrossings(const WindingTree& tree, Volume& volume,
       }
     }
   });
-  const CoarseThresholds coarse = coarseThresholds(t, origins, L, volume.grid.resolution);
   tbb::parallel_for(size_t(0), leaves, [&](size_t leaf) {
     thread_local std::vector<int32_t> wide;
     thread_local std::vector<int16_t> counts;
@@ -755,7 +777,7 @@ void classifyLeavesByCrossings(const WindingTree& tree, Volume& volume,
     const int32_t* exit = exits.data() + leaf * rows;
     uint32_t* words = volume.leafWords.data() + leafWordOffset(leaf, L);
     int T = 0;
-    if (coarse.find(coarseKey(origins[leaf], kCoarseLeaves * L), T)) {
+    if (coarse.find(origins[leaf], T)) {
       settleLeafByThreshold(words, L, exit, crossings[leaf], T);
       std::vector<LeafCrossing>().swap(crossings[leaf]);
       return;
@@ -798,7 +820,16 @@ WindingOutcome classifyByWindingNumber(const WindingTree& tree, Volume& volume, 
     if (e.state() == ElementState::Boundary) leafOrigins[e.payload()] = e.origin;
     if (e.state() == ElementState::Empty || e.state() == ElementState::Full) jobs.push_back({e.index, e.origin, e.edge});
   });
-  const std::vector<UniformVerdict> verdicts = decideUniformJobs(tree, jobs, uniformPass);
+  // The blocks of the leaves and of the uniform elements that fit in one,
+  // for the host's passes.
+  CoarseThresholds coarse;
+  if (!uniformPass || !leafPass) {
+    std::vector<std::array<int, 3>> inBlocks = leafOrigins;
+    for (const WindingUniformJob& j : jobs)
+      if (j.edge <= kCoarseLeaves * L) inBlocks.push_back(j.origin);
+    coarse = coarseThresholds(t, inBlocks, L, volume.grid.resolution);
+  }
+  const std::vector<UniformVerdict> verdicts = decideUniformJobs(tree, jobs, uniformPass, &coarse);
   for (size_t i = 0; i < jobs.size(); ++i) {
     volume.elements[jobs[i].index] = makeElement(verdicts[i].inside ? ElementState::Full : ElementState::Empty, 0);
     if (verdicts[i].split) {
@@ -813,7 +844,8 @@ WindingOutcome classifyByWindingNumber(const WindingTree& tree, Volume& volume, 
       classifyLeaf(t, volume.leafWords.data() + leafWordOffset(leaf, L), L, leafOrigins[leaf]);
     });
   } else {
-    classifyLeavesByCrossings(tree, volume, leafOrigins);
+    if (coarse.keys.empty() && !leafOrigins.empty()) coarse = coarseThresholds(t, leafOrigins, L, volume.grid.resolution);
+    classifyLeavesByCrossings(tree, volume, leafOrigins, coarse);
   }
   WindingOutcome out;
   if (anySplit) out.refinedElements = refineSplitElements(tree, volume, split, uniformPass, freshPass);
