@@ -705,8 +705,10 @@ struct LeafCrossing {
 // array.
 void settleLeafByThreshold(uint32_t* words, int L, const int32_t* exit, const std::vector<LeafCrossing>& crossings,
                            int T) {
-  thread_local std::vector<int32_t> step; // step[row L + x]: the crossings counting from x down
-  step.assign(size_t(L) * size_t(L) * size_t(L), 0);
+  // step[row L + x]: the crossings counting from x down; all zero between
+  // leaves (the entries set here are cleared at the end, not the whole array).
+  thread_local std::vector<int32_t> step;
+  if (step.size() < size_t(L) * size_t(L) * size_t(L)) step.assign(size_t(L) * size_t(L) * size_t(L), 0);
   for (const LeafCrossing& c : crossings)
     if (c.before > 0) step[size_t(c.row) * size_t(L) + size_t(c.before - 1)] += c.sign;
   for (uint32_t i = 0; i < leafWordCount(L); ++i) words[i] &= kSurfacePlaneBits;
@@ -719,6 +721,8 @@ void settleLeafByThreshold(uint32_t* words, int L, const int32_t* exit, const st
       if (n >= T && !w.surface(v)) w.setInside(v);
     }
   }
+  for (const LeafCrossing& c : crossings)
+    if (c.before > 0) step[size_t(c.row) * size_t(L) + size_t(c.before - 1)] = 0;
 }
 
 // Every leaf of the volume by windingDecideLeaf: the signed crossings of each
