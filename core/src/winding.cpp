@@ -438,6 +438,65 @@ bool decideFreshLeaf(const WindingTreeView& t, uint32_t* words, int L, const std
   return true;
 }
 
+// Leaves and uniform elements are grouped in aligned blocks of kCoarseLeaves
+// leaf edges a side; a block that no strip sheet meets and whose K range holds
+// no tie (windingBoxThreshold over the block's voxel centres) certifies one
+// threshold T for every point in it: inside iff N >= T. A leaf in it is
+// settled by T at once (the verdict windingDecideLeaf's first step would
+// certify leaf by leaf); a uniform element in it takes the verdict of one of
+// its voxel centres (N there by one ray walk): w is continuous over the
+// element (no triangle touches it) and never 1/2 in the block.
+constexpr int kCoarseLeaves = 4;
+
+uint64_t coarseKey(const std::array<int, 3>& origin, int blockEdge) {
+  return mortonKey(uint64_t(origin[0] / blockEdge), uint64_t(origin[1] / blockEdge), uint64_t(origin[2] / blockEdge));
+}
+
+struct CoarseThresholds {
+  int blockEdge = 0;
+  std::vector<uint64_t> keys; // ascending block keys
+  std::vector<int> T;
+  std::vector<uint8_t> holds;
+  // The threshold of the block holding the voxel `origin`, or false.
+  bool find(const std::array<int, 3>& origin, int& threshold) const {
+    const auto it = std::lower_bound(keys.begin(), keys.end(), coarseKey(origin, blockEdge));
+    if (it == keys.end() || *it != coarseKey(origin, blockEdge) || !holds[size_t(it - keys.begin())]) return false;
+    threshold = T[size_t(it - keys.begin())];
+    return true;
+  }
+};
+
+// The blocks holding the voxels `origins`, each clipped to the volume's
+// `resolution` voxels a side.
+CoarseThresholds coarseThresholds(const WindingTreeView& t, const std::vector<std::array<int, 3>>& origins, int L,
+                                  int resolution) {
+  const int blockEdge = kCoarseLeaves * L;
+  CoarseThresholds c;
+  c.blockEdge = blockEdge;
+  c.keys.reserve(origins.size());
+  for (const std::array<int, 3>& o : origins) c.keys.push_back(coarseKey(o, blockEdge));
+  std::sort(c.keys.begin(), c.keys.end());
+  c.keys.erase(std::unique(c.keys.begin(), c.keys.end()), c.keys.end());
+  c.T.assign(c.keys.size(), 0);
+  c.holds.assign(c.keys.size(), 0);
+  std::vector<std::array<int, 3>> corner(c.keys.size());
+  for (const std::array<int, 3>& o : origins) {
+    const uint64_t key = coarseKey(o, blockEdge);
+    const size_t i = size_t(std::lower_bound(c.keys.begin(), c.keys.end(), key) - c.keys.begin());
+    for (int a = 0; a < 3; ++a) corner[i][size_t(a)] = o[size_t(a)] / blockEdge * blockEdge;
+  }
+  tbb::parallel_for(size_t(0), c.keys.size(), [&](size_t i) {
+    double lo[3], hi[3];
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = corner[i][size_t(a)] + 0.5;
+      hi[a] = std::min(corner[i][size_t(a)] + blockEdge, resolution) - 0.5;
+    }
+    double gradient = INFINITY;
+    c.holds[i] = !windingSheetsMeetBox(t, lo, hi) && windingBoxThreshold(t, lo, hi, c.T[i], gradient);
+  });
+  return c;
+}
+
 // A uniform element's verdict: inside, or split when its voxel centres lie
 // on both sides of w = 1/2 (then it must be refined).
 struct UniformVerdict {
@@ -462,10 +521,27 @@ UniformVerdict classifyUniform(const WindingTreeView& t, const std::array<int, 3
   return {seen[1], false};
 }
 
+// An element within a block whose threshold holds: N at one voxel centre
+// against T. False when the ray walk cannot say (then classifyUniform).
+bool uniformByBlock(const WindingTreeView& t, const WindingUniformJob& job, const CoarseThresholds* coarse,
+                    UniformVerdict& verdict) {
+  int T = 0;
+  if (coarse == nullptr || job.edge > coarse->blockEdge || !coarse->find(job.origin, T)) return false;
+  const int64_t P[3] = {latticeOfVoxelCentre(job.origin[0] + job.edge / 2),
+                        latticeOfVoxelCentre(job.origin[1] + job.edge / 2),
+                        latticeOfVoxelCentre(job.origin[2] + job.edge / 2)};
+  int N = 0;
+  if (!windingRayCrossings(t, P, N)) return false;
+  verdict = UniformVerdict{N >= T, false};
+  return true;
+}
+
 // The verdicts of uniform elements: by the pass when there is one and it
-// runs (verdict bit 0 inside, bit 1 split), classifyUniform here otherwise.
+// runs (verdict bit 0 inside, bit 1 split), here otherwise (by their block's
+// threshold where `coarse` has one, else classifyUniform).
 std::vector<UniformVerdict> decideUniformJobs(const WindingTree& tree, const std::vector<WindingUniformJob>& jobs,
-                                              const WindingUniformPass& pass) {
+                                              const WindingUniformPass& pass,
+                                              const CoarseThresholds* coarse = nullptr) {
   std::vector<UniformVerdict> out(jobs.size());
   std::vector<uint8_t> verdicts;
   if (pass && pass(tree, jobs, verdicts)) {
@@ -473,8 +549,9 @@ std::vector<UniformVerdict> decideUniformJobs(const WindingTree& tree, const std
     return out;
   }
   const WindingTreeView t = tree.view();
-  tbb::parallel_for(size_t(0), jobs.size(),
-                    [&](size_t i) { out[i] = classifyUniform(t, jobs[i].origin, jobs[i].edge); });
+  tbb::parallel_for(size_t(0), jobs.size(), [&](size_t i) {
+    if (!uniformByBlock(t, jobs[i], coarse, out[i])) out[i] = classifyUniform(t, jobs[i].origin, jobs[i].edge);
+  });
   return out;
 }
 
@@ -614,6 +691,40 @@ uint64_t refineSplitElements(const WindingTree& tree, Volume& v, const std::vect
 
 // ---- leaves from signed crossing counts (winding_leaf.hpp) --------------------
 
+// One +x crossing of a leaf's row (windingForEachLeafCrossing): it counts
+// for the row's voxel centres x < before.
+struct LeafCrossing {
+  uint16_t row;
+  uint8_t before;
+  int8_t sign;
+};
+
+// A leaf in a block whose threshold holds: the surface plane kept, each
+// non-surface voxel inside iff its count N >= T, N walked down each row from
+// the count beyond the leaf (`exit`) and the row's crossings, with no count
+// array.
+void settleLeafByThreshold(uint32_t* words, int L, const int32_t* exit, const std::vector<LeafCrossing>& crossings,
+                           int T) {
+  // step[row L + x]: the crossings counting from x down; all zero between
+  // leaves (the entries set here are cleared at the end, not the whole array).
+  thread_local std::vector<int32_t> step;
+  if (step.size() < size_t(L) * size_t(L) * size_t(L)) step.assign(size_t(L) * size_t(L) * size_t(L), 0);
+  for (const LeafCrossing& c : crossings)
+    if (c.before > 0) step[size_t(c.row) * size_t(L) + size_t(c.before - 1)] += c.sign;
+  for (uint32_t i = 0; i < leafWordCount(L); ++i) words[i] &= kSurfacePlaneBits;
+  const WindingLeafWords w{words, uint32_t(L)};
+  for (int row = 0; row < L * L; ++row) {
+    int32_t n = exit[row];
+    for (int x = L - 1; x >= 0; --x) {
+      const uint32_t v = uint32_t(row * L + x);
+      n += step[v];
+      if (n >= T && !w.surface(v)) w.setInside(v);
+    }
+  }
+  for (const LeafCrossing& c : crossings)
+    if (c.before > 0) step[size_t(c.row) * size_t(L) + size_t(c.before - 1)] = 0;
+}
+
 // Every leaf of the volume by windingDecideLeaf: the signed crossings of each
 // leaf's rows summed per row, their suffix sums along each line of leaves
 // (between two leaves of a line lie only uniform elements, which hold no
@@ -621,14 +732,20 @@ uint64_t refineSplitElements(const WindingTree& tree, Volume& v, const std::vect
 // crossings the count at each voxel centre. A leaf whose counts do not fit
 // 16 bits takes the pieces-and-seeds decision (classifyLeaf).
 void classifyLeavesByCrossings(const WindingTree& tree, Volume& volume,
-                               const std::vector<std::array<int, 3>>& origins) {
+                               const std::vector<std::array<int, 3>>& origins, const CoarseThresholds& coarse) {
   const WindingTreeView t = tree.view();
   const int L = volume.grid.leafSize;
   const size_t rows = size_t(L) * size_t(L), leaves = origins.size();
   std::vector<int32_t> exits(leaves * rows, 0); // the leaf's own row totals, then the counts beyond it
+  // Each leaf's crossings, kept for its counts below (one walk of the tree a leaf).
+  std::vector<std::vector<LeafCrossing>> crossings(leaves);
   tbb::parallel_for(size_t(0), leaves, [&](size_t leaf) {
     int32_t* total = exits.data() + leaf * rows;
-    windingForEachLeafCrossing(t, origins[leaf].data(), L, [&](int row, int, int sign) { total[row] += sign; });
+    std::vector<LeafCrossing>& own = crossings[leaf];
+    windingForEachLeafCrossing(t, origins[leaf].data(), L, [&](int row, int before, int sign) {
+      total[row] += sign;
+      own.push_back({uint16_t(row), uint8_t(before), int8_t(sign)});
+    });
   });
   // Lines of leaves (same y, z), each walked from its +x end.
   std::vector<uint32_t> order(leaves);
@@ -662,12 +779,18 @@ void classifyLeavesByCrossings(const WindingTree& tree, Volume& volume,
     wide.resize(n);
     counts.resize(n);
     const int32_t* exit = exits.data() + leaf * rows;
+    uint32_t* words = volume.leafWords.data() + leafWordOffset(leaf, L);
+    int T = 0;
+    if (coarse.find(origins[leaf], T)) {
+      settleLeafByThreshold(words, L, exit, crossings[leaf], T);
+      std::vector<LeafCrossing>().swap(crossings[leaf]);
+      return;
+    }
     for (size_t r = 0; r < rows; ++r)
       for (int x = 0; x < L; ++x) wide[r * size_t(L) + size_t(x)] = exit[r];
-    windingForEachLeafCrossing(t, origins[leaf].data(), L, [&](int row, int before, int sign) {
-      for (int x = 0; x < before; ++x) wide[size_t(row) * size_t(L) + size_t(x)] += sign;
-    });
-    uint32_t* words = volume.leafWords.data() + leafWordOffset(leaf, L);
+    for (const LeafCrossing& c : crossings[leaf])
+      for (int x = 0; x < c.before; ++x) wide[size_t(c.row) * size_t(L) + size_t(x)] += c.sign;
+    std::vector<LeafCrossing>().swap(crossings[leaf]);
     bool fits = true;
     for (size_t v = 0; v < n; ++v) {
       fits = fits && wide[v] >= INT16_MIN && wide[v] <= INT16_MAX;
@@ -701,7 +824,16 @@ WindingOutcome classifyByWindingNumber(const WindingTree& tree, Volume& volume, 
     if (e.state() == ElementState::Boundary) leafOrigins[e.payload()] = e.origin;
     if (e.state() == ElementState::Empty || e.state() == ElementState::Full) jobs.push_back({e.index, e.origin, e.edge});
   });
-  const std::vector<UniformVerdict> verdicts = decideUniformJobs(tree, jobs, uniformPass);
+  // The blocks of the leaves and of the uniform elements that fit in one,
+  // for the host's passes.
+  CoarseThresholds coarse;
+  if (!uniformPass || !leafPass) {
+    std::vector<std::array<int, 3>> inBlocks = leafOrigins;
+    for (const WindingUniformJob& j : jobs)
+      if (j.edge <= kCoarseLeaves * L) inBlocks.push_back(j.origin);
+    coarse = coarseThresholds(t, inBlocks, L, volume.grid.resolution);
+  }
+  const std::vector<UniformVerdict> verdicts = decideUniformJobs(tree, jobs, uniformPass, &coarse);
   for (size_t i = 0; i < jobs.size(); ++i) {
     volume.elements[jobs[i].index] = makeElement(verdicts[i].inside ? ElementState::Full : ElementState::Empty, 0);
     if (verdicts[i].split) {
@@ -716,7 +848,8 @@ WindingOutcome classifyByWindingNumber(const WindingTree& tree, Volume& volume, 
       classifyLeaf(t, volume.leafWords.data() + leafWordOffset(leaf, L), L, leafOrigins[leaf]);
     });
   } else {
-    classifyLeavesByCrossings(tree, volume, leafOrigins);
+    if (coarse.keys.empty() && !leafOrigins.empty()) coarse = coarseThresholds(t, leafOrigins, L, volume.grid.resolution);
+    classifyLeavesByCrossings(tree, volume, leafOrigins, coarse);
   }
   WindingOutcome out;
   if (anySplit) out.refinedElements = refineSplitElements(tree, volume, split, uniformPass, freshPass);

@@ -95,20 +95,15 @@ HDT_HD bool windingFarLeaf(const WindingTreeView& t, const WindingLeafSplit& spl
   }
   const double rho = sqrt(rho2) * (1 + 1e-12);
   double H = 0;
-  int k = 0;
-  for (uint32_t i = 0; i < t.edgeCount; ++i) {
-    if (k < split.nearCount && split.near[k] == i) {
-      ++k;
-      continue;
-    }
-    const WindingEdge& e = t.edges[i];
+  const bool clear = windingForEachFarEdge(t, split, [&](const WindingEdge& e) {
     const double d = windingEdgeDistance(e, lo, hi, c, rho);
     if (!(d > 0)) return false;
     const double byLength = 2.0 * e.length / (d * d * d), byDistance = 4.0 / (d * d);
     H = H + e.weight * (byLength < byDistance ? byLength : byDistance);
-  }
+    return true;
+  });
   f.edgeHessian = H;
-  return true;
+  return clear;
 }
 
 // The far part of one anchor: K_far at its centre, the gradient there and
@@ -131,15 +126,10 @@ HDT_HD bool windingFarExpansion(const WindingTreeView& t, const WindingLeafSplit
   }
   const double* endCoef = f.endCoef;
   double H = f.edgeHessian, gErr = 0;
-  int k = 0;
-  for (uint32_t i = 0; i < t.edgeCount; ++i) {
-    if (k < split.nearCount && split.near[k] == i) {
-      ++k;
-      continue;
-    }
-    const WindingEdge& e = t.edges[i];
+  windingForEachFarEdge(t, split, [&](const WindingEdge& e) {
     windingAddSegmentField(e.a, e.b, e.length, x.c, e.net, x.g, gErr);
-  }
+    return true;
+  });
   for (int j = 0; j < split.endCount; ++j) {
     if (endCoef[j] == 0) continue;
     const double d = windingRayDistance(split.end[j], lo, hi);
@@ -173,32 +163,57 @@ HDT_HD void windingFarOverBox(const WindingFarExpansion& x, const double* lo, co
           8.0 * kWindingUlp * (fabs(x.K) + fabs(lin) + x.gNorm * sqrt(offset2) * (1 + 1e-12));
 }
 
-// windingDecideAnchored with the far part to first order; where the
-// expansion cannot be had, windingDecideBoxes (K from every edge).
+// Whether the expansion's remainder at the anchor's corners leaves a single
+// voxel there any chance: where an open end's ray passes close to the
+// anchor, the far part's remainder exceeds pi and every voxel near w = 1/2
+// would fall back to K from every edge one by one; windingDecideBoxes (K
+// from every edge, but the whole chain's gradient bound, which has no rays)
+// settles such anchors in fewer, larger boxes.
+HDT_HD bool windingFarExpansionUseful(const WindingFarExpansion& x, const double* lo, const double* hi) {
+  double far2 = 0;
+  for (int a = 0; a < 3; ++a) far2 = far2 + 0.25 * (hi[a] - lo[a]) * (hi[a] - lo[a]);
+  const double r = sqrt(far2);
+  return r * (x.gError + 0.5 * x.hessian * r) < kWindingPi;
+}
+
+// The anchor as one box (windingAnchoredBoxStep) with the leaf's expansion
+// (K_far to first order about the leaf's centre): true when that settles it,
+// false when the step would halve it (nothing written then).
+HDT_HD bool windingAnchorSettledByLeaf(const WindingTreeView& t, const int16_t* N, const WindingLeafWords& w,
+                                       const WindingLeafSplit& split, const VoxelBox& anchor, const double* lo,
+                                       const double* hi, const WindingFarExpansion& leaf) {
+  VoxelBox halves[8];
+  double known[8];
+  int count = 0;
+  double farK = 0, farStray = 0;
+  windingFarOverBox(leaf, lo, hi, farK, farStray);
+  windingAnchoredBoxStep(t, N, w, split, anchor, lo, hi, farK, 0.0, farStray, halves, known, count);
+  return count == 0;
+}
+
+// windingDecideAnchored with the far part to first order: the anchor first
+// by the leaf's expansion when there is one (`leaf`, may be null: the
+// anchors of a leaf that lie well clear of w = 1/2 need no expansion of
+// their own), else by its own expansion about its centre; where that cannot
+// be had, windingDecideBoxes (K from every edge).
 HDT_HD void windingDecideAnchoredLinear(const WindingTreeView& t, const int* origin, const int16_t* N,
                                         const WindingLeafWords& w, const VoxelBox& anchor,
-                                        const WindingLeafSplit& split, const WindingFarLeaf& f) {
+                                        const WindingLeafSplit& split, const WindingFarLeaf& f,
+                                        const WindingFarExpansion* leaf) {
   if (!w.open(anchor)) return;
   double alo[3], ahi[3];
   windingBoxCentres(origin, anchor, alo, ahi);
+  if (leaf != nullptr && windingAnchorSettledByLeaf(t, N, w, split, anchor, alo, ahi, *leaf)) return;
   WindingFarExpansion x;
-  if (!windingFarExpansion(t, split, f, alo, ahi, x)) {
+  if (!windingFarExpansion(t, split, f, alo, ahi, x) || !windingFarExpansionUseful(x, alo, ahi)) {
     windingDecideBoxes(t, origin, N, w, anchor, INFINITY);
     return;
   }
-  VoxelBox stack[kWindingLeafStack];
-  double known[kWindingLeafStack]; // unused here: the near bound is cheap
-  int top = 0;
-  stack[top++] = anchor;
-  while (top > 0) {
-    const VoxelBox b = stack[--top];
-    if (!w.open(b)) continue;
-    double lo[3], hi[3];
-    windingBoxCentres(origin, b, lo, hi);
-    double farK = 0, farStray = 0;
-    windingFarOverBox(x, lo, hi, farK, farStray);
-    windingAnchoredBoxStep(t, N, w, split, b, lo, hi, farK, 0.0, farStray, stack, known, top);
-  }
+  windingWalkAnchor(t, origin, N, w, anchor, split,
+                    [&](const double* lo, const double* hi, double& value, double& error, double& spread) {
+                      windingFarOverBox(x, lo, hi, value, spread);
+                      error = 0.0; // windingFarOverBox's stray holds K_far(c)'s rounding
+                    });
 }
 
 // windingDecideLeaf with windingDecideAnchoredLinear for the anchored boxes
@@ -212,11 +227,14 @@ HDT_HD void windingDecideLeafLinear(const WindingTreeView& t, int L, const int* 
   WindingFarLeaf far;
   if (t.edgeCount > uint32_t(kWindingNearEdges) && windingSplitEdges(t, start.lo, start.hi, L, split) &&
       4 * uint32_t(split.nearCount) < t.edgeCount && windingFarLeaf(t, split, start.lo, start.hi, far)) {
+    WindingFarExpansion leafExpansion;
+    const bool byLeaf = windingFarExpansion(t, split, far, start.lo, start.hi, leafExpansion);
     const int M = kWindingLinearAnchorBox < L ? kWindingLinearAnchorBox : L;
     for (int z = 0; z < L; z += M)
       for (int y = 0; y < L; y += M)
         for (int x = 0; x < L; x += M)
-          windingDecideAnchoredLinear(t, origin, N, w, VoxelBox{{x, y, z}, {x + M, y + M, z + M}}, split, far);
+          windingDecideAnchoredLinear(t, origin, N, w, VoxelBox{{x, y, z}, {x + M, y + M, z + M}}, split, far,
+                                      byLeaf ? &leafExpansion : nullptr);
     return;
   }
   windingDecideLeafHalves(t, origin, N, w, L, start);

@@ -235,6 +235,21 @@ HDT_HD bool windingSplitEdges(const WindingTreeView& t, const double* lo, const 
   return true;
 }
 
+// fn(edge) for every edge of the split's far part, in index order (the
+// near indices ascend); false, and no further calls, once fn returns false.
+template <class Fn>
+HDT_HD bool windingForEachFarEdge(const WindingTreeView& t, const WindingLeafSplit& split, Fn&& fn) {
+  int k = 0;
+  for (uint32_t i = 0; i < t.edgeCount; ++i) {
+    if (k < split.nearCount && split.near[k] == i) {
+      ++k;
+      continue;
+    }
+    if (!fn(t.edges[i])) return false;
+  }
+  return true;
+}
+
 // The bound on the gradient of K_near (near true) or K_far over the box
 // [lo, hi]: INFINITY when one of the part's edges or an open end's ray meets it.
 HDT_HD double windingPartGradientBound(const WindingTreeView& t, const WindingLeafSplit& split, bool near,
@@ -255,15 +270,8 @@ HDT_HD double windingPartGradientBound(const WindingTreeView& t, const WindingLe
   if (near) {
     for (int k = 0; k < split.nearCount; ++k)
       if (!add(t.edges[split.near[k]])) return INFINITY;
-  } else {
-    int k = 0;
-    for (uint32_t i = 0; i < t.edgeCount; ++i) {
-      if (k < split.nearCount && split.near[k] == i) {
-        ++k;
-        continue;
-      }
-      if (!add(t.edges[i])) return INFINITY;
-    }
+  } else if (!windingForEachFarEdge(t, split, add)) {
+    return INFINITY;
   }
   for (int j = 0; j < split.endCount; ++j) {
     if (split.endNet[j] == 0) continue;
@@ -481,6 +489,29 @@ HDT_HD void windingAnchoredBoxStep(const WindingTreeView& t, const int16_t* N, c
   windingPushHalves(b, sheet, stack, known, top, INFINITY);
 }
 
+// The boxes of `anchor` (its open ones, halved as windingAnchoredBoxStep
+// asks), each with the far part over it from farOverBox(lo, hi, value,
+// error, spread): K_far within error of value at the box's centre and
+// spread more over the box (the anchored walks' zeroth or first order).
+template <class FarOverBox>
+HDT_HD void windingWalkAnchor(const WindingTreeView& t, const int* origin, const int16_t* N,
+                              const WindingLeafWords& w, const VoxelBox& anchor, const WindingLeafSplit& split,
+                              FarOverBox&& farOverBox) {
+  VoxelBox stack[kWindingLeafStack];
+  double known[kWindingLeafStack]; // unused here: the near bound is cheap
+  int top = 0;
+  stack[top++] = anchor;
+  while (top > 0) {
+    const VoxelBox b = stack[--top];
+    if (!w.open(b)) continue;
+    double lo[3], hi[3];
+    windingBoxCentres(origin, b, lo, hi);
+    double farK = 0, farError = 0, farSpread = 0;
+    farOverBox(lo, hi, farK, farError, farSpread);
+    windingAnchoredBoxStep(t, N, w, split, b, lo, hi, farK, farError, farSpread, stack, known, top);
+  }
+}
+
 // The boxes of `anchor` (at most kWindingAnchorBox^3 voxels) with K_far taken
 // once at its centre: K(p) = K_near(p) + K_far(p), K_far(p) within G_far |p -
 // centre| of its value there, K_near evaluated per box and bounded over it.
@@ -506,18 +537,12 @@ HDT_HD void windingDecideAnchored(const WindingTreeView& t, const int* origin, c
     }
     return sqrt(s) * (1 + 1e-12);
   };
-  VoxelBox stack[kWindingLeafStack];
-  double known[kWindingLeafStack]; // unused here: the near bound is cheap
-  int top = 0;
-  stack[top++] = anchor;
-  while (top > 0) {
-    const VoxelBox b = stack[--top];
-    if (!w.open(b)) continue;
-    double lo[3], hi[3];
-    windingBoxCentres(origin, b, lo, hi);
-    windingAnchoredBoxStep(t, N, w, split, b, lo, hi, farK, farError, farGradient * farthest(lo, hi), stack, known,
-                           top);
-  }
+  windingWalkAnchor(t, origin, N, w, anchor, split,
+                    [&](const double* lo, const double* hi, double& value, double& error, double& spread) {
+                      value = farK;
+                      error = farError;
+                      spread = farGradient * farthest(lo, hi);
+                    });
 }
 
 // What the first step of a leaf's decision leaves to the next ones.
