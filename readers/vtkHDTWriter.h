@@ -52,7 +52,8 @@ public:
 
   ///@{
   /**
-   * zstd level, 1 (fastest) to 19 (smallest). Default 3.
+   * zstd level, 1 (fastest) to 19 (smallest). Default 1, as hdt::WriteOptions and hdt-voxelize:
+   * on leaf grids it gives files about as small as 3, sooner.
    */
   vtkSetClampMacro(CompressionLevel, int, 1, 19);
   vtkGetMacro(CompressionLevel, int);
@@ -73,7 +74,7 @@ protected:
 
   char* FileName = nullptr;
   vtkTypeBool CompressLeaves = true;
-  int CompressionLevel = 3;
+  int CompressionLevel = 1;
 
 private:
   vtkHDTWriter(const vtkHDTWriter&) = delete;
