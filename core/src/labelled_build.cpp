@@ -6,6 +6,7 @@
 #include "hdt/huge_pages.hpp"
 #include "hdt/mesh.hpp"
 
+#include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
@@ -151,6 +152,37 @@ PreparedParts prepareParts(const TriangleMesh& mesh, const BuildConfig& placed) 
 
 } // namespace
 
+Label onlyLabel(const TriangleMesh& mesh) {
+  const std::vector<Label>& labels = mesh.triangleLabels;
+  if (labels.empty() || labels.size() != mesh.triangleCount() || labels[0] == kOutsideLabel) return kOutsideLabel;
+  const Label first = labels[0];
+  for (const Label l : labels)
+    if (l != first) return kOutsideLabel;
+  return first;
+}
+
+void labelAsOnePart(Volume& v, const TriangleMesh& mesh) {
+  const Label label = onlyLabel(mesh);
+  if (label == kOutsideLabel) throw Error(ErrorKind::InvalidArgument, "labelAsOnePart: the mesh has not one label");
+  // combineLabelledParts of one part: each element is claimed by that part
+  // alone, so a Full element and a leaf (even one without a non-Outside
+  // voxel) take its label, Empty and Branch elements 0, and no leaf is mixed.
+  LabelField& f = v.labels;
+  f = LabelField{};
+  f.elementLabels.resize(v.elements.size());
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, v.elements.size(), size_t(1) << 16),
+                    [&](const tbb::blocked_range<size_t>& r) {
+                      for (size_t i = r.begin(); i != r.end(); ++i) {
+                        const ElementState s = elementState(v.elements[i]);
+                        const bool claimed = s == ElementState::Full || s == ElementState::Boundary;
+                        f.elementLabels[i] = claimed ? label : kOutsideLabel;
+                      }
+                    });
+  indexMixedLeaves(v);
+  for (const auto& [l, name] : mesh.labelNames)
+    if (l != kOutsideLabel) f.names[l] = name;
+}
+
 Volume voxelizeLabelled(const TriangleMesh& mesh, const BuildConfig& config, const BuildOptions& options,
                         const LabelOptions& labels) {
   // One placement for all parts: the whole mesh's (or the caller's) box.
@@ -158,6 +190,11 @@ Volume voxelizeLabelled(const TriangleMesh& mesh, const BuildConfig& config, con
   if (!placed.hasBounds) {
     meshBounds(mesh, placed.boundsMin, placed.boundsMax);
     placed.hasBounds = true;
+  }
+  if (onlyLabel(mesh) != kOutsideLabel) { // one part: the whole mesh
+    Volume v = build(prepareMesh(mesh, placed), options);
+    labelAsOnePart(v, mesh);
+    return v;
   }
   PreparedParts parts;
   bool logged = false;

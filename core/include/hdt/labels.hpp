@@ -57,9 +57,26 @@ private:
 // triangle; throws Error(BadInput) otherwise). Labels' names are taken from
 // mesh.labelNames. Progress is reported over all parts. With the CUDA
 // backend (or Auto with a usable device) it runs buildLabelledCuda, else (or
-// when that does not apply) it builds every part and combines them.
+// when that does not apply) it builds every part and combines them. A mesh
+// of one label is built once, as an unlabelled build, and labelled by
+// labelAsOnePart: the same volume without the parts' builds.
 Volume voxelizeLabelled(const TriangleMesh& mesh, const BuildConfig& config, const BuildOptions& options,
                         const LabelOptions& labels = {});
+
+// The one label of a mesh whose triangles all carry the same label >= 1;
+// kOutsideLabel when they carry several, a label 0, or not one label per
+// triangle (voxelizeLabelled's general path then decides, and refuses the
+// bad ones).
+Label onlyLabel(const TriangleMesh& mesh);
+
+// The labelled volume of a one-part mesh (onlyLabel(mesh) >= 1) from its
+// plain build `v`, prepared from the mesh on the grid voxelizeLabelled
+// places (the same config; without bounds, the mesh's own, which are the
+// same): what combineLabelledParts makes of that one part's volume, i.e. the
+// same elements and leaf words, the label on every Full and Boundary
+// element, no mixed leaf; and mesh.labelNames. (voxelizeLabelled's one-part
+// fast path; a caller that has the plain build already skips the parts.)
+void labelAsOnePart(Volume& v, const TriangleMesh& mesh);
 
 // The CUDA driver's labelled build (cuda/src/labelled.cpp): `whole` is the
 // whole mesh prepared surface-only on the parts' grid (its tree is the union
