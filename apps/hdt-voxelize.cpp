@@ -249,11 +249,16 @@ int run(int argc, const char* const* argv, const MpiSession& session, Clock::tim
   hostWarmUp.join(); // long done: the read takes longer
   PreparedMesh prepared = about(options.mesh, [&] { return prepareMesh(mesh, options.config); });
   if (session.size() > 1) fallBackToParityAcrossRanks(prepared); // the report's warnings say so
-  trimWarmPages(); // what prepareMesh did not use
   const bool labelled = options.labels.kind != MeshLabelSource::Kind::None;
   // A labelled mesh of one part in one process: its plain build, labelled
   // afterwards (labelAsOnePart; `prepared` is on the grid voxelizeLabelled places).
-  const bool onePart = labelled && session.size() == 1 && onlyLabel(mesh) != kOutsideLabel;
+  const Label onlyPart = labelled && session.size() == 1 ? onlyLabel(mesh) : kOutsideLabel;
+  const bool onePart = onlyPart != kOutsideLabel;
+  // Of several, the parts are prepared here, as the whole mesh is: the build
+  // starts from prepared meshes, labelled or not.
+  LabelledParts parts;
+  if (labelled && !onePart) parts = about(options.mesh, [&] { return prepareLabelledParts(mesh, options.config); });
+  trimWarmPages(); // what prepareMesh did not use
   if (prepared.closed && (!labelled || onePart)) warmUp.meshIsClosed(); // a labelled build's parts may be open
   if (!labelled && arrays.empty()) mesh = TriangleMesh(); // the lattice copy is all the build needs; labelled builds split the mesh
   report.io.prepare = msSince(t);
@@ -288,10 +293,11 @@ int run(int argc, const char* const* argv, const MpiSession& session, Clock::tim
   if (!options.hdtPath.empty() && !labelled && session.size() == 1) build.leafSink = &streamedLeaves;
   t = Clock::now();
   Volume volume = about(options.mesh, [&] {
-    if (labelled && !onePart) return voxelizeLabelled(mesh, options.config, build, options.overlap); // every rank builds it whole
+    if (labelled && !onePart) // every rank builds it whole
+      return voxelizeLabelled(prepared, parts, mesh.labelNames, build, options.overlap);
     if (onePart) {
       Volume v = hdt::build(prepared, build);
-      labelAsOnePart(v, mesh);
+      labelAsOnePart(v, onlyPart, mesh.labelNames);
       return v;
     }
     return session.size() > 1 ? buildAcrossRanks(session, prepared, build, &report.ranks) : hdt::build(prepared, build);

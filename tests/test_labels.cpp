@@ -311,6 +311,30 @@ TEST(Labels, OnePartFastPathIsTheCombinedPart) {
   EXPECT_EQ(onlyLabel(two), kOutsideLabel); // refused by the general path
 }
 
+// The parts prepared beforehand (prepareLabelledParts, as hdt-voxelize
+// does) and the whole mesh prepared solid: the same volume and names as
+// voxelizeLabelled of the mesh; free placement and the unit frame.
+TEST(Labels, PartsPreparedBeforehandGiveTheSameVolume) {
+  TriangleMesh mesh = labelledMesh({{3, icosphere(2, 14, {-6, 0, 0})}, {7, icosphere(2, 14, {6, 0, 0})},
+                                    {5, icosphere(1, 6, {0, 0, 20})}});
+  mesh.labelNames = {{3, "left"}, {5, "top"}};
+  BuildConfig free;
+  free.resolution = kN;
+  free.rootGrid = 2;
+  free.leafSize = 8;
+  for (const BuildConfig& config : {unitFrame(), free}) {
+    const LabelOptions o = policy(OverlapPolicy::Highest);
+    const Volume expected = voxelizeLabelled(mesh, config, cpu(), o);
+    const Volume v =
+        voxelizeLabelled(prepareMesh(mesh, config), prepareLabelledParts(mesh, config), mesh.labelNames, cpu(), o);
+    EXPECT_EQ(firstDifference(expected, v), "");
+    EXPECT_EQ(v.labels.elementLabels, expected.labels.elementLabels);
+    EXPECT_TRUE(unpackVoxelLabels(v) == unpackVoxelLabels(expected));
+    EXPECT_EQ(v.labels.names, expected.labels.names);
+    EXPECT_EQ(v.labels.names.at(5), "top");
+  }
+}
+
 TEST(Labels, SameBytesWhateverTheThreadCount) {
   const std::vector<Part> parts = {{3, icosphere(2, 14, {-6, 0, 0})}, {7, icosphere(2, 14, {6, 0, 0})}};
   const std::vector<uint8_t> one = serializeHdt(buildLabelled(parts, unitFrame(), {}, cpu(1)));
