@@ -46,6 +46,7 @@
 #include <algorithm>
 #include <chrono>
 #include <functional>
+#include <future>
 #include <numeric>
 #include <stdexcept>
 #include <string>
@@ -330,6 +331,42 @@ private:
   Clock::time_point last_;
 };
 
+// A copy back on a stream and host thread of its own, queued after the work
+// on the session's stream so far: the leaf words, final before the labelling
+// kernels, go to the host while those run. wait() before the host reads the
+// words or the device frees them (the destructor waits too).
+class CopyBeside {
+public:
+  CopyBeside(Session& s, uint32_t* host, const uint32_t* device, size_t count) : bytes_(count * sizeof(uint32_t)) {
+    HDT_CUDA_CHECK(cudaEventCreateWithFlags(&ready_, cudaEventDisableTiming));
+    HDT_CUDA_CHECK(cudaEventRecord(ready_, s.stream.get()));
+    HDT_CUDA_CHECK(cudaStreamWaitEvent(side_.get(), ready_, 0));
+    done_ = std::async(std::launch::async, [this, dev = s.device, host, device] {
+      HDT_CUDA_CHECK(cudaSetDevice(dev));
+      const auto t0 = Clock::now();
+      copyToHost(side_.get(), host, device, bytes_);
+      return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+    });
+  }
+  ~CopyBeside() {
+    if (done_.valid()) done_.wait();
+    cudaEventDestroy(ready_);
+  }
+  CopyBeside(const CopyBeside&) = delete;
+  CopyBeside& operator=(const CopyBeside&) = delete;
+  // Waits for the copy (rethrowing its error) and counts it as the session's.
+  void wait(Session& s) {
+    s.copyBackMs += done_.get();
+    s.copyBackBytes += bytes_;
+  }
+
+private:
+  const size_t bytes_;
+  cudaEvent_t ready_ = nullptr;
+  Stream side_;
+  std::future<double> done_;
+};
+
 // Steps 3 and the copy back. counts: the volume's surface and inside voxels
 // (its statistics).
 Volume combineOnDevice(Session& s, UnionState& u, std::vector<PartOnDevice>& parts,
@@ -353,6 +390,9 @@ Volume combineOnDevice(Session& s, UnionState& u, std::vector<PartOnDevice>& par
                    u.claimCount.data(), u.claimRank.data());
   finalizeLeafWords(st, leaves, W, u.tree.words.data(), u.leafInherited.data(), u.acc.data(), e);
   u.tree.words = DeviceBuffer<uint32_t>();
+  Volume v;
+  v.leafWords.resize(size_t(leaves) * W);
+  CopyBeside words(s, v.leafWords.data(), u.acc.data(), v.leafWords.size()); // read-only from here on
 
   DeviceBuffer<uint32_t> flags(s.memory, leaves), multiIndex(s.memory, leaves);
   markMulti(st, leaves, u.claimCount.data(), flags.data());
@@ -394,14 +434,12 @@ Volume combineOnDevice(Session& s, UnionState& u, std::vector<PartOnDevice>& par
   if (error) throw Mismatch("the parts' trees or surfaces do not match the whole mesh's");
   download(s, counts, voxelCounts.data(), 2);
 
-  Volume v;
   v.grid = g;
   v.levelStart = u.start;
   v.elements.resize(u.start.back());
   for (size_t k = 0; k <= h; ++k) download(s, v.elements.data() + u.start[k], levels[k].words.data(), levels[k].count);
   lap("elements down");
-  v.leafWords.resize(size_t(leaves) * W);
-  download(s, v.leafWords.data(), u.acc.data(), v.leafWords.size());
+  words.wait(s);
   lap("words down");
   v.labels.elementLabels.resize(u.start.back());
   download(s, v.labels.elementLabels.data(), elementLabels.data(), v.labels.elementLabels.size());
