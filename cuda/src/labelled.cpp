@@ -393,6 +393,11 @@ Volume combineOnDevice(Session& s, UnionState& u, std::vector<PartOnDevice>& par
   Volume v;
   v.leafWords.resize(size_t(leaves) * W);
   CopyBeside words(s, v.leafWords.data(), u.acc.data(), v.leafWords.size()); // read-only from here on
+  // The element arrays' zero fill (std::vector's resize) beside the kernels too.
+  std::future<void> elementArrays = std::async(std::launch::async, [&v, n = u.start.back()] {
+    v.elements.resize(n);
+    v.labels.elementLabels.resize(n);
+  });
 
   DeviceBuffer<uint32_t> flags(s.memory, leaves), multiIndex(s.memory, leaves);
   markMulti(st, leaves, u.claimCount.data(), flags.data());
@@ -436,12 +441,11 @@ Volume combineOnDevice(Session& s, UnionState& u, std::vector<PartOnDevice>& par
 
   v.grid = g;
   v.levelStart = u.start;
-  v.elements.resize(u.start.back());
+  elementArrays.get();
   for (size_t k = 0; k <= h; ++k) download(s, v.elements.data() + u.start[k], levels[k].words.data(), levels[k].count);
   lap("elements down");
   words.wait(s);
   lap("words down");
-  v.labels.elementLabels.resize(u.start.back());
   download(s, v.labels.elementLabels.data(), elementLabels.data(), v.labels.elementLabels.size());
   LabelField& f = v.labels;
   f.palettes.resize(mixed.palettes.size());
