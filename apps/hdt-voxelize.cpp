@@ -206,13 +206,17 @@ JoiningThread startHostWarmUp(const std::string& meshPath) {
 // The leaf words' bytes of the memory estimate, reserved as warm pages while
 // the device gets ready (the copy back then writes faulted-in memory), unless
 // they are more than a few GiB (faulting them in would outlast the device's
-// set-up) or an eighth of the memory left. `forLeafWordsOnly`: the build
-// allocates other large arrays first (a labelled build's parts), which must
-// not take these pages.
-void reserveLeafWords(const HostMemoryEstimate& e, const GridSpec& grid, bool forLeafWordsOnly) {
+// set-up) or an eighth of the memory left. A labelled build's leaf words
+// are the same; its mixed leaves' voxel labels, copied back after them, are
+// at most a quarter of their size (2 bits a voxel) but for wide leaves (few):
+// a quarter more, taken only by arrays of a sixteenth or more (not the
+// small ones allocated meanwhile).
+void reserveLeafWords(const HostMemoryEstimate& e, const GridSpec& grid, bool labelled) {
   const double bytes = e.leafGrids * leafWordCount(grid.leafSize) * sizeof(uint32_t);
   const double cap = std::min(double(uint64_t(4) << 30), double(availableHostBytes()) / 8);
-  if (bytes > 0 && bytes <= cap) reserveWarmPages(size_t(bytes), forLeafWordsOnly ? size_t(bytes / 2) : 0);
+  if (bytes <= 0 || bytes > cap) return;
+  if (labelled) reserveWarmPages(size_t(bytes * 1.25), size_t(bytes / 16));
+  else reserveWarmPages(size_t(bytes));
 }
 
 double unixMs() {

@@ -275,6 +275,8 @@ struct MixedOnDevice {
   DeviceBuffer<LeafPalette> palettes;   // per mixed leaf, leaf order
   DeviceBuffer<uint32_t> paletteIndices; // per palette leaf
   DeviceBuffer<uint16_t> wideLabels;     // per wide leaf
+  DeviceBuffer<uint32_t> mixedIndex;     // per leaf (LabelField::mixedIndex)
+  DeviceBuffer<uint32_t> mixedBlock;     // per mixed leaf (LabelField::mixedBlock)
 };
 
 // From the multi-claim leaves' voxel ranks and palettes (leafPalettes): the
@@ -308,6 +310,10 @@ MixedOnDevice compactMixedLeaves(Session& s, uint32_t leaves, uint32_t multi, co
   out.wideLabels = DeviceBuffer<uint16_t>(s.memory, size_t(wideLeaves) * V);
   wideLabels(st, multi, V, multiLeaf.data(), wideFlag.data(), wideBlock.data(), voxelRanks.data(), labelOfRank.data(),
              out.wideLabels.data());
+  out.mixedIndex = DeviceBuffer<uint32_t>(s.memory, leaves);
+  out.mixedBlock = DeviceBuffer<uint32_t>(s.memory, mixed);
+  indexMixed(st, leaves, flag.data(), mixedIndex.data(), wideFlag.data(), paletteBlock.data(), wideBlock.data(),
+             out.mixedIndex.data(), out.mixedBlock.data());
   s.sync(); // the scratch buffers go back to the pool
   return out;
 }
@@ -454,6 +460,11 @@ Volume combineOnDevice(Session& s, UnionState& u, std::vector<PartOnDevice>& par
   download(s, f.paletteIndices.data(), mixed.paletteIndices.data(), f.paletteIndices.size());
   f.wideLabels.resize(mixed.wideLabels.size());
   download(s, f.wideLabels.data(), mixed.wideLabels.data(), f.wideLabels.size());
+  // The index of the mixed leaves (indexMixedLeaves), made on the device.
+  f.mixedIndex.resize(mixed.mixedIndex.size());
+  download(s, f.mixedIndex.data(), mixed.mixedIndex.data(), f.mixedIndex.size());
+  f.mixedBlock.resize(mixed.mixedBlock.size());
+  download(s, f.mixedBlock.data(), mixed.mixedBlock.data(), f.mixedBlock.size());
   s.clock.mark(kDownload);
   lap("labels down");
   return v;
@@ -542,8 +553,7 @@ Volume buildLabelled(const PreparedMesh& whole, const std::vector<PreparedMesh>&
   s.clock.collect(s.ms);
   const auto finish0 = Clock::now();
 
-  indexMixedLeaves(v);
-  const auto stats0 = Clock::now();
+  const auto stats0 = Clock::now(); // (the index of mixed leaves came with the copy back)
   v.surfaceOnly = parts[0].surfaceOnly;
   v.closedMesh = true;
   Statistics& st = v.stats;

@@ -55,6 +55,8 @@ BuildConfig grid(int n, int r, int l) {
   const LabelField &g = gpu.labels, &c = cpu.labels;
   if (g.palettes != c.palettes || g.paletteIndices != c.paletteIndices || g.wideLabels != c.wideLabels)
     return ::testing::AssertionFailure() << "voxel labels differ (palettes, palette indices or wide labels)";
+  if (g.mixedIndex != c.mixedIndex || g.mixedBlock != c.mixedBlock) // the device makes them too
+    return ::testing::AssertionFailure() << "the index of mixed leaves differs";
   if (unpackVoxelLabels(gpu) != unpackVoxelLabels(cpu)) return ::testing::AssertionFailure() << "voxel labels differ";
   // The device combination counts its voxels on the device; the CPU's come from the host pass.
   if (gpu.stats.activeVoxels != cpu.stats.activeVoxels || gpu.stats.insideVoxels != cpu.stats.insideVoxels)
