@@ -212,11 +212,17 @@ JoiningThread startHostWarmUp(const std::string& meshPath) {
 // The leaf words' bytes of the memory estimate, reserved as warm pages while
 // the device gets ready (the copy back then writes faulted-in memory), unless
 // they are more than a few GiB (faulting them in would outlast the device's
-// set-up) or an eighth of the memory left.
-void reserveLeafWords(const HostMemoryEstimate& e, const GridSpec& grid) {
+// set-up) or an eighth of the memory left. A labelled build's leaf words
+// are the same; its mixed leaves' voxel labels, copied back after them, are
+// at most a quarter of their size (2 bits a voxel) but for wide leaves (few):
+// a quarter more, taken only by arrays of a sixteenth or more (not the
+// small ones allocated meanwhile).
+void reserveLeafWords(const HostMemoryEstimate& e, const GridSpec& grid, bool labelled) {
   const double bytes = e.leafGrids * leafWordCount(grid.leafSize) * sizeof(uint32_t);
   const double cap = std::min(double(uint64_t(4) << 30), double(availableHostBytes()) / 8);
-  if (bytes > 0 && bytes <= cap) reserveWarmPages(size_t(bytes));
+  if (bytes <= 0 || bytes > cap) return;
+  if (labelled) reserveWarmPages(size_t(bytes * 1.25), size_t(bytes / 16));
+  else reserveWarmPages(size_t(bytes));
 }
 
 double unixMs() {
@@ -253,23 +259,33 @@ int run(int argc, const char* const* argv, const MpiSession& session, Clock::tim
   hostWarmUp.join(); // long done: the read takes longer
   PreparedMesh prepared = about(options.mesh, [&] { return prepareMesh(mesh, options.config); });
   if (session.size() > 1) fallBackToParityAcrossRanks(prepared); // the report's warnings say so
-  trimWarmPages(); // what prepareMesh did not use
   const bool labelled = options.labels.kind != MeshLabelSource::Kind::None;
-  if (prepared.closed && !labelled) warmUp.meshIsClosed(); // a labelled build's parts may be open
+  // A labelled mesh of one part in one process: its plain build, labelled
+  // afterwards (labelAsOnePart; `prepared` is on the grid voxelizeLabelled places).
+  const Label onlyPart = labelled && session.size() == 1 ? onlyLabel(mesh) : kOutsideLabel;
+  const bool onePart = onlyPart != kOutsideLabel;
+  // Of several, the parts are prepared here, as the whole mesh is: the build
+  // starts from prepared meshes, labelled or not.
+  LabelledParts parts;
+  if (labelled && !onePart) parts = about(options.mesh, [&] { return prepareLabelledParts(mesh, options.config); });
+  trimWarmPages(); // what prepareMesh did not use
+  if (prepared.closed && (!labelled || onePart)) warmUp.meshIsClosed(); // a labelled build's parts may be open
   if (!labelled && arrays.empty()) mesh = TriangleMesh(); // the lattice copy is all the build needs; labelled builds split the mesh
   report.io.prepare = msSince(t);
   // The report's memory estimate rasterises the mesh (tens to hundreds of ms
   // at 8192^3): it runs beside the device's set-up and the build, not after
   // the write. For a device build in one process its leaf words are reserved
-  // as warm pages meanwhile, and the build waits for them.
-  const bool reserve = options.build.backend != Backend::Cpu && !labelled && session.size() == 1;
+  // as warm pages meanwhile, and the build waits for them (a labelled
+  // build's too: the combined leaf words are those of the plain build).
+  const bool reserve = options.build.backend != Backend::Cpu && session.size() == 1;
   // Auto builds on the device only when there is one (the count comes before the context).
   const bool deviceAsked = options.build.backend == Backend::Cuda;
   std::future<uint64_t> hostBytesEstimate; // rank 0 reports
   if (session.rank() == 0)
-    hostBytesEstimate = std::async(std::launch::async, [&prepared, reserve, deviceAsked, hasDevice = warmUp.hasDevice()] {
+    hostBytesEstimate = std::async(std::launch::async, [&prepared, reserve, labelled, onePart, deviceAsked,
+                                                        hasDevice = warmUp.hasDevice()] {
       const HostMemoryEstimate e = estimateHostMemory(prepared);
-      if (reserve && (deviceAsked || hasDevice.get())) reserveLeafWords(e, prepared.grid);
+      if (reserve && (deviceAsked || hasDevice.get())) reserveLeafWords(e, prepared.grid, labelled && !onePart);
       return e.total;
     });
   t = Clock::now();
@@ -287,7 +303,13 @@ int run(int argc, const char* const* argv, const MpiSession& session, Clock::tim
   if (!options.hdtPath.empty() && !labelled && session.size() == 1) build.leafSink = &streamedLeaves;
   t = Clock::now();
   Volume volume = about(options.mesh, [&] {
-    if (labelled) return voxelizeLabelled(mesh, options.config, build, options.overlap); // every rank builds it whole
+    if (labelled && !onePart) // every rank builds it whole
+      return voxelizeLabelled(prepared, parts, mesh.labelNames, build, options.overlap);
+    if (onePart) {
+      Volume v = hdt::build(prepared, build);
+      labelAsOnePart(v, onlyPart, mesh.labelNames);
+      return v;
+    }
     return session.size() > 1 ? buildAcrossRanks(session, prepared, build, &report.ranks) : hdt::build(prepared, build);
   });
   // The streamed blocks' tasks read the volume: they end before it is freed,

@@ -259,6 +259,82 @@ TEST(Labels, FreePlacementSurfaceOnlyAndLeafSizes) {
   }
 }
 
+// A mesh of one label: voxelizeLabelled builds it once and labels it
+// (labelAsOnePart). The general path's volume is that one part's build
+// combined (combineLabelledParts): the same tree, leaf words, labels, names
+// and file bytes, and the reference's voxels; closed, open (Auto picks the
+// winding number), surface only, a part with unused points.
+TEST(Labels, OnePartFastPathIsTheCombinedPart) {
+  TriangleMesh open = box(plane3(10, 12, 14), plane3(50, 44, 40));
+  open.triangles.resize(open.triangles.size() - 6); // the last face's two triangles: open
+  TriangleMesh sphere = icosphere(3, 20, {1.3, -0.7, 0.4});
+  sphere.points.insert(sphere.points.end(), {0.0, 0.0, 0.0}); // used by no triangle
+  for (const TriangleMesh* shape : {&sphere, &open}) {
+    for (bool surfaceOnly : {false, true}) {
+      BuildConfig config = unitFrame(kN, 2, 8);
+      config.surfaceOnly = surfaceOnly;
+      TriangleMesh mesh = *shape;
+      mesh.triangleLabels.assign(mesh.triangleCount(), 7);
+      mesh.labelNames = {{7, "part"}, {9, "named, no triangle"}};
+      ASSERT_EQ(onlyLabel(mesh), 7);
+      const Volume fast = voxelizeLabelled(mesh, config, cpu());
+      Volume general = combineLabelledParts({voxelize(mesh, config, cpu())}, {7}, {});
+      general.labels.names = {{7, "part"}, {9, "named, no triangle"}};
+      validateVolume(fast);
+      EXPECT_EQ(firstDifference(general, fast), "");
+      const LabelField &f = fast.labels, &g = general.labels;
+      EXPECT_EQ(f.elementLabels, g.elementLabels);
+      EXPECT_TRUE(f.palettes.empty() && g.palettes.empty());
+      EXPECT_EQ(f.mixedIndex, g.mixedIndex);
+      EXPECT_EQ(f.mixedBlock, g.mixedBlock);
+      EXPECT_EQ(f.names, g.names);
+      EXPECT_EQ(fast.insideTest, general.insideTest);
+      EXPECT_EQ(fast.closedMesh, general.closedMesh);
+      EXPECT_EQ(fast.stats.activeVoxels, general.stats.activeVoxels);
+      EXPECT_EQ(fast.stats.insideVoxels, general.stats.insideVoxels);
+      // The file's statistics section holds timings and peak memory: those aside, the same bytes.
+      const auto fileOf = [](Volume v) {
+        v.stats.time = {};
+        v.stats.peakHostBytes = v.stats.peakDeviceBytes = 0;
+        return serializeHdt(v, {});
+      };
+      EXPECT_TRUE(fileOf(fast) == fileOf(general)) << "the .hdt bytes differ";
+      EXPECT_TRUE(matchesReference(fast, referenceLabels({{7, *shape}}, config, {})));
+      expectCountsAddUp(fast);
+    }
+  }
+  TriangleMesh two = sphere;
+  two.triangleLabels.assign(two.triangleCount(), 7);
+  two.triangleLabels.back() = 8;
+  EXPECT_EQ(onlyLabel(two), kOutsideLabel);
+  two.triangleLabels.assign(two.triangleCount(), kOutsideLabel);
+  EXPECT_EQ(onlyLabel(two), kOutsideLabel); // refused by the general path
+}
+
+// The parts prepared beforehand (prepareLabelledParts, as hdt-voxelize
+// does) and the whole mesh prepared solid: the same volume and names as
+// voxelizeLabelled of the mesh; free placement and the unit frame.
+TEST(Labels, PartsPreparedBeforehandGiveTheSameVolume) {
+  TriangleMesh mesh = labelledMesh({{3, icosphere(2, 14, {-6, 0, 0})}, {7, icosphere(2, 14, {6, 0, 0})},
+                                    {5, icosphere(1, 6, {0, 0, 20})}});
+  mesh.labelNames = {{3, "left"}, {5, "top"}};
+  BuildConfig free;
+  free.resolution = kN;
+  free.rootGrid = 2;
+  free.leafSize = 8;
+  for (const BuildConfig& config : {unitFrame(), free}) {
+    const LabelOptions o = policy(OverlapPolicy::Highest);
+    const Volume expected = voxelizeLabelled(mesh, config, cpu(), o);
+    const Volume v =
+        voxelizeLabelled(prepareMesh(mesh, config), prepareLabelledParts(mesh, config), mesh.labelNames, cpu(), o);
+    EXPECT_EQ(firstDifference(expected, v), "");
+    EXPECT_EQ(v.labels.elementLabels, expected.labels.elementLabels);
+    EXPECT_TRUE(unpackVoxelLabels(v) == unpackVoxelLabels(expected));
+    EXPECT_EQ(v.labels.names, expected.labels.names);
+    EXPECT_EQ(v.labels.names.at(5), "top");
+  }
+}
+
 TEST(Labels, SameBytesWhateverTheThreadCount) {
   const std::vector<Part> parts = {{3, icosphere(2, 14, {-6, 0, 0})}, {7, icosphere(2, 14, {6, 0, 0})}};
   const std::vector<uint8_t> one = serializeHdt(buildLabelled(parts, unitFrame(), {}, cpu(1)));

@@ -6,6 +6,7 @@
 #include "hdt/huge_pages.hpp"
 #include "hdt/mesh.hpp"
 
+#include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
@@ -101,16 +102,16 @@ bool deviceAsked(const BuildOptions& options) {
   return options.backend == Backend::Cuda || (options.backend == Backend::Auto && cudaAvailable(nullptr));
 }
 
-// The CUDA driver's labelled build (where deviceAsked); false where the
-// per-part path must run. Auto falls back on a device failure as build()
+// The CUDA driver's labelled build (where deviceAsked) of `whole()` (the
+// whole mesh prepared on the parts' grid, made inside the guard); false where
+// the per-part path must run. Auto falls back on a device failure as build()
 // does; Cuda reports it. partsReady: as buildLabelledCuda's.
-bool buildOnDevice(const TriangleMesh& mesh, const BuildConfig& placed, const std::vector<PreparedMesh>& parts,
-                   const std::vector<Label>& partLabels, const LabelOptions& labels, const BuildOptions& options,
-                   Volume& out, const std::function<void()>& partsReady) {
-  BuildConfig surface = placed;
-  surface.surfaceOnly = true; // the whole mesh gives the tree and the surface, the parts the inside
+template <class Whole>
+bool buildOnDevice(const Whole& whole, const std::vector<PreparedMesh>& parts, const std::vector<Label>& partLabels,
+                   const LabelOptions& labels, const BuildOptions& options, Volume& out,
+                   const std::function<void()>& partsReady) {
   try {
-    return buildLabelledCuda(prepareMesh(mesh, surface), parts, partLabels, labels, options, out, partsReady);
+    return buildLabelledCuda(whole(), parts, partLabels, labels, options, out, partsReady);
   } catch (const Error& e) {
     if (e.kind() == ErrorKind::Aborted || options.backend == Backend::Cuda) throw;
     if (options.log)
@@ -119,21 +120,23 @@ bool buildOnDevice(const TriangleMesh& mesh, const BuildConfig& placed, const st
   }
 }
 
-// The parts, each prepared on the grid of `placed`, and their labels; the
-// log line that says how long that took (logged by the caller's thread).
-struct PreparedParts {
-  std::vector<PreparedMesh> meshes;
-  std::vector<Label> labels;
-  std::string log;
-};
+// The config with the placement all parts share: the caller's bounds, else the whole mesh's.
+BuildConfig placedConfig(const TriangleMesh& mesh, const BuildConfig& config) {
+  BuildConfig placed = config;
+  if (!placed.hasBounds) {
+    meshBounds(mesh, placed.boundsMin, placed.boundsMax);
+    placed.hasBounds = true;
+  }
+  return placed;
+}
 
-PreparedParts prepareParts(const TriangleMesh& mesh, const BuildConfig& placed) {
+LabelledParts prepareParts(const TriangleMesh& mesh, const BuildConfig& placed) {
   const auto t0 = std::chrono::steady_clock::now();
   std::vector<std::pair<Label, TriangleMesh>> split = splitByLabel(mesh);
   const auto t1 = std::chrono::steady_clock::now();
   // The parts are prepared side by side: many are small, too small to fill
   // the host's threads one after another.
-  PreparedParts out;
+  LabelledParts out;
   out.meshes.resize(split.size());
   out.labels.resize(split.size());
   tbb::parallel_for(size_t(0), split.size(), [&](size_t i) {
@@ -149,17 +152,91 @@ PreparedParts prepareParts(const TriangleMesh& mesh, const BuildConfig& placed) 
   return out;
 }
 
+// Every part built alone (by the dispatched driver), combined on the host.
+Volume buildPartsAndCombine(const LabelledParts& parts, const BuildOptions& options, const LabelOptions& labels) {
+  const std::vector<PreparedMesh>& prepared = parts.meshes;
+  std::vector<Volume> partVolumes;
+  partVolumes.reserve(prepared.size());
+  for (size_t i = 0; i < prepared.size(); ++i) {
+    BuildOptions partOptions = options;
+    if (options.progress) {
+      const double n = double(prepared.size());
+      partOptions.progress = [&, i, n](double f, const char* phase) {
+        return options.progress((double(i) + f) / n, phase);
+      };
+    }
+    partVolumes.push_back(build(prepared[i], partOptions));
+  }
+  return combineLabelledParts(partVolumes, parts.labels, labels);
+}
+
+void copyNames(const std::map<Label, std::string>& names, LabelField& f) {
+  for (const auto& [label, name] : names)
+    if (label != kOutsideLabel) f.names[label] = name;
+}
+
 } // namespace
+
+Label onlyLabel(const TriangleMesh& mesh) {
+  const std::vector<Label>& labels = mesh.triangleLabels;
+  if (labels.empty() || labels.size() != mesh.triangleCount() || labels[0] == kOutsideLabel) return kOutsideLabel;
+  const Label first = labels[0];
+  for (const Label l : labels)
+    if (l != first) return kOutsideLabel;
+  return first;
+}
+
+void labelAsOnePart(Volume& v, Label label, const std::map<Label, std::string>& names) {
+  if (label == kOutsideLabel) throw Error(ErrorKind::InvalidArgument, "labelAsOnePart: label 0 is outside");
+  // combineLabelledParts of one part: each element is claimed by that part
+  // alone, so a Full element and a leaf (even one without a non-Outside
+  // voxel) take its label, Empty and Branch elements 0, and no leaf is mixed.
+  LabelField& f = v.labels;
+  f = LabelField{};
+  f.elementLabels.resize(v.elements.size());
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, v.elements.size(), size_t(1) << 16),
+                    [&](const tbb::blocked_range<size_t>& r) {
+                      for (size_t i = r.begin(); i != r.end(); ++i) {
+                        const ElementState s = elementState(v.elements[i]);
+                        const bool claimed = s == ElementState::Full || s == ElementState::Boundary;
+                        f.elementLabels[i] = claimed ? label : kOutsideLabel;
+                      }
+                    });
+  indexMixedLeaves(v);
+  copyNames(names, f);
+}
+
+LabelledParts prepareLabelledParts(const TriangleMesh& mesh, const BuildConfig& config) {
+  return prepareParts(mesh, placedConfig(mesh, config));
+}
+
+Volume voxelizeLabelled(const PreparedMesh& whole, const LabelledParts& parts,
+                        const std::map<Label, std::string>& names, const BuildOptions& options,
+                        const LabelOptions& labels) {
+  if (options.log) options.log(parts.log);
+  Volume v;
+  if (parts.meshes.size() == 1) { // one part: the whole mesh
+    v = build(parts.meshes[0], options);
+    labelAsOnePart(v, parts.labels[0], names);
+    return v;
+  }
+  const auto prepared = [&whole]() -> const PreparedMesh& { return whole; };
+  if (!deviceAsked(options) || !buildOnDevice(prepared, parts.meshes, parts.labels, labels, options, v, {}))
+    v = buildPartsAndCombine(parts, options, labels);
+  copyNames(names, v.labels);
+  return v;
+}
 
 Volume voxelizeLabelled(const TriangleMesh& mesh, const BuildConfig& config, const BuildOptions& options,
                         const LabelOptions& labels) {
   // One placement for all parts: the whole mesh's (or the caller's) box.
-  BuildConfig placed = config;
-  if (!placed.hasBounds) {
-    meshBounds(mesh, placed.boundsMin, placed.boundsMax);
-    placed.hasBounds = true;
+  const BuildConfig placed = placedConfig(mesh, config);
+  if (const Label only = onlyLabel(mesh); only != kOutsideLabel) { // one part: the whole mesh
+    Volume v = build(prepareMesh(mesh, placed), options);
+    labelAsOnePart(v, only, mesh.labelNames);
+    return v;
   }
-  PreparedParts parts;
+  LabelledParts parts;
   bool logged = false;
   const auto logParts = [&] {
     if (options.log && !logged) options.log(parts.log);
@@ -176,30 +253,17 @@ Volume voxelizeLabelled(const TriangleMesh& mesh, const BuildConfig& config, con
       partsDone.get();
       logParts();
     };
-    built = buildOnDevice(mesh, placed, parts.meshes, parts.labels, labels, options, v, partsReady);
+    BuildConfig surface = placed;
+    surface.surfaceOnly = true; // the whole mesh gives the tree and the surface, the parts the inside
+    const auto whole = [&] { return prepareMesh(mesh, surface); };
+    built = buildOnDevice(whole, parts.meshes, parts.labels, labels, options, v, partsReady);
     partsReady(); // its errors (a label 0, say) are the build's
   } else {
     parts = prepareParts(mesh, placed);
     logParts();
   }
-  if (!built) {
-    const std::vector<PreparedMesh>& prepared = parts.meshes;
-    std::vector<Volume> partVolumes;
-    partVolumes.reserve(prepared.size());
-    for (size_t i = 0; i < prepared.size(); ++i) {
-      BuildOptions partOptions = options;
-      if (options.progress) {
-        const double n = double(prepared.size());
-        partOptions.progress = [&, i, n](double f, const char* phase) {
-          return options.progress((double(i) + f) / n, phase);
-        };
-      }
-      partVolumes.push_back(build(prepared[i], partOptions));
-    }
-    v = combineLabelledParts(partVolumes, parts.labels, labels);
-  }
-  for (const auto& [label, name] : mesh.labelNames)
-    if (label != kOutsideLabel) v.labels.names[label] = name;
+  if (!built) v = buildPartsAndCombine(parts, options, labels);
+  copyNames(mesh.labelNames, v.labels);
   return v;
 }
 

@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <cstdint>
 #include <cstring>
 #include <iterator>
 #include <map>
@@ -58,6 +59,7 @@ constexpr size_t kDropOnMissBytes = size_t(64) << 20;
 struct Region {
   uint8_t* base = nullptr;
   size_t size = 0;
+  size_t smallestArray = 0; // arrays under this size do not take these pages
   std::map<size_t, size_t> free;
   bool wholeFree() const { return free.size() == 1 && free.begin()->first == 0 && free.begin()->second == size; }
 };
@@ -73,10 +75,11 @@ Pool& pool() {
   return *p;
 }
 
-// Under the lock: unmaps the regions no array holds memory of.
-void unmapWholeFree(Pool& p) {
-  auto keep = std::remove_if(p.regions.begin(), p.regions.end(), [](const Region& r) {
-    if (!r.wholeFree()) return false;
+// Under the lock: unmaps the regions no array holds memory of (of those an
+// array of `arrayBytes` may take).
+void unmapWholeFree(Pool& p, size_t arrayBytes = SIZE_MAX) {
+  auto keep = std::remove_if(p.regions.begin(), p.regions.end(), [arrayBytes](const Region& r) {
+    if (!r.wholeFree() || arrayBytes < r.smallestArray) return false;
     munmap(r.base, r.size);
     return true;
   });
@@ -97,7 +100,7 @@ uint8_t* mapAligned(size_t size) {
 
 } // namespace
 
-void reserveWarmPages(size_t bytes) {
+void reserveWarmPages(size_t bytes, size_t smallestArray) {
   if (bytes == 0) return;
   const size_t size = (bytes + kHugePageBytes - 1) & ~(kHugePageBytes - 1);
   uint8_t* base = mapAligned(size);
@@ -113,6 +116,7 @@ void reserveWarmPages(size_t bytes) {
   Region r;
   r.base = base;
   r.size = size;
+  r.smallestArray = smallestArray;
   r.free.emplace(0, size);
   p.regions.push_back(std::move(r));
   p.count.store(p.regions.size());
@@ -153,6 +157,7 @@ void* takeWarmPages(size_t bytes) noexcept {
   // (older ones' free ranges may have been trimmed, i.e. are no longer warm).
   for (auto region = p.regions.rbegin(); region != p.regions.rend(); ++region) {
     Region& r = *region;
+    if (bytes < r.smallestArray) continue;
     for (auto it = r.free.begin(); it != r.free.end(); ++it) {
       if (it->second < length) continue;
       const size_t offset = it->first, left = it->second - length;
@@ -163,7 +168,7 @@ void* takeWarmPages(size_t bytes) noexcept {
   }
   // A large array will be fresh memory: a reservation no array holds (an
   // estimate that fell short) is not kept beside it.
-  if (bytes >= kDropOnMissBytes) unmapWholeFree(p);
+  if (bytes >= kDropOnMissBytes) unmapWholeFree(p, bytes);
   return nullptr;
 }
 
@@ -198,7 +203,7 @@ bool returnWarmPages(void* ptr, size_t bytes) noexcept {
 
 #else // no mmap: nothing is reserved, every array allocates as before
 
-void reserveWarmPages(size_t) {}
+void reserveWarmPages(size_t, size_t) {}
 void trimWarmPages() {}
 WarmPagesState warmPagesState() { return {}; }
 namespace detail {

@@ -252,6 +252,20 @@ __global__ void markMixedFormsKernel(uint32_t multiCount, const uint32_t* multiL
   wideFlag[leaf] = mixed && wide ? 1u : 0u;
 }
 
+__global__ void indexMixedKernel(uint32_t leaves, const uint32_t* flag, const uint32_t* mixedIndex,
+                                 const uint32_t* wideFlag, const uint32_t* paletteBlock, const uint32_t* wideBlock,
+                                 uint32_t* leafMixedIndex, uint32_t* mixedBlock) {
+  const uint64_t i = threadIndex();
+  if (i >= leaves) return;
+  if (!flag[i]) {
+    leafMixedIndex[i] = kNotMixed;
+    return;
+  }
+  const uint32_t k = mixedIndex[i];
+  leafMixedIndex[i] = k;
+  mixedBlock[k] = wideFlag[i] ? wideBlock[i] : paletteBlock[i];
+}
+
 __global__ void gatherPalettesKernel(uint32_t multiCount, const uint32_t* multiLeaf, const uint16_t* leafLabel,
                                      const uint32_t* mixedIndex, const LeafPalette* multiPalette, LeafPalette* out) {
   const uint64_t m = threadIndex();
@@ -390,6 +404,13 @@ void markMixedForms(cudaStream_t s, uint32_t multiCount, const uint32_t* multiLe
                     const LeafPalette* multiPalette, uint32_t* paletteFlag, uint32_t* wideFlag) {
   launch("markMixedForms", s, multiCount, markMixedFormsKernel, multiCount, multiLeaf, leafLabel, multiPalette,
          paletteFlag, wideFlag);
+}
+
+void indexMixed(cudaStream_t s, uint32_t leaves, const uint32_t* flag, const uint32_t* mixedIndex,
+                const uint32_t* wideFlag, const uint32_t* paletteBlock, const uint32_t* wideBlock,
+                uint32_t* leafMixedIndex, uint32_t* mixedBlock) {
+  launch("indexMixed", s, leaves, indexMixedKernel, leaves, flag, mixedIndex, wideFlag, paletteBlock, wideBlock,
+         leafMixedIndex, mixedBlock);
 }
 
 void gatherPalettes(cudaStream_t s, uint32_t multiCount, const uint32_t* multiLeaf, const uint16_t* leafLabel,

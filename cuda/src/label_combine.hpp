@@ -155,6 +155,14 @@ void paletteIndices(cudaStream_t s, uint32_t multiCount, uint32_t wordsPerLeaf, 
 void wideLabels(cudaStream_t s, uint32_t multiCount, uint32_t voxelsPerLeaf, const uint32_t* multiLeaf,
                 const uint32_t* wideFlag, const uint32_t* wideBlock, const uint16_t* voxelRanks,
                 const uint16_t* labelOfRank, uint16_t* out);
+// LabelField::mixedIndex (per leaf: its number among the mixed leaves,
+// kNotMixed for the others) and ::mixedBlock (per mixed leaf: its block among
+// the palette leaves or the wide leaves), as indexMixedLeaves makes them.
+// flag: markMixed's, mixedIndex its exclusive scan; the blocks: scans of the
+// forms' flags.
+void indexMixed(cudaStream_t s, uint32_t leaves, const uint32_t* flag, const uint32_t* mixedIndex,
+                const uint32_t* wideFlag, const uint32_t* paletteBlock, const uint32_t* wideBlock,
+                uint32_t* leafMixedIndex, uint32_t* mixedBlock);
 // One union level's final words (uniform elements: Full where a part claims
 // them) and element labels, in place.
 void finalizeElements(cudaStream_t s, ElementWord* words, uint32_t count, uint64_t start, const uint16_t* fullRank,

@@ -42,10 +42,12 @@
 #include "hdt/host_memory.hpp"
 #include "hdt/labels.hpp"
 #include "hdt/mesh.hpp"
+#include "hdt/warm_pages.hpp"
 
 #include <algorithm>
 #include <chrono>
 #include <functional>
+#include <future>
 #include <numeric>
 #include <stdexcept>
 #include <string>
@@ -274,6 +276,8 @@ struct MixedOnDevice {
   DeviceBuffer<LeafPalette> palettes;   // per mixed leaf, leaf order
   DeviceBuffer<uint32_t> paletteIndices; // per palette leaf
   DeviceBuffer<uint16_t> wideLabels;     // per wide leaf
+  DeviceBuffer<uint32_t> mixedIndex;     // per leaf (LabelField::mixedIndex)
+  DeviceBuffer<uint32_t> mixedBlock;     // per mixed leaf (LabelField::mixedBlock)
 };
 
 // From the multi-claim leaves' voxel ranks and palettes (leafPalettes): the
@@ -307,6 +311,10 @@ MixedOnDevice compactMixedLeaves(Session& s, uint32_t leaves, uint32_t multi, co
   out.wideLabels = DeviceBuffer<uint16_t>(s.memory, size_t(wideLeaves) * V);
   wideLabels(st, multi, V, multiLeaf.data(), wideFlag.data(), wideBlock.data(), voxelRanks.data(), labelOfRank.data(),
              out.wideLabels.data());
+  out.mixedIndex = DeviceBuffer<uint32_t>(s.memory, leaves);
+  out.mixedBlock = DeviceBuffer<uint32_t>(s.memory, mixed);
+  indexMixed(st, leaves, flag.data(), mixedIndex.data(), wideFlag.data(), paletteBlock.data(), wideBlock.data(),
+             out.mixedIndex.data(), out.mixedBlock.data());
   s.sync(); // the scratch buffers go back to the pool
   return out;
 }
@@ -328,6 +336,42 @@ private:
   const Session& s_;
   std::string& out_;
   Clock::time_point last_;
+};
+
+// A copy back on a stream and host thread of its own, queued after the work
+// on the session's stream so far: the leaf words, final before the labelling
+// kernels, go to the host while those run. wait() before the host reads the
+// words or the device frees them (the destructor waits too).
+class CopyBeside {
+public:
+  CopyBeside(Session& s, uint32_t* host, const uint32_t* device, size_t count) : bytes_(count * sizeof(uint32_t)) {
+    HDT_CUDA_CHECK(cudaEventCreateWithFlags(&ready_, cudaEventDisableTiming));
+    HDT_CUDA_CHECK(cudaEventRecord(ready_, s.stream.get()));
+    HDT_CUDA_CHECK(cudaStreamWaitEvent(side_.get(), ready_, 0));
+    done_ = std::async(std::launch::async, [this, dev = s.device, host, device] {
+      HDT_CUDA_CHECK(cudaSetDevice(dev));
+      const auto t0 = Clock::now();
+      copyToHost(side_.get(), host, device, bytes_);
+      return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+    });
+  }
+  ~CopyBeside() {
+    if (done_.valid()) done_.wait();
+    cudaEventDestroy(ready_);
+  }
+  CopyBeside(const CopyBeside&) = delete;
+  CopyBeside& operator=(const CopyBeside&) = delete;
+  // Waits for the copy (rethrowing its error) and counts it as the session's.
+  void wait(Session& s) {
+    s.copyBackMs += done_.get();
+    s.copyBackBytes += bytes_;
+  }
+
+private:
+  const size_t bytes_;
+  cudaEvent_t ready_ = nullptr;
+  Stream side_;
+  std::future<double> done_;
 };
 
 // Steps 3 and the copy back. counts: the volume's surface and inside voxels
@@ -353,6 +397,16 @@ Volume combineOnDevice(Session& s, UnionState& u, std::vector<PartOnDevice>& par
                    u.claimCount.data(), u.claimRank.data());
   finalizeLeafWords(st, leaves, W, u.tree.words.data(), u.leafInherited.data(), u.acc.data(), e);
   u.tree.words = DeviceBuffer<uint32_t>();
+  Volume v;
+  const size_t warmBefore = warmPagesState().free;
+  v.leafWords.resize(size_t(leaves) * W);
+  const bool warmWords = warmPagesState().free + v.leafWords.size() * sizeof(uint32_t) <= warmBefore;
+  CopyBeside words(s, v.leafWords.data(), u.acc.data(), v.leafWords.size()); // read-only from here on
+  // The element arrays' zero fill (std::vector's resize) beside the kernels too.
+  std::future<void> elementArrays = std::async(std::launch::async, [&v, n = u.start.back()] {
+    v.elements.resize(n);
+    v.labels.elementLabels.resize(n);
+  });
 
   DeviceBuffer<uint32_t> flags(s.memory, leaves), multiIndex(s.memory, leaves);
   markMulti(st, leaves, u.claimCount.data(), flags.data());
@@ -394,16 +448,13 @@ Volume combineOnDevice(Session& s, UnionState& u, std::vector<PartOnDevice>& par
   if (error) throw Mismatch("the parts' trees or surfaces do not match the whole mesh's");
   download(s, counts, voxelCounts.data(), 2);
 
-  Volume v;
   v.grid = g;
   v.levelStart = u.start;
-  v.elements.resize(u.start.back());
+  elementArrays.get();
   for (size_t k = 0; k <= h; ++k) download(s, v.elements.data() + u.start[k], levels[k].words.data(), levels[k].count);
   lap("elements down");
-  v.leafWords.resize(size_t(leaves) * W);
-  download(s, v.leafWords.data(), u.acc.data(), v.leafWords.size());
+  words.wait(s);
   lap("words down");
-  v.labels.elementLabels.resize(u.start.back());
   download(s, v.labels.elementLabels.data(), elementLabels.data(), v.labels.elementLabels.size());
   LabelField& f = v.labels;
   f.palettes.resize(mixed.palettes.size());
@@ -412,8 +463,14 @@ Volume combineOnDevice(Session& s, UnionState& u, std::vector<PartOnDevice>& par
   download(s, f.paletteIndices.data(), mixed.paletteIndices.data(), f.paletteIndices.size());
   f.wideLabels.resize(mixed.wideLabels.size());
   download(s, f.wideLabels.data(), mixed.wideLabels.data(), f.wideLabels.size());
+  // The index of the mixed leaves (indexMixedLeaves), made on the device.
+  f.mixedIndex.resize(mixed.mixedIndex.size());
+  download(s, f.mixedIndex.data(), mixed.mixedIndex.data(), f.mixedIndex.size());
+  f.mixedBlock.resize(mixed.mixedBlock.size());
+  download(s, f.mixedBlock.data(), mixed.mixedBlock.data(), f.mixedBlock.size());
   s.clock.mark(kDownload);
   lap("labels down");
+  laps += warmWords ? " (leaf words in warm pages)" : " (leaf words in fresh pages)";
   return v;
 }
 
@@ -500,8 +557,7 @@ Volume buildLabelled(const PreparedMesh& whole, const std::vector<PreparedMesh>&
   s.clock.collect(s.ms);
   const auto finish0 = Clock::now();
 
-  indexMixedLeaves(v);
-  const auto stats0 = Clock::now();
+  const auto stats0 = Clock::now(); // (the index of mixed leaves came with the copy back)
   v.surfaceOnly = parts[0].surfaceOnly;
   v.closedMesh = true;
   Statistics& st = v.stats;

@@ -55,6 +55,8 @@ BuildConfig grid(int n, int r, int l) {
   const LabelField &g = gpu.labels, &c = cpu.labels;
   if (g.palettes != c.palettes || g.paletteIndices != c.paletteIndices || g.wideLabels != c.wideLabels)
     return ::testing::AssertionFailure() << "voxel labels differ (palettes, palette indices or wide labels)";
+  if (g.mixedIndex != c.mixedIndex || g.mixedBlock != c.mixedBlock) // the device makes them too
+    return ::testing::AssertionFailure() << "the index of mixed leaves differs";
   if (unpackVoxelLabels(gpu) != unpackVoxelLabels(cpu)) return ::testing::AssertionFailure() << "voxel labels differ";
   // The device combination counts its voxels on the device; the CPU's come from the host pass.
   if (gpu.stats.activeVoxels != cpu.stats.activeVoxels || gpu.stats.insideVoxels != cpu.stats.insideVoxels)
@@ -80,11 +82,16 @@ void expectSameOnBoth(const TriangleMesh& mesh, const BuildConfig& config, const
   PathLog log;
   const Volume gpu = voxelizeLabelled(mesh, config, log.options(cudaOptions()), labels);
   EXPECT_TRUE(sameLabelled(gpu, cpu));
-  // These cases all fit the device: the device combination must be what ran.
-  EXPECT_TRUE(log.onDevice()) << log.text;
+  // These cases all fit the device: the device combination must be what ran
+  // (a mesh of one label has none: it is built once, as unlabelled).
+  EXPECT_EQ(log.onDevice(), onlyLabel(mesh) == kOutsideLabel) << log.text;
   BuildOptions chunked = cudaOptions();
   chunked.deviceMemoryBudget = 64ull << 20; // small: builds the root grid in chunks (per-part path)
   EXPECT_TRUE(sameLabelled(voxelizeLabelled(mesh, config, chunked, labels), cpu)) << "chunked";
+  // The parts prepared beforehand (as hdt-voxelize does), the whole mesh prepared solid.
+  const Volume prepared = voxelizeLabelled(prepareMesh(mesh, config), prepareLabelledParts(mesh, config),
+                                           mesh.labelNames, cudaOptions(), labels);
+  EXPECT_TRUE(sameLabelled(prepared, cpu)) << "parts prepared beforehand";
 }
 
 // An open box (the +z face missing): classified by the three-axis majority.
@@ -256,6 +263,42 @@ TEST(CudaLabels, LabelZeroFailsAsOnTheCpu) {
       ADD_FAILURE() << "label 0 accepted";
     } catch (const Error& e) {
       EXPECT_NE(std::string(e.what()).find("reserved for outside"), std::string::npos) << e.what();
+    }
+  }
+}
+
+// A mesh of one label: built once and labelled (labelAsOnePart) on both
+// drivers, it is the device combination of its one part (buildLabelledCuda)
+// and the CPU's combined part, byte for byte; closed and open, solid and
+// surface only, at two leaf sizes.
+TEST(CudaLabels, OnePartFastPathIsTheDeviceCombination) {
+  HDT_REQUIRE_CUDA();
+  const TriangleMesh meshes[] = {withLabel(icosphere(4, 0.8, {0.1, -0.2, 0.05}), 5),
+                                 withLabel(openBox({-0.7, -0.6, -0.5}, {0.6, 0.5, 0.7}), 300)};
+  for (const TriangleMesh& mesh : meshes) {
+    const Label label = mesh.triangleLabels[0];
+    for (bool surfaceOnly : {false, true}) {
+      for (const BuildConfig& base : {grid(128, 4, 8), grid(256, 8, 16)}) {
+        BuildConfig c = base;
+        c.surfaceOnly = surfaceOnly;
+        PathLog log;
+        const Volume fastGpu = voxelizeLabelled(mesh, c, log.options(cudaOptions()));
+        EXPECT_FALSE(log.onDevice()) << "the one-part mesh ran the general path: " << log.text;
+        const Volume fastCpu = voxelizeLabelled(mesh, c, cpuOptions());
+        BuildConfig surface = c;
+        surface.surfaceOnly = true;
+        Volume generalGpu;
+        ASSERT_TRUE(buildLabelledCuda(prepareMesh(mesh, surface), {prepareMesh(mesh, c)}, {label}, {}, cudaOptions(),
+                                      generalGpu));
+        const Volume generalCpu = combineLabelledParts({voxelize(mesh, c, cpuOptions())}, {label}, {});
+        // (sameLabelled: a CUDA volume first.)
+        EXPECT_TRUE(sameLabelled(generalGpu, generalCpu));
+        EXPECT_TRUE(sameLabelled(fastGpu, generalCpu));
+        EXPECT_TRUE(sameLabelled(generalGpu, fastCpu));
+        EXPECT_EQ(fastGpu.labels.mixedIndex, generalGpu.labels.mixedIndex);
+        EXPECT_EQ(fastGpu.insideTest, generalGpu.insideTest);
+        EXPECT_EQ(fastGpu.closedMesh, generalGpu.closedMesh);
+      }
     }
   }
 }

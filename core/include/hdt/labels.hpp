@@ -27,6 +27,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <map>
 #include <string>
 #include <utility>
 #include <vector>
@@ -57,12 +58,50 @@ private:
 // triangle; throws Error(BadInput) otherwise). Labels' names are taken from
 // mesh.labelNames. Progress is reported over all parts. With the CUDA
 // backend (or Auto with a usable device) it runs buildLabelledCuda, else (or
-// when that does not apply) it builds every part and combines them.
+// when that does not apply) it builds every part and combines them. A mesh
+// of one label is built once, as an unlabelled build, and labelled by
+// labelAsOnePart: the same volume without the parts' builds.
 Volume voxelizeLabelled(const TriangleMesh& mesh, const BuildConfig& config, const BuildOptions& options,
                         const LabelOptions& labels = {});
 
+// The one label of a mesh whose triangles all carry the same label >= 1;
+// kOutsideLabel when they carry several, a label 0, or not one label per
+// triangle (voxelizeLabelled's general path then decides, and refuses the
+// bad ones).
+Label onlyLabel(const TriangleMesh& mesh);
+
+// The labelled volume of a one-part mesh from its plain build `v` (prepared
+// from the mesh on the grid voxelizeLabelled places: the same config;
+// without bounds, the mesh's own, which are the same), `label` >= 1 being
+// its triangles' one label: what combineLabelledParts makes of that one
+// part's volume, i.e. the same elements and leaf words, the label on every
+// Full and Boundary element, no mixed leaf; and the label names.
+// (voxelizeLabelled's one-part fast path; a caller that has the plain build
+// already skips the parts.)
+void labelAsOnePart(Volume& v, Label label, const std::map<Label, std::string>& names = {});
+
+// The parts of a labelled mesh (its triangles split by label, each part's
+// points renumbered in order of first use), ascending by label, each
+// prepared on the grid voxelizeLabelled places; `log`: how long the split
+// and the preparation took. Throws Error(BadInput) as voxelizeLabelled does.
+struct LabelledParts {
+  std::vector<PreparedMesh> meshes;
+  std::vector<Label> labels;
+  std::string log;
+};
+LabelledParts prepareLabelledParts(const TriangleMesh& mesh, const BuildConfig& config);
+
+// voxelizeLabelled of a mesh whose parts were prepared beforehand
+// (prepareLabelledParts with the same config), e.g. while a device gets
+// ready: `whole` is the whole mesh prepared with that config (only its grid
+// and triangles are read), `names` its labelNames. The same volume.
+Volume voxelizeLabelled(const PreparedMesh& whole, const LabelledParts& parts,
+                        const std::map<Label, std::string>& names, const BuildOptions& options,
+                        const LabelOptions& labels = {});
+
 // The CUDA driver's labelled build (cuda/src/labelled.cpp): `whole` is the
-// whole mesh prepared surface-only on the parts' grid (its tree is the union
+// whole mesh prepared on the parts' grid, built surface-only whatever its
+// flags (only its grid and triangles are read; its tree is the union
 // of theirs), parts[i] the prepared triangles of label partLabels[i]; each
 // part is built on the device and combined there with the function of
 // combineLabelledParts, one copy back at the end. stats.time.total is then

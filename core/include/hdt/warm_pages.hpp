@@ -28,7 +28,10 @@ void startHostThreads();
 
 // Reserves `bytes` (rounded up to 2 MiB) of faulted-in memory, in parallel.
 // Only a hint: when the memory cannot be mapped nothing is reserved. Thread-safe.
-void reserveWarmPages(size_t bytes);
+// `smallestArray`: only arrays of at least this many bytes take these pages
+// (a reservation for one large array that smaller ones allocated before it
+// would otherwise split).
+void reserveWarmPages(size_t bytes, size_t smallestArray = 0);
 
 // Gives the reserved memory that no array holds back to the system (unmaps
 // regions wholly free, drops the pages of free ranges of 2 MiB and more):
