@@ -48,8 +48,7 @@ Volume build(const PreparedMesh& mesh, const BuildOptions& options) {
     return buildCuda(mesh, options);
   } catch (const Error& e) {
     if (e.kind() == ErrorKind::Aborted) throw;
-    if (options.log) options.log(std::string("backend auto: CUDA driver failed (") + e.what() +
-                                 "); falling back to the CPU driver");
+    options.warning(std::string("backend auto: CUDA driver failed (") + e.what() + "); falling back to the CPU driver");
     return buildCpu(mesh, options);
   }
 }
@@ -95,8 +94,8 @@ public:
 private:
   void fallBack(const Error& e) {
     if (e.kind() == ErrorKind::Aborted) throw e;
-    if (options_.log) options_.log(std::string("backend auto: CUDA driver unavailable or failed (") + e.what() +
-                                   "); this range is built by the CPU driver");
+    options_.warning(std::string("backend auto: CUDA driver unavailable or failed (") + e.what() +
+                     "); this range is built by the CPU driver");
     build_.reset(); // releases the device before the CPU build
     build_.reset(new CpuRangeBuild(mesh_, options_, cells_));
   }

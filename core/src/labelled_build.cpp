@@ -114,8 +114,7 @@ bool buildOnDevice(const Whole& whole, const std::vector<PreparedMesh>& parts, c
     return buildLabelledCuda(whole(), parts, partLabels, labels, options, out, partsReady);
   } catch (const Error& e) {
     if (e.kind() == ErrorKind::Aborted || options.backend == Backend::Cuda) throw;
-    if (options.log)
-      options.log(std::string("backend auto: CUDA labelled build failed (") + e.what() + "); per-part builds follow");
+    options.warning(std::string("backend auto: CUDA labelled build failed (") + e.what() + "); per-part builds follow");
     return false;
   }
 }

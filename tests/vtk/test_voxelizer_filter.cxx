@@ -513,6 +513,22 @@ TEST(VoxelizerWarnings, DoubledClosedMeshIsReported)
   EXPECT_TRUE(anyContains(twice.Log->Warnings, "no voxel is inside")) << joined(twice.Log->Warnings);
 }
 
+// A labelled build of two blocks logs how its parts were split and built:
+// information, not a warning (ParaView shows warnings in a window of their own).
+TEST(VoxelizerWarnings, LabelledBuildLogIsNoWarning)
+{
+  vtkNew<vtkMultiBlockDataSet> blocks;
+  blocks->SetBlock(0, hdtvtk::MakeSphere(24, 0.5, 0, 0, 0));
+  blocks->SetBlock(1, hdtvtk::MakeSphere(24, 0.3, 1.2, 0, 0));
+  Harness h;
+  h.Filter->SetBackend(vtkHDTVoxelizer::BACKEND_CPU);
+  h.Filter->SetLabelBy(vtkHDTVoxelizer::LABEL_BLOCK);
+  vtkHyperTreeGrid* out = h.Run(blocks);
+  ASSERT_NE(out->GetCellData()->GetArray("Label"), nullptr);
+  EXPECT_TRUE(h.Log->Errors.empty()) << joined(h.Log->Errors);
+  EXPECT_TRUE(h.Log->Warnings.empty()) << joined(h.Log->Warnings);
+}
+
 // Issue 16: the inside test defaults to Auto, which decides an open mesh by the
 // winding number and a closed one by exact parity (the same states as asking
 // for them), with no open-mesh warning; the field data say which ran and why.

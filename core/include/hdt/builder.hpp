@@ -55,8 +55,15 @@ struct BuildOptions {
   // that called build().
   // Returning false aborts the build (Error with ErrorKind::Aborted).
   std::function<bool(double fraction, const char* phase)> progress;
-  // Informational messages (backend fallback and the like).
+  // Informational messages: the path a build took and its times.
   std::function<void(const std::string&)> log;
+  // A fallback the caller should hear of (a device that failed and left the
+  // build to the CPU driver); unset, these go to `log` too.
+  std::function<void(const std::string&)> warn;
+  void warning(const std::string& text) const {
+    if (warn) warn(text);
+    else if (log) log(text);
+  }
   // Not owned; may be null. See LeafArrivalSink.
   LeafArrivalSink* leafSink = nullptr;
 };
