@@ -240,6 +240,17 @@ TEST(WindingLeaf, OpenCubeLeavesOf16At128) {
   EXPECT_GT(c.outside, 0u);
 }
 
+// A hemisphere of 12 rings and 96 segments (a rim of more edges than a leaf
+// keeps near) whose opening faces along `axis`, towards - when `flip`.
+TriangleMesh turnedHemisphere(int axis, bool flip) {
+  TriangleMesh h = uvHemisphere(12, 96, 1.0);
+  for (size_t i = 0; i < h.pointCount(); ++i) {
+    double* q = &h.points[3 * i];
+    std::swap(q[2], q[axis]);
+    if (flip) q[axis] = -q[axis];
+  }
+  return h;
+}
 
 // Hemispheres whose rims have more edges than a leaf keeps near, so leaves
 // split their edges: the rays at the near chain's open ends pass beside many
@@ -248,13 +259,7 @@ TEST(WindingLeaf, FarGradientBoundHoldsBesideTheOpenEnds) {
   uint64_t compared = 0;
   for (int axis = 0; axis < 3; ++axis)
     for (int flip = 0; flip < 2; ++flip) {
-      TriangleMesh h = uvHemisphere(12, 96, 1.0);
-      for (size_t i = 0; i < h.pointCount(); ++i) {
-        double* q = &h.points[3 * i];
-        std::swap(q[2], q[axis]); // the opening faces along `axis`
-        if (flip) q[axis] = -q[axis];
-      }
-      compared += checkFarGradientBounds(h, 64, 8);
+      compared += checkFarGradientBounds(turnedHemisphere(axis, flip), 64, 8);
     }
   EXPECT_GT(compared, 1000u);
 }
@@ -265,12 +270,7 @@ TEST(WindingLeaf, FarExpansionHoldsBesideTheOpenEnds) {
   uint64_t compared = 0;
   for (int axis = 0; axis < 3; ++axis)
     for (int flip = 0; flip < 2; ++flip) {
-      TriangleMesh h = uvHemisphere(12, 96, 1.0);
-      for (size_t i = 0; i < h.pointCount(); ++i) {
-        double* q = &h.points[3 * i];
-        std::swap(q[2], q[axis]);
-        if (flip) q[axis] = -q[axis];
-      }
+      const TriangleMesh h = turnedHemisphere(axis, flip);
       compared += checkFarExpansions(h, 64, 8);
       const LeafCheck c = checkLeaves(h, 64, 8, 1, true); // w = 1/2 exactly on the symmetry planes: ties
       EXPECT_EQ(c.wrong, 0u);

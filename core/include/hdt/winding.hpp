@@ -313,6 +313,17 @@ HDT_HD double windingEdgeBound(double weightedLength, double weight, double d) {
   return byLength < byDistance ? byLength : byDistance;
 }
 
+// The centre c of the box [lo, hi]; returns its half diagonal, rounded up
+// (every point of the box lies within it of c): what windingEdgeDistance takes.
+HDT_HD double windingBoxBall(const double* lo, const double* hi, double* c) {
+  double rho2 = 0;
+  for (int a = 0; a < 3; ++a) {
+    c[a] = 0.5 * (lo[a] + hi[a]);
+    rho2 = rho2 + 0.25 * (hi[a] - lo[a]) * (hi[a] - lo[a]);
+  }
+  return sqrt(rho2) * (1 + 1e-12);
+}
+
 // A lower bound on the distance from the box [lo, hi] (centre c, half
 // diagonal rho) to edge e: its bounding box's distance, or the centre's
 // distance to the segment less rho (1e-6 voxels below it: the rounding of a
@@ -337,12 +348,8 @@ HDT_HD double windingEdgeDistance(const WindingEdge& e, const double* lo, const 
 }
 
 HDT_HD double windingGradientBound(const WindingTreeView& t, const double* lo, const double* hi) {
-  double total = 0, c[3], rho2 = 0;
-  for (int a = 0; a < 3; ++a) {
-    c[a] = 0.5 * (lo[a] + hi[a]);
-    rho2 = rho2 + 0.25 * (hi[a] - lo[a]) * (hi[a] - lo[a]);
-  }
-  const double rho = sqrt(rho2) * (1 + 1e-12);
+  double total = 0, c[3];
+  const double rho = windingBoxBall(lo, hi, c);
   for (uint32_t g = 0; g < t.edgeGroupCount; ++g) {
     const WindingEdgeGroup& group = t.edgeGroups[g];
     const double dg = windingBoxDistance(group.lo, group.hi, lo, hi);

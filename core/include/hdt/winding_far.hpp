@@ -88,12 +88,8 @@ HDT_HD bool windingFarLeaf(const WindingTreeView& t, const WindingLeafSplit& spl
       if (split.end[j][0] == e.b[0] && split.end[j][1] == e.b[1] && split.end[j][2] == e.b[2]) f.endCoef[j] += e.net;
     }
   }
-  double c[3], rho2 = 0;
-  for (int a = 0; a < 3; ++a) {
-    c[a] = 0.5 * (lo[a] + hi[a]);
-    rho2 = rho2 + 0.25 * (hi[a] - lo[a]) * (hi[a] - lo[a]);
-  }
-  const double rho = sqrt(rho2) * (1 + 1e-12);
+  double c[3];
+  const double rho = windingBoxBall(lo, hi, c);
   double H = 0;
   const bool clear = windingForEachFarEdge(t, split, [&](const WindingEdge& e) {
     const double d = windingEdgeDistance(e, lo, hi, c, rho);

@@ -206,12 +206,8 @@ HDT_HD double windingRayDistance(const double* v, const double* lo, const double
 // false when there are more near edges or open ends than fit.
 HDT_HD bool windingSplitEdges(const WindingTreeView& t, const double* lo, const double* hi, int L,
                               WindingLeafSplit& split) {
-  double c[3], rho2 = 0;
-  for (int a = 0; a < 3; ++a) {
-    c[a] = 0.5 * (lo[a] + hi[a]);
-    rho2 = rho2 + 0.25 * (hi[a] - lo[a]) * (hi[a] - lo[a]);
-  }
-  const double rho = sqrt(rho2) * (1 + 1e-12), reach = kWindingNearReach * L;
+  double c[3];
+  const double rho = windingBoxBall(lo, hi, c), reach = kWindingNearReach * L;
   split.nearCount = split.endCount = 0;
   auto addEnd = [&](const double* v, double net) {
     for (int k = 0; k < split.endCount; ++k)
@@ -254,12 +250,8 @@ HDT_HD bool windingForEachFarEdge(const WindingTreeView& t, const WindingLeafSpl
 // [lo, hi]: INFINITY when one of the part's edges or an open end's ray meets it.
 HDT_HD double windingPartGradientBound(const WindingTreeView& t, const WindingLeafSplit& split, bool near,
                                        const double* lo, const double* hi) {
-  double c[3], rho2 = 0;
-  for (int a = 0; a < 3; ++a) {
-    c[a] = 0.5 * (lo[a] + hi[a]);
-    rho2 = rho2 + 0.25 * (hi[a] - lo[a]) * (hi[a] - lo[a]);
-  }
-  const double rho = sqrt(rho2) * (1 + 1e-12);
+  double c[3];
+  const double rho = windingBoxBall(lo, hi, c);
   double total = 0;
   auto add = [&](const WindingEdge& e) {
     const double d = windingEdgeDistance(e, lo, hi, c, rho);
