@@ -935,8 +935,6 @@ EncodedVolume encode(const Volume& v, const HdtWriteOptions& options, HdtLeafEnc
   return e;
 }
 
-// Where the leaves go as zstd blocks on a little-endian host (leafCountsFromBlocks),
-// `leafCounts` receives their counts, taken as the blocks were compressed.
 // The required sections but the leaf data: grid, statistics, level table, the
 // elements' CRC.
 void encodeSmallSections(const Volume& v, EncodedVolume& e) {
@@ -980,6 +978,8 @@ void encodeSmallSections(const Volume& v, EncodedVolume& e) {
   e.leafRawBytes = uint64_t(v.leafWords.size()) * 4;
 }
 
+// Where the leaves go as zstd blocks on a little-endian host (leafCountsFromBlocks),
+// `leafCounts` receives their counts, taken as the blocks were compressed.
 EncodedVolume encodeRequired(const Volume& v, const HdtWriteOptions& options, HdtLeafEncoder* streamed,
                              LeafCounts* leafCounts) {
   EncodedVolume e;

@@ -555,9 +555,8 @@ Volume buildLabelled(const PreparedMesh& whole, const std::vector<PreparedMesh>&
   Volume v = combineOnDevice(s, u, onDevice, labelOfRank, voxelCounts, laps);
   s.sync();
   s.clock.collect(s.ms);
-  const auto finish0 = Clock::now();
+  const auto finish0 = Clock::now(); // the index of mixed leaves came with the copy back
 
-  const auto stats0 = Clock::now(); // (the index of mixed leaves came with the copy back)
   v.surfaceOnly = parts[0].surfaceOnly;
   v.closedMesh = true;
   Statistics& st = v.stats;
@@ -588,8 +587,7 @@ Volume buildLabelled(const PreparedMesh& whole, const std::vector<PreparedMesh>&
                 ms(wall0, combine0) + " ms the whole mesh and the parts (" + ms(wall0, parts0) + " + " +
                 ms(parts0, combine0) + "), " + ms(combine0, finish0) + " ms the combination and the copy back (" +
                 std::to_string(s.copyBackBytes >> 20) + " MiB in " + std::to_string(int(s.copyBackMs)) + " ms), " +
-                ms(finish0, stats0) + " ms the index of mixed leaves, " + ms(stats0, Clock::now()) +
-                " ms the statistics; the combination's steps: " + laps);
+                ms(finish0, Clock::now()) + " ms the statistics; the combination's steps: " + laps);
   }
   return v;
 }
