@@ -19,6 +19,7 @@
 #include <chrono>
 #include <cmath>
 #include <sstream>
+#include <thread>
 
 namespace hdt {
 
@@ -197,6 +198,16 @@ PreparedMesh prepareMesh(const TriangleMesh& mesh, const BuildConfig& config) {
   return prepareMesh(mesh, config, nullptr);
 }
 
+namespace {
+// The scatters' staging (mesh_topology.cpp): a block's values and their 16-bit
+// buckets for each host thread.
+size_t stagedBytes(size_t items, size_t valuesPerItem, size_t valueBytes) {
+  const ItemBlocks blocks = itemBlocks(items);
+  const size_t threads = std::max(1u, std::thread::hardware_concurrency());
+  return detail::warmRounded(threads * blocks.size * valuesPerItem * (valueBytes + 2));
+}
+} // namespace
+
 size_t prepareMeshWarmBytes(size_t triangles, size_t points) {
   using detail::warmRounded;
   // The two scatters' count tables (at most 64 blocks x 1041 counts) and the
@@ -208,7 +219,8 @@ size_t prepareMeshWarmBytes(size_t triangles, size_t points) {
          + warmRounded(triangles)                            // keep
          + warmRounded(triangles * sizeof(LatticeTriangle))  // lattice triangles
          + warmRounded(2 * (triangles + 64) * entryBytes)    // edge and corner entries
-         + 2 * countTable;
+         + 2 * countTable
+         + std::max(stagedBytes(points, 1, sizeof(NumberedPoint)), stagedBytes(triangles, 2, entryBytes));
 }
 
 namespace {

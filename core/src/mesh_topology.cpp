@@ -5,6 +5,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
+#include <tbb/task_arena.h>
 
 #include <algorithm>
 #include <utility>
@@ -40,6 +41,7 @@ template <class Value, class Count> struct Buckets {
   }
 };
 
+// Buckets: at most 2^16 (a staged value's bucket is 16 bits).
 template <class Value, class Count, class Emit>
 Buckets<Value, Count> scatterCounted(size_t n, size_t valuesPerItem, size_t buckets, Emit emit, const BlockWork& before) {
   Buckets<Value, Count> out;
@@ -50,18 +52,31 @@ Buckets<Value, Count> scatterCounted(size_t n, size_t valuesPerItem, size_t buck
   out.capacity = block * valuesPerItem;
   out.values = Scratch<Value>(out.blocks * out.capacity);
   out.first = Scratch<Count>(out.blocks * out.row());
+  // Each thread stages its block's values (and their buckets) in emit order in
+  // its own slot, reused block after block while it stays in cache, so that
+  // emit runs once an item.
+  const size_t slots = size_t(std::max(1, tbb::this_task_arena::max_concurrency()));
+  Scratch<Value> staged(slots * out.capacity);
+  Scratch<uint16_t> stagedBucket(slots * out.capacity);
   tbb::parallel_for(size_t(0), out.blocks, [&](size_t k) {
     Count* first = out.first.data() + k * out.row();
     std::fill(first, first + buckets + 1, Count(0));
     const size_t begin = k * block, end = std::min(n, begin + block);
     if (before) before(k, begin, end);
-    auto count = [first](size_t b, const Value&) { ++first[b + 1]; };
-    for (size_t i = begin; i < end; ++i) emit(i, count);
+    const size_t slot = std::min(slots - 1, size_t(std::max(0, tbb::this_task_arena::current_thread_index())));
+    Value* value = staged.data() + slot * out.capacity;
+    uint16_t* bucketOf = stagedBucket.data() + slot * out.capacity;
+    size_t m = 0;
+    auto stage = [&](size_t b, const Value& v) {
+      ++first[b + 1];
+      value[m] = v;
+      bucketOf[m++] = uint16_t(b);
+    };
+    for (size_t i = begin; i < end; ++i) emit(i, stage);
     for (size_t b = 0; b < buckets; ++b) first[b + 1] += first[b];
     std::vector<Count> next(first, first + buckets); // this block's next slot in each bucket
     Value* part = out.values.data() + k * out.capacity;
-    auto put = [&next, part](size_t b, const Value& v) { part[next[b]++] = v; };
-    for (size_t i = begin; i < end; ++i) emit(i, put);
+    for (size_t j = 0; j < m; ++j) part[next[bucketOf[j]]++] = value[j];
   });
   return out;
 }
