@@ -179,13 +179,14 @@ TEST(PrepareTopology, PointNumbersAreTheFirstIndexOfEachLatticePoint) {
     std::uniform_int_distribution<int32_t> small(0, 20), any(0, (1 << 24) - 1);
     for (size_t i = 0; i < count; ++i)
       for (int a = 0; a < 3; ++a) xyz[3 * i + a] = i % 5 == 0 || (i % 5 < 4 && int(i % 5) != a + 1) ? small(rng) % 4 : any(rng);
-    std::vector<uint32_t> numbers(count, UINT32_MAX);
-    numberLatticePoints(xyz.data(), count, numbers.data());
+    std::vector<NumberedPoint> points(count);
+    for (size_t i = 0; i < count; ++i) points[i] = {xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2], UINT32_MAX};
+    numberLatticePoints(points.data(), count);
     std::map<LatticePoint, uint32_t> first;
     size_t wrong = 0;
     for (size_t i = 0; i < count; ++i) {
       const auto it = first.emplace(LatticePoint{xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]}, uint32_t(i)).first;
-      wrong += numbers[i] != it->second;
+      wrong += points[i].number != it->second || points[i].x != xyz[3 * i] || points[i].z != xyz[3 * i + 2];
     }
     EXPECT_EQ(wrong, 0u);
     if (count == 300000) EXPECT_LT(first.size(), count * 9 / 10); // repeats were there

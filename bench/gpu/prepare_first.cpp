@@ -3,7 +3,11 @@
 // times), then prepareMesh timed with its steps, the minor page faults and context switches of
 // the call (getrusage), then the best of REPS more calls. CPU only (no CUDA), so one tree's
 // binary can be built anywhere and timed on the GPU machine's cores (bench/gpu/prepare_first.sh).
-//   prepare_first MESH.ply K REPS [cold]   cold: no warm-up thread (threads and pages at first use)
+//   prepare_first MESH.ply K REPS [cold|warm|wake] [TRIANGLES]
+// cold: no warm-up thread (threads and pages at first use); wake: as warm, and startHostThreads
+// again just before the first call, untimed (how much of that call is waking the threads up:
+// after the read they have slept for its length); TRIANGLES: only the first TRIANGLES
+// triangles of the subdivided mesh and the points they use (in their order), e.g. exactly 350 K.
 #include "hdt/mesh.hpp"
 #include "hdt/mesh_io.hpp"
 #include "hdt/warm_pages.hpp"
@@ -28,6 +32,21 @@ static rusage usage() {
   getrusage(RUSAGE_SELF, &u);
   return u;
 }
+// The first `count` triangles of m and the points they refer to, in the points' order.
+static TriangleMesh firstTriangles(const TriangleMesh& m, size_t count) {
+  if (count >= m.triangleCount()) return m;
+  std::vector<uint32_t> index(m.pointCount(), UINT32_MAX);
+  for (size_t i = 0; i < 3 * count; ++i) index[m.triangles[i]] = 0;
+  TriangleMesh out;
+  for (size_t p = 0; p < m.pointCount(); ++p) {
+    if (index[p] == UINT32_MAX) continue;
+    index[p] = uint32_t(out.pointCount());
+    out.points.insert(out.points.end(), m.points.begin() + ptrdiff_t(3 * p), m.points.begin() + ptrdiff_t(3 * p + 3));
+  }
+  for (size_t i = 0; i < 3 * count; ++i) out.triangles.push_back(index[m.triangles[i]]);
+  return out;
+}
+
 static void steps(const char* tag, double t, const PrepareTimes& p) {
   printf(" \"%s_ms\": %.3f, \"%s_steps\": [%.3f, %.3f, %.3f, %.3f, %.3f],", tag, t, tag, p.bounds, p.snap, p.numbers,
          p.kept, p.closedAndDuplicates);
@@ -36,7 +55,8 @@ static void steps(const char* tag, double t, const PrepareTimes& p) {
 int main(int argc, char** argv) {
   if (argc < 4) return 2;
   const int k = atoi(argv[2]), reps = atoi(argv[3]);
-  const bool cold = argc > 4 && !strcmp(argv[4], "cold");
+  const bool cold = argc > 4 && !strcmp(argv[4], "cold"), wake = argc > 4 && !strcmp(argv[4], "wake");
+  const size_t cut = argc > 5 ? size_t(atoll(argv[5])) : SIZE_MAX;
   const Clock::time_point start = Clock::now();
   std::thread warm;
   if (!cold) {
@@ -49,20 +69,22 @@ int main(int argc, char** argv) {
   }
   TriangleMesh m = readMesh(argv[1]);
   for (int i = 0; i < k; ++i) m = subdivide(m);
+  m = firstTriangles(m, cut);
   const Clock::time_point read = Clock::now();
   if (warm.joinable()) warm.join();
   const Clock::time_point ready = Clock::now();
   BuildConfig c;
   c.resolution = 8192;
   PrepareTimes first;
+  if (wake) startHostThreads();
   const rusage u0 = usage();
   const Clock::time_point t0 = Clock::now();
   PreparedMesh p = prepareMesh(m, c, &first);
   const Clock::time_point t1 = Clock::now();
   const rusage u1 = usage();
   trimWarmPages();
-  printf("{\"mesh\": \"%s\", \"subdivide\": %d, \"triangles\": %zu, \"cold\": %d, \"read_ms\": %.2f, \"warm_wait_ms\": %.2f,",
-         argv[1], k, m.triangleCount(), int(cold), ms(start, read), ms(read, ready));
+  printf("{\"mesh\": \"%s\", \"subdivide\": %d, \"triangles\": %zu, \"points\": %zu, \"cold\": %d, \"wake\": %d, \"read_ms\": %.2f, \"warm_wait_ms\": %.2f,",
+         argv[1], k, m.triangleCount(), m.pointCount(), int(cold), int(wake), ms(start, read), ms(read, ready));
   steps("first", ms(t0, t1), first);
   printf(" \"first_minflt\": %ld, \"first_nvcsw\": %ld, \"first_nivcsw\": %ld,", u1.ru_minflt - u0.ru_minflt,
          u1.ru_nvcsw - u0.ru_nvcsw, u1.ru_nivcsw - u0.ru_nivcsw);

@@ -5,7 +5,8 @@
 #   g++ -O3 -DNDEBUG -std=c++17 -Icore/include -Ibench/gpu -I.devdeps/include bench/gpu/prepare_first.cpp \
 #     build-device/core/libhdt_core.a -L.devdeps/lib/x86_64-linux-gnu -ltbb -lzstd -lz -lpthread -o DIR/pf-new
 #   OUT=DIR bench/gpu/prepare_first.sh DIR/pf-base DIR/pf-new      (from the repository root)
-# Meshes from .devdeps/meshes (PREPARE_FIRST_MESHES: "MESH:SUBDIVIDE ..."), ROUNDS rounds.
+# Meshes from .devdeps/meshes (PREPARE_FIRST_MESHES: "MESH:SUBDIVIDE[:TRIANGLES] ...": TRIANGLES cuts
+# the subdivided mesh to its first TRIANGLES triangles), ROUNDS rounds.
 # Lines to $OUT/prepare-first-ab.jsonl, a summary (ranges, medians, steps) on stdout.
 set -u
 D=$(pwd)/.devdeps
@@ -15,7 +16,8 @@ for spec in ${PREPARE_FIRST_MESHES:-stanford-dragon-100k:1 nefertiti:1}; do
   for r in $(seq 1 "${ROUNDS:-10}"); do
     for b in "$@"; do
       echo -n "{\"round\": $r, \"variant\": \"$(basename "$b")\", \"run\": "
-      "$b" "$D/meshes/${spec%%:*}.ply" "${spec##*:}" 8 | tr -d '\n'
+      IFS=: read -r mesh k cut <<<"$spec"
+      "$b" "$D/meshes/$mesh.ply" "$k" 8 warm ${cut:-} | tr -d '\n'
       echo "}"
     done
   done

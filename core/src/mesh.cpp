@@ -2,7 +2,6 @@
 
 #include "hdt/error.hpp"
 #include "hdt/geometry.hpp"
-#include "hdt/huge_pages.hpp" // prefaultParallel
 #include "hdt/mesh_topology.hpp"
 #include "hdt/warm_pages.hpp"
 #include "hdt/volume.hpp"
@@ -20,6 +19,7 @@
 #include <chrono>
 #include <cmath>
 #include <sstream>
+#include <thread>
 
 namespace hdt {
 
@@ -112,49 +112,61 @@ void meshBounds(const TriangleMesh& mesh, std::array<double, 3>& lo, std::array<
 
 namespace {
 
-// `count` unwritten triangles, their pages faulted in in parallel.
+// `count` unwritten triangles. Their pages are warm (warm_pages.hpp) or get
+// faulted in by the blocks that write them, in parallel: no loop of its own.
 LatticeTriangles sizedTriangles(size_t count) {
   LatticeTriangles v;
-  v.reserve(count);
-  prefaultParallel(v.data(), count * sizeof(LatticeTriangle));
   v.resize(count);
   return v;
 }
 
-LatticeTriangle snappedTriangle(const TriangleMesh& mesh, const Scratch<int32_t>& snapped, size_t t) {
+LatticeTriangle snappedTriangle(const TriangleMesh& mesh, const Scratch<NumberedPoint>& lattice, size_t t) {
   LatticeTriangle tri;
-  for (int j = 0; j < 3; ++j)
-    for (int a = 0; a < 3; ++a) tri.v[j][a] = snapped[3 * size_t(mesh.triangles[3 * t + j]) + a];
+  for (int j = 0; j < 3; ++j) {
+    const NumberedPoint& p = lattice[mesh.triangles[3 * t + j]];
+    tri.v[j][0] = p.x, tri.v[j][1] = p.y, tri.v[j][2] = p.z;
+  }
   return tri;
 }
 
-// The non-degenerate triangles, in input order (keep: which ones). One pass
-// where none is degenerate: each fixed block of triangles writes its kept
-// ones from its own first slot on; where some are dropped, the blocks' kept
-// triangles are then moved together into an array of their size.
-LatticeTriangles keptTriangles(const TriangleMesh& mesh, const Scratch<int32_t>& snapped, Scratch<uint8_t>& keep) {
-  const size_t n = mesh.triangleCount(), block = 1 << 12, blocks = (n + block - 1) / block;
-  keep = Scratch<uint8_t>(n);
-  LatticeTriangles all = sizedTriangles(n);
-  std::vector<size_t> start(blocks + 1, 0);
-  tbb::parallel_for(size_t(0), blocks, [&](size_t k) {
-    size_t o = k * block;
-    for (size_t t = k * block; t < std::min(n, (k + 1) * block); ++t) {
-      const LatticeTriangle tri = snappedTriangle(mesh, snapped, t);
+// The non-degenerate triangles, in input order (keep: which ones). Each block
+// of triangles (itemBlocks) writes its kept ones from its own first slot on
+// (file, run by the topology's pass over the same block); where some were
+// dropped, the blocks' kept triangles are then moved together into an array
+// of their size (finish).
+struct KeptTriangles {
+  const TriangleMesh& mesh;
+  const Scratch<NumberedPoint>& lattice;
+  Scratch<uint8_t> keep;
+  LatticeTriangles all;
+  ItemBlocks blocks;
+  std::vector<size_t> start; // block k's kept count at k + 1, then where its triangles go
+
+  KeptTriangles(const TriangleMesh& m, const Scratch<NumberedPoint>& l)
+      : mesh(m), lattice(l), keep(m.triangleCount()), all(sizedTriangles(m.triangleCount())),
+        blocks(itemBlocks(m.triangleCount())), start(blocks.count + 1, 0) {}
+
+  void file(size_t k, size_t begin, size_t end) {
+    size_t o = begin;
+    for (size_t t = begin; t < end; ++t) {
+      const LatticeTriangle tri = snappedTriangle(mesh, lattice, t);
       keep[t] = !isDegenerate(tri);
       if (keep[t]) all[o++] = tri;
     }
-    start[k + 1] = o - k * block;
-  });
-  for (size_t k = 0; k < blocks; ++k) start[k + 1] += start[k];
-  if (start[blocks] == n) return all;
-  LatticeTriangles out = sizedTriangles(start[blocks]);
-  tbb::parallel_for(size_t(0), blocks, [&](size_t k) {
-    std::copy(all.begin() + ptrdiff_t(k * block), all.begin() + ptrdiff_t(k * block + start[k + 1] - start[k]),
-              out.begin() + ptrdiff_t(start[k]));
-  });
-  return out;
-}
+    start[k + 1] = o - begin;
+  }
+
+  LatticeTriangles finish() {
+    for (size_t k = 0; k < blocks.count; ++k) start[k + 1] += start[k];
+    if (start[blocks.count] == mesh.triangleCount()) return std::move(all);
+    LatticeTriangles out = sizedTriangles(start[blocks.count]);
+    tbb::parallel_for(size_t(0), blocks.count, [&](size_t k) {
+      const auto from = all.begin() + ptrdiff_t(k * blocks.size);
+      std::copy(from, from + ptrdiff_t(start[k + 1] - start[k]), out.begin() + ptrdiff_t(start[k]));
+    });
+    return out;
+  }
+};
 
 } // namespace
 
@@ -186,19 +198,29 @@ PreparedMesh prepareMesh(const TriangleMesh& mesh, const BuildConfig& config) {
   return prepareMesh(mesh, config, nullptr);
 }
 
+namespace {
+// The scatters' staging (mesh_topology.cpp): a block's values and their 16-bit
+// buckets for each host thread.
+size_t stagedBytes(size_t items, size_t valuesPerItem, size_t valueBytes) {
+  const ItemBlocks blocks = itemBlocks(items);
+  const size_t threads = std::max(1u, std::thread::hardware_concurrency());
+  return detail::warmRounded(threads * blocks.size * valuesPerItem * (valueBytes + 2));
+}
+} // namespace
+
 size_t prepareMeshWarmBytes(size_t triangles, size_t points) {
   using detail::warmRounded;
-  // The two scatters' count tables (at most 64 blocks x 4112 counts) and the
+  // The two scatters' count tables (at most 64 blocks x 1041 counts) and the
   // topology's entries (two a triangle, 128 bits beyond 2^25 points).
-  const size_t countTable = warmRounded(64 * 4112 * sizeof(size_t));
+  const size_t countTable = warmRounded(64 * 1041 * sizeof(size_t));
   const size_t entryBytes = points > (size_t(1) << 25) ? 16 : 8;
-  return warmRounded(points * 3 * sizeof(int32_t))           // snapped
-         + warmRounded(points * sizeof(uint32_t))            // numbers
-         + warmRounded(points * 16)                          // bucketed points
+  return warmRounded(points * sizeof(NumberedPoint))         // snapped points and their numbers
+         + warmRounded((points + 64) * 16)                   // bucketed points (blocks rounded up)
          + warmRounded(triangles)                            // keep
          + warmRounded(triangles * sizeof(LatticeTriangle))  // lattice triangles
-         + warmRounded(2 * triangles * entryBytes)           // edge and corner entries
-         + 2 * countTable;
+         + warmRounded(2 * (triangles + 64) * entryBytes)    // edge and corner entries
+         + 2 * countTable
+         + std::max(stagedBytes(points, 1, sizeof(NumberedPoint)), stagedBytes(triangles, 2, entryBytes));
 }
 
 namespace {
@@ -242,25 +264,34 @@ PreparedMesh prepareInArena(const TriangleMesh& mesh, const BuildConfig& config,
   lap(&PrepareTimes::bounds);
   // Snap every point once: the lattice coordinates are the only geometry the
   // drivers see. Points lie in [s, (N - 1) s] of the grid, so below 2^24.
+  // Then numbers for the lattice points: edges and corners compared as
+  // numbers, not coordinates. Triangles refer to the first 2^32 points at
+  // most, and only those are snapped: each block of them by the numbering's
+  // pass that reads it next, while it is in cache.
   const GridSpec& g = out.grid;
-  Scratch<int32_t> snapped(mesh.points.size());
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, mesh.pointCount(), 1 << 12), [&](const tbb::blocked_range<size_t>& r) {
-    const double* points = mesh.points.data();
-    int32_t* out = snapped.data();
-    for (size_t p = r.begin(); p != r.end(); ++p)
-      for (int a = 0; a < 3; ++a) out[3 * p + a] = snapToLattice(points[3 * p + a], g, a);
-  });
-
-  lap(&PrepareTimes::snap);
-  // Numbers for the lattice points (triangles refer to the first 2^32 points
-  // at most): edges and corners compared as numbers, not coordinates.
   const size_t pointRange = std::min(mesh.pointCount(), size_t(1) << 32);
-  Scratch<uint32_t> numbers(pointRange);
-  numberLatticePoints(snapped.data(), pointRange, numbers.data());
+  Scratch<NumberedPoint> lattice(pointRange);
+  numberLatticePoints(lattice.data(), pointRange, [&](size_t, size_t begin, size_t end) {
+    const double* points = mesh.points.data();
+    NumberedPoint* out = lattice.data();
+    for (size_t p = begin; p != end; ++p) {
+      out[p].x = snapToLattice(points[3 * p], g, 0);
+      out[p].y = snapToLattice(points[3 * p + 1], g, 1);
+      out[p].z = snapToLattice(points[3 * p + 2], g, 2);
+    }
+  });
   lap(&PrepareTimes::numbers);
-  Scratch<uint8_t> keep;
-  out.triangles = keptTriangles(mesh, snapped, keep);
-  lap(&PrepareTimes::kept);
+  // The kept (non-degenerate) triangles are written block by block by the
+  // topology's pass, which counts only those: kept triangles have three
+  // distinct lattice points, so three distinct numbers.
+  KeptTriangles kept(mesh, lattice);
+  const SurfaceTopology topology =
+      surfaceTopology(mesh.triangles.data(), kept.keep.data(), mesh.triangleCount(), lattice.data(), pointRange,
+                      [&kept](size_t k, size_t begin, size_t end) { kept.file(k, begin, end); });
+  out.triangles = kept.finish();
+  out.closed = topology.closed;
+  out.duplicateTriangles = topology.duplicateTriangles;
+  lap(&PrepareTimes::closedAndDuplicates);
   out.degenerateTriangles = mesh.triangleCount() - out.triangles.size();
   if (out.triangles.empty()) {
     throw Error(ErrorKind::BadInput, "all " + std::to_string(mesh.triangleCount()) +
@@ -269,13 +300,6 @@ PreparedMesh prepareInArena(const TriangleMesh& mesh, const BuildConfig& config,
   if (out.triangles.size() > (size_t(1) << 32) - 1) {
     throw Error(ErrorKind::OutOfResources, "more than 2^32 - 1 triangles are not supported");
   }
-  // Kept triangles have three distinct lattice points, so three distinct numbers.
-  const bool all = out.triangles.size() == mesh.triangleCount();
-  const SurfaceTopology topology = surfaceTopology(mesh.triangles.data(), all ? nullptr : keep.data(),
-                                                   mesh.triangleCount(), numbers.data(), pointRange);
-  out.closed = topology.closed;
-  out.duplicateTriangles = topology.duplicateTriangles;
-  lap(&PrepareTimes::closedAndDuplicates);
   out.requestedInsideTest = config.insideTest;
   out.insideTest = resolveInsideTest(config.insideTest, out.closed);
   return out;

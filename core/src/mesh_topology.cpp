@@ -5,6 +5,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
+#include <tbb/task_arena.h>
 
 #include <algorithm>
 #include <utility>
@@ -14,54 +15,78 @@ namespace hdt {
 
 namespace {
 
-// Values of items [0, n) scattered into buckets: emit(i, put) calls
-// put(bucket, value) for each value of item i. Counted per fixed block of
-// items, then each block writes its own slots, so a bucket holds its values
-// in item order whatever the thread count. Two passes over the items; the
-// count table is blocks x buckets (at most 64 x 4096), its sums run in
-// parallel over the buckets. Count holds a bucket's size.
-template <class Value> struct Buckets {
+// Values of items [0, n) grouped by bucket in one pass over the items: emit(i,
+// put) calls put(bucket, value) for each value of item i. Each block of items
+// (itemBlocks: the caller's `before` work on it first) is counted and then
+// written at once, while its items are still in cache, into its own part of
+// `values`, bucket by bucket. Bucket b is block 0's values of b, then block
+// 1's, ... (forEachPart, gather): in item order whatever the thread count.
+template <class Value, class Count> struct Buckets {
+  size_t buckets = 0, blocks = 0, capacity = 0; // capacity: a block's part of values
   Scratch<Value> values;
-  std::vector<size_t> start; // bucket b: values[start[b], start[b + 1])
-  size_t size(size_t b) const { return start[b + 1] - start[b]; }
-  Value* begin(size_t b) { return values.data() + start[b]; }
+  // Block k, bucket b: values[k capacity + first[k row + b], ... + first[k row + b + 1]).
+  Scratch<Count> first;
+  size_t row() const { return buckets + 16; } // padded: a power-of-two stride would share cache sets
+  // f(first, last) for each block's values of bucket b, in block order.
+  template <class F> void forEachPart(size_t b, F f) const {
+    for (size_t k = 0; k < blocks; ++k) {
+      const Count* at = first.data() + k * row();
+      const Value* part = values.data() + k * capacity;
+      f(part + at[b], part + at[b + 1]);
+    }
+  }
+  void gather(size_t b, std::vector<Value>& out) const {
+    out.clear();
+    forEachPart(b, [&out](const Value* f, const Value* l) { out.insert(out.end(), f, l); });
+  }
 };
 
-template <class Value, class Count, class Emit> Buckets<Value> scatterCounted(size_t n, size_t buckets, Emit emit) {
-  const size_t blocks = std::clamp<size_t>(n >> 12, 1, 64), block = (n + blocks - 1) / blocks;
-  // Per block and bucket: count, then first slot in the bucket. Rows padded:
-  // a power-of-two stride would put a bucket's counts in one cache set.
-  const size_t row = buckets + 16;
-  Scratch<Count> offset(blocks * row, Count(0));
-  tbb::parallel_for(size_t(0), blocks, [&](size_t k) {
-    Count* count = offset.data() + k * row;
-    auto put = [count](size_t b, const Value&) { ++count[b]; };
-    for (size_t i = k * block; i < std::min(n, (k + 1) * block); ++i) emit(i, put);
-  });
-  Buckets<Value> out;
-  out.start.assign(buckets + 1, 0);
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, buckets), [&](const tbb::blocked_range<size_t>& r) {
-    for (size_t b = r.begin(); b != r.end(); ++b) {
-      Count slot = 0;
-      for (size_t k = 0; k < blocks; ++k) slot += std::exchange(offset[k * row + b], slot);
-      out.start[b + 1] = slot;
-    }
-  });
-  for (size_t b = 0; b < buckets; ++b) out.start[b + 1] += out.start[b];
-  out.values = Scratch<Value>(out.start[buckets]);
-  tbb::parallel_for(size_t(0), blocks, [&](size_t k) {
-    std::vector<Value*> next(buckets); // this block's next slot in each bucket
-    for (size_t b = 0; b < buckets; ++b) next[b] = out.values.data() + out.start[b] + offset[k * row + b];
-    auto put = [&next](size_t b, const Value& v) { *next[b]++ = v; };
-    for (size_t i = k * block; i < std::min(n, (k + 1) * block); ++i) emit(i, put);
+// Buckets: at most 2^16 (a staged value's bucket is 16 bits).
+template <class Value, class Count, class Emit>
+Buckets<Value, Count> scatterCounted(size_t n, size_t valuesPerItem, size_t buckets, Emit emit, const BlockWork& before) {
+  Buckets<Value, Count> out;
+  out.buckets = buckets;
+  const ItemBlocks blocks = itemBlocks(n);
+  const size_t block = blocks.size;
+  out.blocks = blocks.count;
+  out.capacity = block * valuesPerItem;
+  out.values = Scratch<Value>(out.blocks * out.capacity);
+  out.first = Scratch<Count>(out.blocks * out.row());
+  // Each thread stages its block's values (and their buckets) in emit order in
+  // its own slot, reused block after block while it stays in cache, so that
+  // emit runs once an item.
+  const size_t slots = size_t(std::max(1, tbb::this_task_arena::max_concurrency()));
+  Scratch<Value> staged(slots * out.capacity);
+  Scratch<uint16_t> stagedBucket(slots * out.capacity);
+  tbb::parallel_for(size_t(0), out.blocks, [&](size_t k) {
+    Count* first = out.first.data() + k * out.row();
+    std::fill(first, first + buckets + 1, Count(0));
+    const size_t begin = k * block, end = std::min(n, begin + block);
+    if (before) before(k, begin, end);
+    const size_t slot = std::min(slots - 1, size_t(std::max(0, tbb::this_task_arena::current_thread_index())));
+    Value* value = staged.data() + slot * out.capacity;
+    uint16_t* bucketOf = stagedBucket.data() + slot * out.capacity;
+    size_t m = 0;
+    auto stage = [&](size_t b, const Value& v) {
+      ++first[b + 1];
+      value[m] = v;
+      bucketOf[m++] = uint16_t(b);
+    };
+    for (size_t i = begin; i < end; ++i) emit(i, stage);
+    for (size_t b = 0; b < buckets; ++b) first[b + 1] += first[b];
+    std::vector<Count> next(first, first + buckets); // this block's next slot in each bucket
+    Value* part = out.values.data() + k * out.capacity;
+    for (size_t j = 0; j < m; ++j) part[next[bucketOf[j]]++] = value[j];
   });
   return out;
 }
 
-// At most valuesPerItem values an item.
-template <class Value, class Emit> Buckets<Value> scatter(size_t n, size_t valuesPerItem, size_t buckets, Emit emit) {
-  if (n * valuesPerItem <= UINT32_MAX) return scatterCounted<Value, uint32_t>(n, buckets, emit);
-  return scatterCounted<Value, size_t>(n, buckets, emit);
+// At most valuesPerItem values an item; then(buckets) with the scattered values.
+template <class Value, class Emit, class Then>
+auto scatter(size_t n, size_t valuesPerItem, size_t buckets, Emit emit, const BlockWork& before, Then then) {
+  if (itemBlocks(n).size * valuesPerItem <= UINT32_MAX)
+    return then(scatterCounted<Value, uint32_t>(n, valuesPerItem, buckets, emit, before));
+  return then(scatterCounted<Value, size_t>(n, valuesPerItem, buckets, emit, before));
 }
 
 int bitWidth(uint64_t x) { return x ? 64 - __builtin_clzll(x) : 0; }
@@ -83,7 +108,7 @@ uint64_t hashOf(int32_t x, int32_t y, int32_t z) {
 
 // One bucket's points, in index order: the first of equal ones numbers them
 // all (an open-addressing table of positions, in cache).
-void numberBucket(const Point* points, size_t n, uint32_t* numbers, std::vector<uint32_t>& table) {
+void numberBucket(const Point* points, size_t n, NumberedPoint* out, std::vector<uint32_t>& table) {
   size_t size = 16;
   while (size < 2 * n) size *= 2;
   table.assign(size, 0); // position + 1; 0 is free
@@ -99,7 +124,7 @@ void numberBucket(const Point* points, size_t n, uint32_t* numbers, std::vector<
       }
     }
     if (number == p.index) table[slot] = uint32_t(i + 1);
-    numbers[p.index] = number;
+    out[p.index].number = number;
   }
 }
 
@@ -203,81 +228,108 @@ template <class Entry> struct BucketTally {
     t.oddPoints += someOddCount(ends.data(), ends.data() + e);
   }
 
-  void operator()(Entry* entries, size_t n, Tally& t) {
+  // Bucket `bucket` of the scattered entries b, read from its blocks' parts.
+  template <class Scattered> void operator()(const Scattered& b, size_t bucket, Tally& t) {
     const size_t points = size_t(1) << code.shift;
+    size_t n = 0;
+    b.forEachPart(bucket, [&n](const Entry* f, const Entry* l) { n += size_t(l - f); });
     if (n < points) {
-      std::sort(entries, entries + n);
+      b.gather(bucket, sorted);
+      std::sort(sorted.begin(), sorted.end());
       for (size_t i = 0; i < n;) {
         size_t j = i + 1;
-        while (j < n && code.localPoint(entries[j]) == code.localPoint(entries[i])) ++j;
-        point(entries + i, entries + j, t);
+        while (j < n && code.localPoint(sorted[j]) == code.localPoint(sorted[i])) ++j;
+        point(sorted.data() + i, sorted.data() + j, t);
         i = j;
       }
       return;
     }
     count.assign(points + 1, 0);
-    for (size_t i = 0; i < n; ++i) ++count[code.localPoint(entries[i]) + 1];
+    b.forEachPart(bucket, [this](const Entry* f, const Entry* l) {
+      for (; f != l; ++f) ++count[code.localPoint(*f) + 1];
+    });
     for (size_t p = 0; p < points; ++p) count[p + 1] += count[p];
     sorted.resize(n);
-    for (size_t i = 0; i < n; ++i) sorted[count[code.localPoint(entries[i])]++] = entries[i];
+    b.forEachPart(bucket, [this](const Entry* f, const Entry* l) {
+      for (; f != l; ++f) sorted[count[code.localPoint(*f)]++] = *f;
+    });
     // count[p] is now where point p + 1 starts
     for (size_t p = 0, begin = 0; p < points; begin = count[p++]) point(sorted.data() + begin, sorted.data() + count[p], t);
   }
 };
 
 template <class Entry>
-SurfaceTopology tally(const uint32_t* indices, const uint8_t* keep, size_t triangles, const uint32_t* numbers,
-                      uint64_t pointRange, int shift) {
+SurfaceTopology tally(const uint32_t* indices, const uint8_t* keep, size_t triangles, const NumberedPoint* numbers,
+                      uint64_t pointRange, int shift, const BlockWork& before) {
   EntryCode<Entry> code;
   code.idBits = bitWidth(pointRange);
   code.none = (Entry(1) << code.idBits) - 1;
   code.shift = shift;
   const size_t buckets = size_t(((pointRange - 1) >> shift) + 1);
-  Buckets<Entry> b = scatter<Entry>(triangles, 2, buckets, [&](size_t t, auto&& put) {
+  const auto file = [&](size_t t, auto&& put) {
     if (keep && !keep[t]) return;
     uint32_t v[3];
-    for (int j = 0; j < 3; ++j) v[j] = numbers ? numbers[indices[3 * t + j]] : indices[3 * t + j];
+    for (int j = 0; j < 3; ++j) v[j] = numbers ? numbers[indices[3 * t + j]].number : indices[3 * t + j];
     if (v[1] < v[0]) std::swap(v[0], v[1]);
     if (v[2] < v[1]) std::swap(v[1], v[2]);
     if (v[1] < v[0]) std::swap(v[0], v[1]);
     put(v[0] >> shift, code.of(v[0], v[1], v[2]));
     put(v[1] >> shift, code.of(v[1], v[2], code.none));
+  };
+  const Tally t = scatter<Entry>(triangles, 2, buckets, file, before, [&](const auto& b) {
+    return tbb::parallel_reduce(
+        tbb::blocked_range<size_t>(0, buckets), Tally{},
+        [&](const tbb::blocked_range<size_t>& r, Tally sum) {
+          BucketTally<Entry> bucket{code, {}, {}, {}, {}};
+          for (size_t k = r.begin(); k != r.end(); ++k) bucket(b, k, sum);
+          return sum;
+        },
+        [](const Tally& x, const Tally& y) { return x + y; });
   });
-  const Tally t = tbb::parallel_reduce(
-      tbb::blocked_range<size_t>(0, buckets), Tally{},
-      [&](const tbb::blocked_range<size_t>& r, Tally sum) {
-        BucketTally<Entry> bucket{code, {}, {}, {}, {}};
-        for (size_t k = r.begin(); k != r.end(); ++k) bucket(b.begin(k), b.size(k), sum);
-        return sum;
-      },
-      [](const Tally& x, const Tally& y) { return x + y; });
   return SurfaceTopology{t.oddPoints == 0, t.duplicates};
 }
 
 } // namespace
 
-void numberLatticePoints(const int32_t* xyz, size_t count, uint32_t* numbers) {
+ItemBlocks itemBlocks(size_t n) {
+  ItemBlocks b;
+  b.count = std::clamp<size_t>(n >> 12, 1, 64);
+  b.size = (n + b.count - 1) / b.count;
+  return b;
+}
+
+void numberLatticePoints(NumberedPoint* points, size_t count, const BlockWork& before) {
   if (count == 0) return;
-  int bits = 0; // about 64 points a bucket, at most 4096 buckets
-  while (bits < 12 && (count >> (bits + 6)) > 0) ++bits;
-  Buckets<Point> b = scatter<Point>(count, 1, size_t(1) << bits, [&](size_t i, auto&& put) {
-    const int32_t* p = xyz + 3 * i;
-    const uint64_t h = hashOf(p[0], p[1], p[2]);
-    put(bits ? size_t(h >> (64 - bits)) : 0, Point{p[0], p[1], p[2], uint32_t(i)});
-  });
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, b.start.size() - 1), [&](const tbb::blocked_range<size_t>& r) {
-    std::vector<uint32_t> table;
-    for (size_t k = r.begin(); k != r.end(); ++k) numberBucket(b.begin(k), b.size(k), numbers, table);
+  // At least 64 points a bucket, at most 256 buckets: each block's points go
+  // to few buckets (a few cache lines written at a time), and a bucket's
+  // parts in the blocks are not too small to read.
+  int bits = 0;
+  while (bits < 8 && (count >> (bits + 6)) > 0) ++bits;
+  const auto file = [&](size_t i, auto&& put) {
+    const NumberedPoint& p = points[i];
+    const uint64_t h = hashOf(p.x, p.y, p.z);
+    put(bits ? size_t(h >> (64 - bits)) : 0, Point{p.x, p.y, p.z, uint32_t(i)});
+  };
+  scatter<Point>(count, 1, size_t(1) << bits, file, before, [&](const auto& b) {
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, b.buckets), [&](const tbb::blocked_range<size_t>& r) {
+      std::vector<uint32_t> table;
+      std::vector<Point> bucket;
+      for (size_t k = r.begin(); k != r.end(); ++k) {
+        b.gather(k, bucket);
+        numberBucket(bucket.data(), bucket.size(), points, table);
+      }
+    });
+    return 0;
   });
 }
 
 SurfaceTopology surfaceTopology(const uint32_t* indices, const uint8_t* keep, size_t triangles,
-                                const uint32_t* numbers, uint64_t pointRange) {
+                                const NumberedPoint* numbers, uint64_t pointRange, const BlockWork& before) {
   if (triangles == 0 || pointRange == 0) return SurfaceTopology{};
-  int shift = 0; // about 4096 buckets of 2^shift points
-  while ((pointRange >> shift) > 4096) ++shift;
-  if (shift + 2 * bitWidth(pointRange) <= 64) return tally<uint64_t>(indices, keep, triangles, numbers, pointRange, shift);
-  return tally<unsigned __int128>(indices, keep, triangles, numbers, pointRange, shift);
+  int shift = 0; // at most about 1024 buckets of 2^shift points (as few for the same reasons as the numbers')
+  while ((pointRange >> shift) > 1024) ++shift;
+  if (shift + 2 * bitWidth(pointRange) <= 64) return tally<uint64_t>(indices, keep, triangles, numbers, pointRange, shift, before);
+  return tally<unsigned __int128>(indices, keep, triangles, numbers, pointRange, shift, before);
 }
 
 } // namespace hdt
