@@ -90,8 +90,7 @@ Args parse(int argc, char** argv) {
 std::string num(double v);
 
 std::string partsJson(const PrepareTimes& p) {
-  return "{\"bounds\": " + num(p.bounds) + ", \"snap\": " + num(p.snap) + ", \"numbers\": " + num(p.numbers) +
-         ", \"kept\": " + num(p.kept) +
+  return "{\"bounds\": " + num(p.bounds) + ", \"numbers\": " + num(p.numbers) +
          ", \"closed_and_duplicates\": " + num(p.closedAndDuplicates) + "}";
 }
 

@@ -1,6 +1,6 @@
 // prepare A/B driver (bench/gpu/prepare_ab.sh): on one mesh (subdivided K times), prepareMesh
 // once and then REPS times more in this process; wall ms of the first call and the best, with
-// the steps (bounds/snap/numbers/kept/closed+duplicates; "-" where the tree has no numbering step).
+// the steps (bounds/numbers/closed+duplicates; "-" where the tree has no numbering step).
 #include "hdt/mesh.hpp"
 #include "hdt/mesh_io.hpp"
 #include "subdivide.hpp"
@@ -10,9 +10,9 @@
 using namespace hdt;
 static void print(const char* tag, double ms, const PrepareTimes& p) {
 #ifdef HAS_NUMBERS
-  printf(" %s %.2f (%.2f/%.2f/%.2f/%.2f/%.2f)", tag, ms, p.bounds, p.snap, p.numbers, p.kept, p.closedAndDuplicates);
-#else
-  printf(" %s %.2f (%.2f/%.2f/-/%.2f/%.2f)", tag, ms, p.bounds, p.snap, p.kept, p.closedAndDuplicates);
+  printf(" %s %.2f (%.2f/%.2f/%.2f)", tag, ms, p.bounds, p.numbers, p.closedAndDuplicates);
+#else // a tree from before the point numbering
+  printf(" %s %.2f (%.2f/-/%.2f)", tag, ms, p.bounds, p.closedAndDuplicates);
 #endif
 }
 int main(int argc, char** argv) {

@@ -48,8 +48,8 @@ static TriangleMesh firstTriangles(const TriangleMesh& m, size_t count) {
 }
 
 static void steps(const char* tag, double t, const PrepareTimes& p) {
-  printf(" \"%s_ms\": %.3f, \"%s_steps\": [%.3f, %.3f, %.3f, %.3f, %.3f],", tag, t, tag, p.bounds, p.snap, p.numbers,
-         p.kept, p.closedAndDuplicates);
+  printf(" \"%s_ms\": %.3f, \"%s_steps\": [%.3f, %.3f, %.3f],", tag, t, tag, p.bounds, p.numbers,
+         p.closedAndDuplicates);
 }
 
 int main(int argc, char** argv) {

@@ -32,7 +32,7 @@ for key, rs in rows.items():
     first = sorted(x["first_ms"] for x in rs); best = sorted(x["best_ms"] for x in rs)
     print(*key, "first", [round(x, 2) for x in first], "median", round(first[len(first) // 2], 2),
           "| best", [round(x, 2) for x in best])
-    for i, name in enumerate(["bounds", "snap", "numbers", "kept", "closed"]):
+    for i, name in enumerate(["bounds", "numbers", "closed"]):
         f = [x["first_steps"][i] for x in rs]; b = [x["best_steps"][i] for x in rs]
         print(f"    {name}: first {min(f):.2f}-{max(f):.2f}, best {min(b):.2f}-{max(b):.2f}")
     print("    first call's minor faults", min(x["first_minflt"] for x in rs), "-", max(x["first_minflt"] for x in rs))

@@ -78,9 +78,7 @@ PreparedMesh prepareMesh(const TriangleMesh& mesh, const BuildConfig& config);
 // Wall time of prepareMesh's steps in ms, for benchmarks (bench/gpu/e2e_bench.cpp).
 struct PrepareTimes {
   double bounds = 0;              // configuration and mesh checks, bounds, grid placement
-  double snap = 0;                // 0: the points are snapped inside `numbers`' pass
-  double numbers = 0;             // points to the lattice, numbers for the distinct lattice points
-  double kept = 0;                // 0: the kept triangles are written inside the next pass
+  double numbers = 0;             // points snapped to the lattice, numbers for the distinct lattice points
   double closedAndDuplicates = 0; // the non-degenerate triangles, in order; edges and corners as point numbers, bucketed
 };
 PreparedMesh prepareMesh(const TriangleMesh& mesh, const BuildConfig& config, PrepareTimes* times);
