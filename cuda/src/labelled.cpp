@@ -44,8 +44,6 @@
 #include "hdt/mesh.hpp"
 #include "hdt/warm_pages.hpp"
 
-#include <tbb/task_arena.h>
-
 #include <algorithm>
 #include <chrono>
 #include <functional>
@@ -359,8 +357,7 @@ public:
       // The copy's host threads leave cores to the threads that drive the
       // device meanwhile (the build's, the element arrays' fill): the copy
       // and the kernels beside it end sooner (bench/results/labels-gpu.md).
-      tbb::task_arena arena(std::max(1, tbb::this_task_arena::max_concurrency() - kCoresLeftBeside));
-      arena.execute([&] { copyToHost(side_.get(), host, device, bytes_); });
+      copyToHost(side_.get(), host, device, bytes_, {}, kCoresLeftBeside);
       return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
     });
   }
