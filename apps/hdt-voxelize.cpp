@@ -15,6 +15,7 @@
 #include "hdt/atomic_file.hpp"
 #include "hdt/builder.hpp"
 #include "hdt/dense.hpp"
+#include "hdt/device_pool.hpp"
 #include "hdt/error.hpp"
 #include "hdt/hdt_file.hpp"
 #include "hdt/labels.hpp"
@@ -278,6 +279,10 @@ int run(int argc, const char* const* argv, const MpiSession& session, Clock::tim
   // as warm pages meanwhile, and the build waits for them (a labelled
   // build's too: the combined leaf words are those of the plain build).
   const bool reserve = options.build.backend != Backend::Cpu && session.size() == 1;
+  // releaseCuda gives the device back beside the write (below): the build
+  // keeps its pool rather than trimming it inside the timed build as it ends
+  // (a labelled build's pool is large: bench/results/labels-gpu.md).
+  if (reserve) setCudaPoolRetention(UINT64_MAX);
   // Auto builds on the device only when there is one (the count comes before the context).
   const bool deviceAsked = options.build.backend == Backend::Cuda;
   std::future<uint64_t> hostBytesEstimate; // rank 0 reports

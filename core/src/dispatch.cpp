@@ -1,5 +1,6 @@
 // Backend selection: Auto prefers the CUDA driver and falls back to the CPU.
 #include "hdt/builder.hpp"
+#include "hdt/device_pool.hpp"
 
 #include "hdt/error.hpp"
 #include "hdt/labels.hpp"
@@ -23,6 +24,7 @@ Volume buildCuda(const PreparedMesh&, const BuildOptions&) {
 }
 void prepareCuda(const BuildConfig&, const BuildOptions&, const std::function<bool()>&) {}
 void releaseCuda(const BuildOptions&) {}
+void setCudaPoolRetention(uint64_t) {}
 bool buildLabelledCuda(const PreparedMesh&, const std::vector<PreparedMesh>&, const std::vector<Label>&,
                        const LabelOptions&, const BuildOptions&, Volume&, const std::function<void()>&) {
   return false;

@@ -139,8 +139,8 @@ std::vector<Task> cutTasks(uintptr_t dst, size_t bytes, size_t pieceBytes) {
 class RingCopy {
 public:
   RingCopy(const StagingRing& ring, cudaStream_t stream, uint8_t* dst, const uint8_t* src, size_t bytes,
-           const CopiedPrefix& copied)
-      : ring_(ring), stream_(stream), dst_(dst), src_(src), bytes_(bytes), copied_(copied),
+           const CopiedPrefix& copied, int spareThreads)
+      : ring_(ring), stream_(stream), dst_(dst), src_(src), bytes_(bytes), copied_(copied), spare_(spareThreads),
         tasks_(cutTasks(reinterpret_cast<uintptr_t>(dst), bytes, ring.pieceBytes)),
         pieces_((bytes + ring.pieceBytes - 1) / ring.pieceBytes), left_(new std::atomic<size_t>[pieces_]),
         queued_(new std::atomic<bool>[pieces_]), done_(pieces_, false) {
@@ -153,7 +153,7 @@ public:
 
   void run() {
     for (size_t k = 0; k < std::min<size_t>(pieces_, size_t(ring_.slots)); ++k) enqueue(k);
-    const int lanes = std::max(1, std::min<int>(tbb::this_task_arena::max_concurrency(), int(tasks_.size())));
+    const int lanes = std::max(1, std::min<int>(tbb::this_task_arena::max_concurrency() - spare_, int(tasks_.size())));
     tbb::parallel_for(0, lanes, [&](int) { lane(); }, tbb::static_partitioner());
     if (error_) std::rethrow_exception(error_);
   }
@@ -219,6 +219,7 @@ private:
   const uint8_t* const src_;
   const size_t bytes_;
   const CopiedPrefix& copied_;
+  const int spare_; // threads left to others
   const std::vector<Task> tasks_;
   const size_t pieces_;
   std::unique_ptr<std::atomic<size_t>[]> left_; // tasks of each piece not yet copied
@@ -261,11 +262,11 @@ void releaseCopyStaging() {
 }
 
 void copyThroughRing(const StagingRing& ring, cudaStream_t stream, void* host, const void* device, size_t bytes,
-                     const CopiedPrefix& copied) {
+                     const CopiedPrefix& copied, int spareThreads) {
   if (bytes == 0) return;
   auto* dst = static_cast<uint8_t*>(host);
   adviseHugePages(dst, bytes);
-  RingCopy copy(ring, stream, dst, static_cast<const uint8_t*>(device), bytes, copied);
+  RingCopy copy(ring, stream, dst, static_cast<const uint8_t*>(device), bytes, copied, spareThreads);
   try {
     copy.run();
   } catch (...) {
@@ -274,13 +275,14 @@ void copyThroughRing(const StagingRing& ring, cudaStream_t stream, void* host, c
   }
 }
 
-void copyToHost(cudaStream_t stream, void* host, const void* device, size_t bytes, const CopiedPrefix& copied) {
+void copyToHost(cudaStream_t stream, void* host, const void* device, size_t bytes, const CopiedPrefix& copied,
+                int spareThreads) {
   if (bytes == 0) return;
   if (bytes < kDirectBytes) return directCopy(stream, host, device, bytes, copied);
   Ring& r = currentRing();
   std::lock_guard<std::mutex> lock(r.mutex);
   if (!r.allocate()) return directCopy(stream, host, device, bytes, copied);
-  copyThroughRing(r.view(), stream, host, device, bytes, copied);
+  copyThroughRing(r.view(), stream, host, device, bytes, copied, spareThreads);
 }
 
 void copyToDevice(cudaStream_t stream, void* device, const void* host, size_t bytes) {

@@ -26,8 +26,10 @@ using CopiedPrefix = std::function<void(size_t n)>;
 // holds them. Small copies, and all copies where no memory can be pinned,
 // take the driver's pageable path. Thread-safe: concurrent callers take turns
 // on the current device's ring (one a device, for the life of the process).
+// spareThreads: of the calling arena's threads, how many the copy leaves to
+// other work (a thread that drives the device beside it, say).
 void copyToHost(cudaStream_t stream, void* host, const void* device, size_t bytes,
-                const CopiedPrefix& copied = {});
+                const CopiedPrefix& copied = {}, int spareThreads = 0);
 
 // Host to device through the same ring (the host threads fill a slot while
 // the link drains the others); returns when `device` holds the bytes. Small
@@ -56,7 +58,7 @@ struct StagingRing {
   const cudaEvent_t* arrived = nullptr;
 };
 void copyThroughRing(const StagingRing& ring, cudaStream_t stream, void* host, const void* device, size_t bytes,
-                     const CopiedPrefix& copied = {});
+                     const CopiedPrefix& copied = {}, int spareThreads = 0);
 
 } // namespace cuda
 } // namespace hdt

@@ -441,16 +441,23 @@ void finalizeElements(cudaStream_t s, ElementWord* words, uint32_t count, uint64
          elementLabels);
 }
 
-uint32_t scanFlags(DeviceMemory& mem, const uint32_t* flags, uint32_t* index, uint32_t n) {
+namespace {
+__global__ void flagSumKernel(const uint32_t* index, const uint32_t* flags, uint32_t last, uint64_t* out) {
+  *out = uint64_t(index[last]) + flags[last];
+}
+} // namespace
+
+uint32_t scanFlags(DeviceMemory& mem, uint64_t* pinned, const uint32_t* flags, uint32_t* index, uint32_t n) {
   if (n == 0) return 0;
   runCub(mem, [&](void* temp, size_t& bytes) {
     return cub::DeviceScan::ExclusiveSum(temp, bytes, flags, index, n, mem.stream());
   });
-  uint32_t last[2];
-  HDT_CUDA_CHECK(cudaMemcpyAsync(&last[0], index + (n - 1), sizeof(uint32_t), cudaMemcpyDeviceToHost, mem.stream()));
-  HDT_CUDA_CHECK(cudaMemcpyAsync(&last[1], flags + (n - 1), sizeof(uint32_t), cudaMemcpyDeviceToHost, mem.stream()));
+  uint64_t* out = nullptr;
+  HDT_CUDA_CHECK(cudaHostGetDevicePointer(reinterpret_cast<void**>(&out), pinned, 0));
+  flagSumKernel<<<1, 1, 0, mem.stream()>>>(index, flags, n - 1, out);
+  HDT_CUDA_CHECK(cudaGetLastError());
   HDT_CUDA_CHECK(cudaStreamSynchronize(mem.stream()));
-  return last[0] + last[1];
+  return uint32_t(*static_cast<volatile uint64_t*>(pinned));
 }
 
 } // namespace cuda

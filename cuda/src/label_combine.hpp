@@ -169,7 +169,10 @@ void finalizeElements(cudaStream_t s, ElementWord* words, uint32_t count, uint64
                       const uint16_t* leafLabel, const uint16_t* labelOfRank, uint16_t* elementLabels);
 
 // Exclusive scan of n 0/1 flags into index; returns their sum (waits for it).
-uint32_t scanFlags(DeviceMemory& mem, const uint32_t* flags, uint32_t* index, uint32_t n);
+// A kernel writes the sum into `pinned` (pinned host memory, HostScalars::host)
+// rather than a copy: a copy to the host would queue behind the leaf words'
+// copy back that runs beside these kernels (bench/results/labels-gpu.md).
+uint32_t scanFlags(DeviceMemory& mem, uint64_t* pinned, const uint32_t* flags, uint32_t* index, uint32_t n);
 
 } // namespace cuda
 } // namespace hdt

@@ -293,14 +293,14 @@ MixedOnDevice compactMixedLeaves(Session& s, uint32_t leaves, uint32_t multi, co
   multiLeaves(st, leaves, claimCount.data(), multiIndex.data(), multiLeaf.data());
   DeviceBuffer<uint32_t> flag(s.memory, leaves), mixedIndex(s.memory, leaves);
   markMixed(st, leaves, claimCount.data(), leafLabel.data(), flag.data());
-  const uint32_t mixed = scanFlags(s.memory, flag.data(), mixedIndex.data(), leaves);
+  const uint32_t mixed = scanFlags(s.memory, s.scalars.host(), flag.data(), mixedIndex.data(), leaves);
   DeviceBuffer<uint32_t> paletteFlag(s.memory, leaves), wideFlag(s.memory, leaves);
   DeviceBuffer<uint32_t> paletteBlock(s.memory, leaves), wideBlock(s.memory, leaves);
   fill(s, paletteFlag, 0);
   fill(s, wideFlag, 0);
   markMixedForms(st, multi, multiLeaf.data(), leafLabel.data(), multiPalette.data(), paletteFlag.data(), wideFlag.data());
-  const uint32_t paletteLeaves = scanFlags(s.memory, paletteFlag.data(), paletteBlock.data(), leaves);
-  const uint32_t wideLeaves = scanFlags(s.memory, wideFlag.data(), wideBlock.data(), leaves);
+  const uint32_t paletteLeaves = scanFlags(s.memory, s.scalars.host(), paletteFlag.data(), paletteBlock.data(), leaves);
+  const uint32_t wideLeaves = scanFlags(s.memory, s.scalars.host(), wideFlag.data(), wideBlock.data(), leaves);
   MixedOnDevice out;
   out.palettes = DeviceBuffer<LeafPalette>(s.memory, mixed);
   gatherPalettes(st, multi, multiLeaf.data(), leafLabel.data(), mixedIndex.data(), multiPalette.data(),
@@ -338,6 +338,9 @@ private:
   Clock::time_point last_;
 };
 
+// Host threads the copy beside the labelling kernels leaves to others.
+constexpr int kCoresLeftBeside = 2;
+
 // A copy back on a stream and host thread of its own, queued after the work
 // on the session's stream so far: the leaf words, final before the labelling
 // kernels, go to the host while those run. wait() before the host reads the
@@ -351,7 +354,10 @@ public:
     done_ = std::async(std::launch::async, [this, dev = s.device, host, device] {
       HDT_CUDA_CHECK(cudaSetDevice(dev));
       const auto t0 = Clock::now();
-      copyToHost(side_.get(), host, device, bytes_);
+      // The copy's host threads leave cores to the threads that drive the
+      // device meanwhile (the build's, the element arrays' fill): the copy
+      // and the kernels beside it end sooner (bench/results/labels-gpu.md).
+      copyToHost(side_.get(), host, device, bytes_, {}, kCoresLeftBeside);
       return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
     });
   }
@@ -362,9 +368,11 @@ public:
   CopyBeside(const CopyBeside&) = delete;
   CopyBeside& operator=(const CopyBeside&) = delete;
   // Waits for the copy (rethrowing its error) and counts it as the session's.
-  void wait(Session& s) {
-    s.copyBackMs += done_.get();
+  double wait(Session& s) {
+    const double ms = done_.get();
+    s.copyBackMs += ms;
     s.copyBackBytes += bytes_;
+    return ms;
   }
 
 private:
@@ -401,6 +409,14 @@ Volume combineOnDevice(Session& s, UnionState& u, std::vector<PartOnDevice>& par
   const size_t warmBefore = warmPagesState().free;
   v.leafWords.resize(size_t(leaves) * W);
   const bool warmWords = warmPagesState().free + v.leafWords.size() * sizeof(uint32_t) <= warmBefore;
+  // The voxel ranks' array (the combination's largest) is made and filled
+  // before the copy starts: beside the copy, that fill (and the pool's growth
+  // for it) took several times as long on the device, and the copy slowed.
+  DeviceBuffer<uint32_t> flags(s.memory, leaves), multiIndex(s.memory, leaves);
+  markMulti(st, leaves, u.claimCount.data(), flags.data());
+  const uint32_t multi = scanFlags(s.memory, s.scalars.host(), flags.data(), multiIndex.data(), leaves);
+  DeviceBuffer<uint16_t> voxelRanks(s.memory, size_t(multi) * V);
+  fill(s, voxelRanks, 0xFF);
   CopyBeside words(s, v.leafWords.data(), u.acc.data(), v.leafWords.size()); // read-only from here on
   // The element arrays' zero fill (std::vector's resize) beside the kernels too.
   std::future<void> elementArrays = std::async(std::launch::async, [&v, n = u.start.back()] {
@@ -408,11 +424,6 @@ Volume combineOnDevice(Session& s, UnionState& u, std::vector<PartOnDevice>& par
     v.labels.elementLabels.resize(n);
   });
 
-  DeviceBuffer<uint32_t> flags(s.memory, leaves), multiIndex(s.memory, leaves);
-  markMulti(st, leaves, u.claimCount.data(), flags.data());
-  const uint32_t multi = scanFlags(s.memory, flags.data(), multiIndex.data(), leaves);
-  DeviceBuffer<uint16_t> voxelRanks(s.memory, size_t(multi) * V);
-  fill(s, voxelRanks, 0xFF);
   for (const PartOnDevice& p : parts)
     partVoxelRanks(st, p.words.data(), p.leaves, W, p.leafMap.data(), u.claimCount.data(), multiIndex.data(),
                    u.acc.data(), voxelRanks.data(), p.leafRank.data());
@@ -453,7 +464,7 @@ Volume combineOnDevice(Session& s, UnionState& u, std::vector<PartOnDevice>& par
   elementArrays.get();
   for (size_t k = 0; k <= h; ++k) download(s, v.elements.data() + u.start[k], levels[k].words.data(), levels[k].count);
   lap("elements down");
-  words.wait(s);
+  const double wordsMs = words.wait(s);
   lap("words down");
   download(s, v.labels.elementLabels.data(), elementLabels.data(), v.labels.elementLabels.size());
   LabelField& f = v.labels;
@@ -470,7 +481,8 @@ Volume combineOnDevice(Session& s, UnionState& u, std::vector<PartOnDevice>& par
   download(s, f.mixedBlock.data(), mixed.mixedBlock.data(), f.mixedBlock.size());
   s.clock.mark(kDownload);
   lap("labels down");
-  laps += warmWords ? " (leaf words in warm pages)" : " (leaf words in fresh pages)";
+  laps += warmWords ? " (leaf words in warm pages" : " (leaf words in fresh pages";
+  laps += ", " + std::to_string(int(wordsMs)) + " ms their copy)";
   return v;
 }
 
@@ -493,7 +505,7 @@ std::string notApplicable(const PreparedMesh& whole, const std::vector<PreparedM
 
 Volume buildLabelled(const PreparedMesh& whole, const std::vector<PreparedMesh>& parts,
                      const std::vector<Label>& partLabels, const LabelOptions& labels, const BuildOptions& options,
-                     const std::function<void()>& partsReady) {
+                     const std::function<void()>& partsReady, std::string& logLine, Clock::time_point& logged) {
   const auto wall0 = Clock::now();
   const GridSpec& g = whole.grid;
   const uint64_t cells = uint64_t(g.rootGrid) * g.rootGrid * g.rootGrid;
@@ -582,13 +594,14 @@ Volume buildLabelled(const PreparedMesh& whole, const std::vector<PreparedMesh>&
     const auto ms = [](Clock::time_point a, Clock::time_point b) {
       return std::to_string(int(std::chrono::duration<double, std::milli>(b - a).count()));
     };
-    options.log("CUDA labelled build: " + std::to_string(parts.size()) + " parts in " +
+    logLine = ("CUDA labelled build: " + std::to_string(parts.size()) + " parts in " +
                 std::to_string(builds.size()) + " part builds combined on the device: " +
                 ms(wall0, combine0) + " ms the whole mesh and the parts (" + ms(wall0, parts0) + " + " +
                 ms(parts0, combine0) + "), " + ms(combine0, finish0) + " ms the combination and the copy back (" +
                 std::to_string(s.copyBackBytes >> 20) + " MiB in " + std::to_string(int(s.copyBackMs)) + " ms), " +
                 ms(finish0, Clock::now()) + " ms the statistics; the combination's steps: " + laps);
   }
+  logged = Clock::now();
   return v;
 }
 
@@ -603,7 +616,12 @@ bool buildLabelledCuda(const PreparedMesh& whole, const std::vector<PreparedMesh
     return false;
   };
   try {
-    out = buildLabelled(whole, parts, partLabels, labels, options, partsReady);
+    std::string line;
+    Clock::time_point logged;
+    out = buildLabelled(whole, parts, partLabels, labels, options, partsReady, line, logged);
+    if (options.log)
+      options.log(line + "; " + std::to_string(int(std::chrono::duration<double, std::milli>(Clock::now() - logged).count())) +
+                  " ms the device's release");
     return true;
   } catch (const Mismatch& e) {
     return skip(e.what());

@@ -4,6 +4,7 @@
 #pragma once
 
 #include "hdt/builder.hpp"
+#include "hdt/device_pool.hpp" // setCudaPoolRetention
 
 #include <cstdint>
 #include <string>
@@ -31,10 +32,5 @@ struct CudaBuildReport {
 // be chunked.
 Volume buildCudaWithReport(const PreparedMesh& mesh, const BuildOptions& options, CudaBuildReport* report,
                            bool keepResult = true);
-
-// Device memory the driver's pool keeps after a build, for the next one
-// (default 2 GiB; beyond that it goes back to the driver). Benchmarks of
-// large builds raise it so that warm runs do not grow the pool again.
-void setCudaPoolRetention(uint64_t bytes);
 
 } // namespace hdt
