@@ -15,6 +15,7 @@
 #include <cmath>
 #include <numeric>
 
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_invoke.h>
 #include <tbb/parallel_sort.h>
@@ -699,12 +700,19 @@ struct LeafCrossing {
   int8_t sign;
 };
 
+// One leaf's crossings, in the pool of the thread that found them.
+struct LeafCrossingSpan {
+  const std::vector<LeafCrossing>* pool = nullptr;
+  size_t first = 0, count = 0;
+  const LeafCrossing* begin() const { return pool->data() + first; }
+  const LeafCrossing* end() const { return pool->data() + first + count; }
+};
+
 // A leaf in a block whose threshold holds: the surface plane kept, each
 // non-surface voxel inside iff its count N >= T, N walked down each row from
 // the count beyond the leaf (`exit`) and the row's crossings, with no count
 // array.
-void settleLeafByThreshold(uint32_t* words, int L, const int32_t* exit, const std::vector<LeafCrossing>& crossings,
-                           int T) {
+void settleLeafByThreshold(uint32_t* words, int L, const int32_t* exit, const LeafCrossingSpan& crossings, int T) {
   // step[row L + x]: the crossings counting from x down; all zero between
   // leaves (the entries set here are cleared at the end, not the whole array).
   thread_local std::vector<int32_t> step;
@@ -737,15 +745,19 @@ void classifyLeavesByCrossings(const WindingTree& tree, Volume& volume,
   const int L = volume.grid.leafSize;
   const size_t rows = size_t(L) * size_t(L), leaves = origins.size();
   std::vector<int32_t> exits(leaves * rows, 0); // the leaf's own row totals, then the counts beyond it
-  // Each leaf's crossings, kept for its counts below (one walk of the tree a leaf).
-  std::vector<std::vector<LeafCrossing>> crossings(leaves);
+  // Each leaf's crossings, kept for its counts below (one walk of the tree a
+  // leaf), appended to its thread's pool (one allocation a thread, not a leaf).
+  tbb::enumerable_thread_specific<std::vector<LeafCrossing>> pools;
+  std::vector<LeafCrossingSpan> crossings(leaves);
   tbb::parallel_for(size_t(0), leaves, [&](size_t leaf) {
     int32_t* total = exits.data() + leaf * rows;
-    std::vector<LeafCrossing>& own = crossings[leaf];
+    std::vector<LeafCrossing>& pool = pools.local();
+    const size_t first = pool.size();
     windingForEachLeafCrossing(t, origins[leaf].data(), L, [&](int row, int before, int sign) {
       total[row] += sign;
-      own.push_back({uint16_t(row), uint8_t(before), int8_t(sign)});
+      pool.push_back({uint16_t(row), uint8_t(before), int8_t(sign)});
     });
+    crossings[leaf] = LeafCrossingSpan{&pool, first, pool.size() - first};
   });
   // Lines of leaves (same y, z), each walked from its +x end.
   std::vector<uint32_t> order(leaves);
@@ -783,14 +795,12 @@ void classifyLeavesByCrossings(const WindingTree& tree, Volume& volume,
     int T = 0;
     if (coarse.find(origins[leaf], T)) {
       settleLeafByThreshold(words, L, exit, crossings[leaf], T);
-      std::vector<LeafCrossing>().swap(crossings[leaf]);
       return;
     }
     for (size_t r = 0; r < rows; ++r)
       for (int x = 0; x < L; ++x) wide[r * size_t(L) + size_t(x)] = exit[r];
     for (const LeafCrossing& c : crossings[leaf])
       for (int x = 0; x < c.before; ++x) wide[size_t(c.row) * size_t(L) + size_t(x)] += c.sign;
-    std::vector<LeafCrossing>().swap(crossings[leaf]);
     bool fits = true;
     for (size_t v = 0; v < n; ++v) {
       fits = fits && wide[v] >= INT16_MIN && wide[v] <= INT16_MAX;
