@@ -709,26 +709,36 @@ struct LeafCrossingSpan {
 };
 
 // A leaf in a block whose threshold holds: the surface plane kept, each
-// non-surface voxel inside iff its count N >= T, N walked down each row from
-// the count beyond the leaf (`exit`) and the row's crossings, with no count
-// array.
+// non-surface voxel inside iff its count N >= T. A row's count is the count
+// beyond the leaf (`exit`) up to its last crossing, so a row with no crossing
+// before its end is one bit; the others are walked down from `exit` with
+// their crossings. Whole words then (withInsidePlane), no count array.
 void settleLeafByThreshold(uint32_t* words, int L, const int32_t* exit, const LeafCrossingSpan& crossings, int T) {
   // step[row L + x]: the crossings counting from x down; all zero between
   // leaves (the entries set here are cleared at the end, not the whole array).
   thread_local std::vector<int32_t> step;
   if (step.size() < size_t(L) * size_t(L) * size_t(L)) step.assign(size_t(L) * size_t(L) * size_t(L), 0);
+  uint32_t rows[32 * 32];    // bit x: N >= T at voxel x of the row
+  uint32_t pending[32] = {}; // rows with a crossing before their end, not yet walked
+  const uint32_t all = L == 32 ? 0xFFFFFFFFu : (1u << L) - 1u;
+  for (int row = 0; row < L * L; ++row) rows[row] = exit[row] >= T ? all : 0u;
   for (const LeafCrossing& c : crossings)
-    if (c.before > 0) step[size_t(c.row) * size_t(L) + size_t(c.before - 1)] += c.sign;
-  for (uint32_t i = 0; i < leafWordCount(L); ++i) words[i] &= kSurfacePlaneBits;
-  const WindingLeafWords w{words, uint32_t(L)};
-  for (int row = 0; row < L * L; ++row) {
-    int32_t n = exit[row];
-    for (int x = L - 1; x >= 0; --x) {
-      const uint32_t v = uint32_t(row * L + x);
-      n += step[v];
-      if (n >= T && !w.surface(v)) w.setInside(v);
+    if (c.before > 0) {
+      step[size_t(c.row) * size_t(L) + size_t(c.before - 1)] += c.sign;
+      pending[c.row >> 5] |= 1u << (c.row & 31);
     }
+  for (const LeafCrossing& c : crossings) {
+    if (!((pending[c.row >> 5] >> (c.row & 31)) & 1u)) continue;
+    pending[c.row >> 5] &= ~(1u << (c.row & 31));
+    int32_t n = exit[c.row];
+    uint32_t mask = 0;
+    for (int x = L - 1; x >= 0; --x) {
+      n += step[size_t(c.row) * size_t(L) + size_t(x)];
+      if (n >= T) mask |= 1u << x;
+    }
+    rows[c.row] = mask;
   }
+  for (uint32_t i = 0; i < leafWordCount(L); ++i) words[i] = withInsidePlane(words[i], wordBitsFromRows(rows, L, int(i)));
   for (const LeafCrossing& c : crossings)
     if (c.before > 0) step[size_t(c.row) * size_t(L) + size_t(c.before - 1)] = 0;
 }
