@@ -4,6 +4,7 @@
 
 #include "hdt/build_steps.hpp"
 #include "hdt/error.hpp"
+#include "hdt/huge_pages.hpp"
 #include "hdt/mesh.hpp"
 #include "hdt/volume.hpp"
 #include "hdt/volume_walk.hpp"
@@ -659,6 +660,7 @@ uint64_t refineSplitElements(const WindingTree& tree, Volume& v, const std::vect
   const uint32_t wc = leafWordCount(L);
   LeafWordVector words;
   words.resize(leafSource.size() * wc);
+  adviseHugePages(words.data(), words.size() * sizeof(uint32_t)); // written once below: few page faults
   // Fresh leaves by the pass first (into their own array), the rest here.
   std::vector<uint32_t> freshWords;
   std::vector<uint8_t> freshDone(freshLeaves.size(), 0);
@@ -700,9 +702,11 @@ struct LeafCrossing {
   int8_t sign;
 };
 
-// One leaf's crossings, in the pool of the thread that found them.
+// One leaf's crossings, in the pool of the thread that found them (a vector
+// that grows to many MB: huge pages, fewer page faults).
+using LeafCrossingPool = std::vector<LeafCrossing, HugePageAllocator<LeafCrossing>>;
 struct LeafCrossingSpan {
-  const std::vector<LeafCrossing>* pool = nullptr;
+  const LeafCrossingPool* pool = nullptr;
   size_t first = 0, count = 0;
   const LeafCrossing* begin() const { return pool->data() + first; }
   const LeafCrossing* end() const { return pool->data() + first + count; }
@@ -754,14 +758,17 @@ void classifyLeavesByCrossings(const WindingTree& tree, Volume& volume,
   const WindingTreeView t = tree.view();
   const int L = volume.grid.leafSize;
   const size_t rows = size_t(L) * size_t(L), leaves = origins.size();
-  std::vector<int32_t> exits(leaves * rows, 0); // the leaf's own row totals, then the counts beyond it
+  // The leaf's own row totals, then the counts beyond it; zeroed leaf by leaf
+  // below (huge pages: one array of many MB written once).
+  std::vector<int32_t, HugePageScratchAllocator<int32_t>> exits(leaves * rows);
   // Each leaf's crossings, kept for its counts below (one walk of the tree a
   // leaf), appended to its thread's pool (one allocation a thread, not a leaf).
-  tbb::enumerable_thread_specific<std::vector<LeafCrossing>> pools;
+  tbb::enumerable_thread_specific<LeafCrossingPool> pools;
   std::vector<LeafCrossingSpan> crossings(leaves);
   tbb::parallel_for(size_t(0), leaves, [&](size_t leaf) {
     int32_t* total = exits.data() + leaf * rows;
-    std::vector<LeafCrossing>& pool = pools.local();
+    std::fill_n(total, rows, 0);
+    LeafCrossingPool& pool = pools.local();
     const size_t first = pool.size();
     windingForEachLeafCrossing(t, origins[leaf].data(), L, [&](int row, int before, int sign) {
       total[row] += sign;
