@@ -171,7 +171,11 @@ struct WindingStripRunning {
 };
 
 // Multiplies in one strip's factor |net| times; false when a sign is not
-// certain (the caller sums the edges one by one).
+// certain (the caller sums the edges one by one). Inlined into the edge loops
+// on the host too (the device inlines every HDT_HD function).
+#if defined(__GNUC__) && !defined(__CUDA_ARCH__)
+__attribute__((always_inline))
+#endif
 HDT_HD bool windingStripProductStep(WindingStripRunning& z, double det, double den, double d, double net) {
   const double modulus = fabs(det) > fabs(den) - d ? fabs(det) : fabs(den) - d; // <= |den + i det| exact
   const double eta = d / modulus;
