@@ -80,7 +80,9 @@ struct CpuRangeBuild::Impl {
 
     report(0.7, "classification");
     t = Clock::now();
-    if (!mesh_.surfaceOnly) {
+    // Under the winding number the parities would be discarded (finish()
+    // skips classify, applyInsideTest rewrites every inside plane).
+    if (!mesh_.surfaceOnly && mesh_.insideTest != InsideTest::WindingNumber) {
       for (int a = 0; a < axes_; ++a) {
         axisParity(a, &boundary_.axis[a]);
         report(0.7 + 0.1 * (a + 1) / axes_, "classification");

@@ -4,6 +4,7 @@
 
 #include "hdt/build_steps.hpp"
 #include "hdt/error.hpp"
+#include "hdt/huge_pages.hpp"
 #include "hdt/mesh.hpp"
 #include "hdt/volume.hpp"
 #include "hdt/volume_walk.hpp"
@@ -15,6 +16,7 @@
 #include <cmath>
 #include <numeric>
 
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_invoke.h>
 #include <tbb/parallel_sort.h>
@@ -658,6 +660,7 @@ uint64_t refineSplitElements(const WindingTree& tree, Volume& v, const std::vect
   const uint32_t wc = leafWordCount(L);
   LeafWordVector words;
   words.resize(leafSource.size() * wc);
+  adviseHugePages(words.data(), words.size() * sizeof(uint32_t)); // written once below: few page faults
   // Fresh leaves by the pass first (into their own array), the rest here.
   std::vector<uint32_t> freshWords;
   std::vector<uint8_t> freshDone(freshLeaves.size(), 0);
@@ -699,28 +702,47 @@ struct LeafCrossing {
   int8_t sign;
 };
 
+// One leaf's crossings, in the pool of the thread that found them (a vector
+// that grows to many MB: huge pages, fewer page faults).
+using LeafCrossingPool = std::vector<LeafCrossing, HugePageAllocator<LeafCrossing>>;
+struct LeafCrossingSpan {
+  const LeafCrossingPool* pool = nullptr;
+  size_t first = 0, count = 0;
+  const LeafCrossing* begin() const { return pool->data() + first; }
+  const LeafCrossing* end() const { return pool->data() + first + count; }
+};
+
 // A leaf in a block whose threshold holds: the surface plane kept, each
-// non-surface voxel inside iff its count N >= T, N walked down each row from
-// the count beyond the leaf (`exit`) and the row's crossings, with no count
-// array.
-void settleLeafByThreshold(uint32_t* words, int L, const int32_t* exit, const std::vector<LeafCrossing>& crossings,
-                           int T) {
+// non-surface voxel inside iff its count N >= T. A row's count is the count
+// beyond the leaf (`exit`) up to its last crossing, so a row with no crossing
+// before its end is one bit; the others are walked down from `exit` with
+// their crossings. Whole words then (withInsidePlane), no count array.
+void settleLeafByThreshold(uint32_t* words, int L, const int32_t* exit, const LeafCrossingSpan& crossings, int T) {
   // step[row L + x]: the crossings counting from x down; all zero between
   // leaves (the entries set here are cleared at the end, not the whole array).
   thread_local std::vector<int32_t> step;
   if (step.size() < size_t(L) * size_t(L) * size_t(L)) step.assign(size_t(L) * size_t(L) * size_t(L), 0);
+  uint32_t rows[32 * 32];    // bit x: N >= T at voxel x of the row
+  uint32_t pending[32] = {}; // rows with a crossing before their end, not yet walked
+  const uint32_t all = L == 32 ? 0xFFFFFFFFu : (1u << L) - 1u;
+  for (int row = 0; row < L * L; ++row) rows[row] = exit[row] >= T ? all : 0u;
   for (const LeafCrossing& c : crossings)
-    if (c.before > 0) step[size_t(c.row) * size_t(L) + size_t(c.before - 1)] += c.sign;
-  for (uint32_t i = 0; i < leafWordCount(L); ++i) words[i] &= kSurfacePlaneBits;
-  const WindingLeafWords w{words, uint32_t(L)};
-  for (int row = 0; row < L * L; ++row) {
-    int32_t n = exit[row];
-    for (int x = L - 1; x >= 0; --x) {
-      const uint32_t v = uint32_t(row * L + x);
-      n += step[v];
-      if (n >= T && !w.surface(v)) w.setInside(v);
+    if (c.before > 0) {
+      step[size_t(c.row) * size_t(L) + size_t(c.before - 1)] += c.sign;
+      pending[c.row >> 5] |= 1u << (c.row & 31);
     }
+  for (const LeafCrossing& c : crossings) {
+    if (!((pending[c.row >> 5] >> (c.row & 31)) & 1u)) continue;
+    pending[c.row >> 5] &= ~(1u << (c.row & 31));
+    int32_t n = exit[c.row];
+    uint32_t mask = 0;
+    for (int x = L - 1; x >= 0; --x) {
+      n += step[size_t(c.row) * size_t(L) + size_t(x)];
+      if (n >= T) mask |= 1u << x;
+    }
+    rows[c.row] = mask;
   }
+  for (uint32_t i = 0; i < leafWordCount(L); ++i) words[i] = withInsidePlane(words[i], wordBitsFromRows(rows, L, int(i)));
   for (const LeafCrossing& c : crossings)
     if (c.before > 0) step[size_t(c.row) * size_t(L) + size_t(c.before - 1)] = 0;
 }
@@ -736,16 +758,23 @@ void classifyLeavesByCrossings(const WindingTree& tree, Volume& volume,
   const WindingTreeView t = tree.view();
   const int L = volume.grid.leafSize;
   const size_t rows = size_t(L) * size_t(L), leaves = origins.size();
-  std::vector<int32_t> exits(leaves * rows, 0); // the leaf's own row totals, then the counts beyond it
-  // Each leaf's crossings, kept for its counts below (one walk of the tree a leaf).
-  std::vector<std::vector<LeafCrossing>> crossings(leaves);
+  // The leaf's own row totals, then the counts beyond it; zeroed leaf by leaf
+  // below (huge pages: one array of many MB written once).
+  std::vector<int32_t, HugePageScratchAllocator<int32_t>> exits(leaves * rows);
+  // Each leaf's crossings, kept for its counts below (one walk of the tree a
+  // leaf), appended to its thread's pool (one allocation a thread, not a leaf).
+  tbb::enumerable_thread_specific<LeafCrossingPool> pools;
+  std::vector<LeafCrossingSpan> crossings(leaves);
   tbb::parallel_for(size_t(0), leaves, [&](size_t leaf) {
     int32_t* total = exits.data() + leaf * rows;
-    std::vector<LeafCrossing>& own = crossings[leaf];
+    std::fill_n(total, rows, 0);
+    LeafCrossingPool& pool = pools.local();
+    const size_t first = pool.size();
     windingForEachLeafCrossing(t, origins[leaf].data(), L, [&](int row, int before, int sign) {
       total[row] += sign;
-      own.push_back({uint16_t(row), uint8_t(before), int8_t(sign)});
+      pool.push_back({uint16_t(row), uint8_t(before), int8_t(sign)});
     });
+    crossings[leaf] = LeafCrossingSpan{&pool, first, pool.size() - first};
   });
   // Lines of leaves (same y, z), each walked from its +x end.
   std::vector<uint32_t> order(leaves);
@@ -783,14 +812,12 @@ void classifyLeavesByCrossings(const WindingTree& tree, Volume& volume,
     int T = 0;
     if (coarse.find(origins[leaf], T)) {
       settleLeafByThreshold(words, L, exit, crossings[leaf], T);
-      std::vector<LeafCrossing>().swap(crossings[leaf]);
       return;
     }
     for (size_t r = 0; r < rows; ++r)
       for (int x = 0; x < L; ++x) wide[r * size_t(L) + size_t(x)] = exit[r];
     for (const LeafCrossing& c : crossings[leaf])
       for (int x = 0; x < c.before; ++x) wide[size_t(c.row) * size_t(L) + size_t(x)] += c.sign;
-    std::vector<LeafCrossing>().swap(crossings[leaf]);
     bool fits = true;
     for (size_t v = 0; v < n; ++v) {
       fits = fits && wide[v] >= INT16_MIN && wide[v] <= INT16_MAX;

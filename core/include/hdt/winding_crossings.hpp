@@ -103,23 +103,49 @@ HDT_HD bool windingRayCrossings(const WindingTreeView& t, const int64_t* P, int&
 // with |a| - a_x = |A|^2 / (|a| + a_x) when a_x > 0 (no cancellation). Its
 // rounding: ra and rb within 5 ulps each (squares, sums, root, quotient),
 // their product and the last sum: below 16 ulps of the terms.
-HDT_HD int windingStripPair(const WindingEdge& e, const double* p, double& det, double& den, double& d) {
-  const double ax = e.a[0] - p[0], ay = e.a[1] - p[1], az = e.a[2] - p[2];
-  const double bx = e.b[0] - p[0], by = e.b[1] - p[1], bz = e.b[2] - p[2];
+// What windingStripPair needs of p: the corners relative to p, the squares
+// of their yz parts and their lengths (also what a segment's field takes:
+// winding_far.hpp).
+struct WindingStripGeometry {
+  double ax, ay, az, bx, by, bz;
+  double a2, b2; // ay^2 + az^2, by^2 + bz^2
+  double la, lb; // |a - p|, |b - p|
+};
+
+HDT_HD WindingStripGeometry windingStripGeometry(const WindingEdge& e, const double* p) {
+  WindingStripGeometry g;
+  g.ax = e.a[0] - p[0];
+  g.ay = e.a[1] - p[1];
+  g.az = e.a[2] - p[2];
+  g.bx = e.b[0] - p[0];
+  g.by = e.b[1] - p[1];
+  g.bz = e.b[2] - p[2];
+  g.a2 = g.ay * g.ay + g.az * g.az;
+  g.b2 = g.by * g.by + g.bz * g.bz;
+  g.la = sqrt(g.ax * g.ax + g.a2);
+  g.lb = sqrt(g.bx * g.bx + g.b2);
+  return g;
+}
+
+// windingStripPair from p's geometry.
+HDT_HD int windingStripPairOf(const WindingEdge& e, const WindingStripGeometry& g, double& det, double& den,
+                              double& d) {
   det = 0;
   den = 1;
   d = 0;
-  if (e.a[1] == e.b[1] && e.a[2] == e.b[2]) return (ay == 0 && az == 0) ? -1 : 1;
-  det = az * by - ay * bz;
+  if (e.a[1] == e.b[1] && e.a[2] == e.b[2]) return (g.ay == 0 && g.az == 0) ? -1 : 1;
+  det = g.az * g.by - g.ay * g.bz;
   if (det == 0) return -1;
-  const double a2 = ay * ay + az * az, b2 = by * by + bz * bz;
-  const double la = sqrt(ax * ax + a2), lb = sqrt(bx * bx + b2);
-  const double ra = ax > 0 ? a2 / (la + ax) : la - ax;
-  const double rb = bx > 0 ? b2 / (lb + bx) : lb - bx;
-  const double ab = ay * by + az * bz;
+  const double ra = g.ax > 0 ? g.a2 / (g.la + g.ax) : g.la - g.ax;
+  const double rb = g.bx > 0 ? g.b2 / (g.lb + g.bx) : g.lb - g.bx;
+  const double ab = g.ay * g.by + g.az * g.bz;
   den = ra * rb + ab;
-  d = 16.0 * kWindingUlp * (ra * rb + fabs(ay * by) + fabs(az * bz));
+  d = 16.0 * kWindingUlp * (ra * rb + fabs(g.ay * g.by) + fabs(g.az * g.bz));
   return 0;
+}
+
+HDT_HD int windingStripPair(const WindingEdge& e, const double* p, double& det, double& den, double& d) {
+  return windingStripPairOf(e, windingStripGeometry(e, p), det, den, d);
 }
 
 // The strip's solid angle and a bound on its rounding; false when p lies in
@@ -135,6 +161,54 @@ HDT_HD bool windingStripAngle(const WindingEdge& e, const double* p, double& ang
   const double gap = fabs(den) - d > 0 ? fabs(den) - d : 0.0;
   error = 2.0 * d * fabs(det) / (gap * gap + det * det) * (1 + 1e-6) + 1e-14;
   return true;
+}
+
+// The running product of windingStripProductOf (below), one factor (a
+// strip's pair from windingStripPair, kind 0) at a time.
+struct WindingStripRunning {
+  double zr = 1, zi = 0, rel = 0;
+  int turns = 0;
+};
+
+// Multiplies in one strip's factor |net| times; false when a sign is not
+// certain (the caller sums the edges one by one). Inlined into the edge loops
+// on the host too (the device inlines every HDT_HD function).
+#if defined(__GNUC__) && !defined(__CUDA_ARCH__)
+__attribute__((always_inline))
+#endif
+HDT_HD bool windingStripProductStep(WindingStripRunning& z, double det, double den, double d, double net) {
+  const double modulus = fabs(det) > fabs(den) - d ? fabs(det) : fabs(den) - d; // <= |den + i det| exact
+  const double eta = d / modulus;
+  if (!(eta < 1e-6)) return false;
+  const int m = int(net);
+  const double wi = m > 0 ? det : -det;
+  for (int r = 0; r < (m > 0 ? m : -m); ++r) {
+    const bool wasPositive = z.zi > 0, wasNegative = z.zi < 0;
+    const double nr = z.zr * den - z.zi * wi, ni = z.zr * wi + z.zi * den;
+    z.zr = nr;
+    z.zi = ni;
+    z.rel = z.rel + eta + 3.5e-16;
+    const double size = fabs(z.zr) + fabs(z.zi);
+    if (!(fabs(z.zi) > 1.01 * z.rel * size) || !(z.rel < 1e-6)) return false;
+    if (wi > 0 && wasPositive && z.zi < 0) ++z.turns;
+    if (wi < 0 && wasNegative && z.zi > 0) --z.turns;
+    if (size > 0x1p200) {
+      z.zr = z.zr * 0x1p-200;
+      z.zi = z.zi * 0x1p-200;
+    } else if (size < 0x1p-200) {
+      z.zr = z.zr * 0x1p200;
+      z.zi = z.zi * 0x1p200;
+    }
+  }
+  return true;
+}
+
+// K and its rounding bound from the finished product.
+HDT_HD void windingStripProductFinish(const WindingStripRunning& z, double& K, double& error) {
+  const double angle = windingAtan2(z.zi, z.zr);
+  K = 2.0 * (angle + 2.0 * kWindingPi * double(z.turns));
+  error = 2.0 * (1.01 * z.rel + 1e-15 * (1.0 + fabs(angle)) + 1e-15 * double(z.turns > 0 ? z.turns : -z.turns)) +
+          4.0 * kWindingUlp * fabs(K);
 }
 
 // K at p with one atan2 instead of one per edge: K / 2 is the argument of
@@ -154,42 +228,16 @@ HDT_HD bool windingStripAngle(const WindingEdge& e, const double* p, double& ang
 // part of the boundary chain); windingStripProduct below takes them all.
 template <class EdgeAt>
 HDT_HD int windingStripProductOf(uint32_t count, EdgeAt&& edgeAt, const double* p, double& K, double& error) {
-  double zr = 1, zi = 0, rel = 0;
-  int turns = 0;
+  WindingStripRunning z;
   for (uint32_t i = 0; i < count; ++i) {
     const WindingEdge& e = edgeAt(i);
     double det, den, d;
     const int kind = windingStripPair(e, p, det, den, d);
     if (kind < 0) return -1;
     if (kind > 0) continue;
-    const double modulus = fabs(det) > fabs(den) - d ? fabs(det) : fabs(den) - d; // <= |den + i det| exact
-    const double eta = d / modulus;
-    if (!(eta < 1e-6)) return 1;
-    const int m = int(e.net);
-    const double wi = m > 0 ? det : -det;
-    for (int r = 0; r < (m > 0 ? m : -m); ++r) {
-      const bool wasPositive = zi > 0, wasNegative = zi < 0;
-      const double nr = zr * den - zi * wi, ni = zr * wi + zi * den;
-      zr = nr;
-      zi = ni;
-      rel = rel + eta + 3.5e-16;
-      const double size = fabs(zr) + fabs(zi);
-      if (!(fabs(zi) > 1.01 * rel * size) || !(rel < 1e-6)) return 1;
-      if (wi > 0 && wasPositive && zi < 0) ++turns;
-      if (wi < 0 && wasNegative && zi > 0) --turns;
-      if (size > 0x1p200) {
-        zr = zr * 0x1p-200;
-        zi = zi * 0x1p-200;
-      } else if (size < 0x1p-200) {
-        zr = zr * 0x1p200;
-        zi = zi * 0x1p200;
-      }
-    }
+    if (!windingStripProductStep(z, det, den, d, e.net)) return 1;
   }
-  const double angle = windingAtan2(zi, zr);
-  K = 2.0 * (angle + 2.0 * kWindingPi * double(turns));
-  error = 2.0 * (1.01 * rel + 1e-15 * (1.0 + fabs(angle)) + 1e-15 * double(turns > 0 ? turns : -turns)) +
-          4.0 * kWindingUlp * fabs(K);
+  windingStripProductFinish(z, K, error);
   return 0;
 }
 

@@ -26,30 +26,27 @@ constexpr double kWindingFieldSign = 1.0;
 // still pays |g| times its own reach for the linear term's spread).
 constexpr int kWindingLinearAnchorBox = 4;
 
-// coef times the field at p of the segment a -> b (unit current, no 1 / 4 pi)
-// added to f; err grows by a bound on its rounding. p off the segment.
-// (d x ra) is exact for lattice coordinates (products of at most 26-bit
-// numbers), the rest a few roundings each, bounded generously.
-HDT_HD void windingAddSegmentField(const double* a, const double* b, double length, const double* p, double coef,
-                                   double* f, double& err) {
-  double d[3], ra[3], rb[3];
-  for (int k = 0; k < 3; ++k) {
-    d[k] = b[k] - a[k];
-    ra[k] = p[k] - a[k];
-    rb[k] = p[k] - b[k];
-  }
+// coef times the field at p of the edge e (the segment a -> b, unit
+// current, no 1 / 4 pi) added to f; err grows by a bound on its rounding. p
+// off the segment; g its geometry (windingStripGeometry: a - p, b - p and
+// their lengths, which the strip's pair at p shares). (d x ra) is exact for
+// lattice coordinates (products of at most 26-bit numbers), the rest a few
+// roundings each, bounded generously.
+HDT_HD void windingAddSegmentField(const WindingEdge& e, const WindingStripGeometry& g, double coef, double* f,
+                                   double& err) {
+  double d[3];
+  for (int k = 0; k < 3; ++k) d[k] = e.b[k] - e.a[k];
+  const double ra[3] = {-g.ax, -g.ay, -g.az}, rb[3] = {-g.bx, -g.by, -g.bz}; // p - a, p - b (exact)
   const double cx = d[1] * ra[2] - d[2] * ra[1], cy = d[2] * ra[0] - d[0] * ra[2], cz = d[0] * ra[1] - d[1] * ra[0];
   const double c2 = cx * cx + cy * cy + cz * cz;
   if (c2 == 0) return; // p on the segment's line, off the segment: no field
-  const double la = sqrt(ra[0] * ra[0] + ra[1] * ra[1] + ra[2] * ra[2]);
-  const double lb = sqrt(rb[0] * rb[0] + rb[1] * rb[1] + rb[2] * rb[2]);
-  const double fa = (ra[0] * d[0] + ra[1] * d[1] + ra[2] * d[2]) / la;
-  const double fb = (rb[0] * d[0] + rb[1] * d[1] + rb[2] * d[2]) / lb;
+  const double fa = (ra[0] * d[0] + ra[1] * d[1] + ra[2] * d[2]) / g.la;
+  const double fb = (rb[0] * d[0] + rb[1] * d[1] + rb[2] * d[2]) / g.lb;
   const double s = coef * (fa - fb) / c2;
   f[0] = f[0] + s * cx;
   f[1] = f[1] + s * cy;
   f[2] = f[2] + s * cz;
-  err = err + fabs(coef) * 64.0 * kWindingUlp * (length + fabs(fa - fb)) / sqrt(c2);
+  err = err + fabs(coef) * 64.0 * kWindingUlp * (e.length + fabs(fa - fb)) / sqrt(c2);
 }
 
 // coef times the field at p of the ray from v toward -x (traversed from v
@@ -122,10 +119,20 @@ HDT_HD bool windingFarExpansion(const WindingTreeView& t, const WindingLeafSplit
   }
   const double* endCoef = f.endCoef;
   double H = f.edgeHessian, gErr = 0;
+  // K_far(c) as windingPartStripSum takes it (one running product), in the
+  // same pass as the far edges' field: the two share c's geometry.
+  WindingStripRunning z;
+  int strips = 0; // 0 the product holds, 1 it cannot count its turns, -1 c lies in a strip's plane
   windingForEachFarEdge(t, split, [&](const WindingEdge& e) {
-    windingAddSegmentField(e.a, e.b, e.length, x.c, e.net, x.g, gErr);
-    return true;
+    const WindingStripGeometry geometry = windingStripGeometry(e, x.c);
+    windingAddSegmentField(e, geometry, e.net, x.g, gErr);
+    double det, den, d;
+    const int kind = strips == 0 ? windingStripPairOf(e, geometry, det, den, d) : 1;
+    if (kind < 0) strips = -1;
+    if (kind == 0 && !windingStripProductStep(z, det, den, d, e.net)) strips = 1;
+    return strips >= 0;
   });
+  if (strips < 0) return false;
   for (int j = 0; j < split.endCount; ++j) {
     if (endCoef[j] == 0) continue;
     const double d = windingRayDistance(split.end[j], lo, hi);
@@ -137,7 +144,10 @@ HDT_HD bool windingFarExpansion(const WindingTreeView& t, const WindingLeafSplit
   x.gNorm = sqrt(x.g[0] * x.g[0] + x.g[1] * x.g[1] + x.g[2] * x.g[2]) * (1 + 1e-12);
   x.gError = gErr * (1 + 1e-9) + 1e-300;
   x.hessian = H * (1 + 1e-9);
-  return windingPartStripSum(t, split, false, x.c, x.K, x.error);
+  if (strips == 1) return windingPartStripSum(t, split, false, x.c, x.K, x.error); // edge by edge
+  windingStripProductFinish(z, x.K, x.error);
+  x.error = x.error + 4.0 * kWindingUlp * fabs(x.K); // as windingStripSumOf
+  return true;
 }
 
 // K_far over the box [lo, hi] of the anchor: its value at the box centre from

@@ -443,17 +443,25 @@ HDT_HD void windingAnchoredBoxStep(const WindingTreeView& t, const int16_t* N, c
   if (b.single()) {
     const uint32_t v = w.index(b.lo[0], b.lo[1], b.lo[2]);
     double nearK = 0, nearError = 0;
-    int verdict = kWindingUnsure;
-    if (windingPartStripSum(t, split, true, lo, nearK, nearError)) {
-      const double whole = 4.0 * kWindingPi * double(N[v]);
-      const double K = nearK + farK;
+    const bool near = windingPartStripSum(t, split, true, lo, nearK, nearError);
+    const double whole = 4.0 * kWindingPi * double(N[v]);
+    // K_near + K_far at the voxel centre, K_far within farError + farSpread.
+    auto verdictWith = [&](double farValue, double farBound) {
+      const double K = nearK + farValue;
       const WindingSum s{whole + K,
-                         nearError + farError + farSpread +
-                             4.0 * kWindingUlp * (fabs(whole) + fabs(nearK) + fabs(farK) + fabs(K)),
+                         nearError + farBound + 4.0 * kWindingUlp * (fabs(whole) + fabs(nearK) + fabs(farValue) + fabs(K)),
                          true};
-      verdict = windingVerdict(s, t.triangleCount);
-    }
-    const bool inside = verdict != kWindingUnsure ? verdict == kWindingInside : windingInsideWithCount(t, lo, int(N[v]));
+      return windingVerdict(s, t.triangleCount);
+    };
+    int verdict = near ? verdictWith(farK, farError + farSpread) : kWindingUnsure;
+    // Unsure by the far part's bound: K_far summed at the centre itself (the
+    // near part is known); where that cannot say either (w within the sums'
+    // rounding of 1/2, or the centre in a strip's plane, where the sum over
+    // every edge would fail too), the point decision.
+    double exactFar = 0, exactFarError = 0;
+    if (verdict == kWindingUnsure && near && windingPartStripSum(t, split, false, lo, exactFar, exactFarError))
+      verdict = verdictWith(exactFar, exactFarError);
+    const bool inside = verdict != kWindingUnsure ? verdict == kWindingInside : windingInsideAt(t, lo[0], lo[1], lo[2]);
     if (inside) w.setInside(v);
     return;
   }
