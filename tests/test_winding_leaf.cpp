@@ -291,6 +291,28 @@ TEST(WindingLeaf, FlatSheet) {
   EXPECT_LT(c.ties, 64u);
 }
 
+// The flat sheet above an open dome whose 96 rim edges lie far from the
+// sheet's leaves: those leaves take the near / far split, and their voxels,
+// w within hundredths of 1/2, are where the far part's bound is too coarse
+// and a single voxel takes K_far summed at its centre. Every voxel judged.
+// The dome either way round: its w beside the sheet is a little below or a
+// little above 0, so voxels lie on both sides of 1/2 there.
+TEST(WindingLeaf, FlatSheetAboveFarRims) {
+  for (const bool flipped : {false, true}) {
+    TriangleMesh dome = uvHemisphere(6, 96, 0.5, {0.0, 0.05, -0.9});
+    if (flipped) flipOrientation(dome);
+    TriangleMesh m = flatSquare();
+    append(m, dome);
+    const char* what = flipped ? "dome inward" : "dome outward";
+    const LeafCheck c = checkLeaves(m, 64, 8);
+    EXPECT_EQ(c.wrong, 0u) << what;
+    EXPECT_GT(c.inside, 100u) << what;
+    EXPECT_GT(c.outside, 100u) << what;
+    EXPECT_LT(c.ties, 64u) << what;
+    EXPECT_EQ(checkLeaves(m, 64, 8, 1, true).wrong, 0u) << what;
+  }
+}
+
 // Two nested outward shells: w = 2 inside the inner one (N = 2 there, the
 // threshold still 1), 1 between; with the inner one inward, a cavity (w = 0).
 TEST(WindingLeaf, NestedShellsBothWays) {
