@@ -56,14 +56,6 @@ WindingTriangle windingTriangle(const LatticeTriangle& t) {
   return w;
 }
 
-void halfCross(const WindingTriangle& w, double out[3]) {
-  const double ex = w.v[3] - w.v[0], ey = w.v[4] - w.v[1], ez = w.v[5] - w.v[2];
-  const double fx = w.v[6] - w.v[0], fy = w.v[7] - w.v[1], fz = w.v[8] - w.v[2];
-  out[0] = 0.5 * (ey * fz - ez * fy);
-  out[1] = 0.5 * (ez * fx - ex * fz);
-  out[2] = 0.5 * (ex * fy - ey * fx);
-}
-
 // Nodes below a node of `count` triangles, with those below count + 1: the
 // median splits make a subtree's layout a function of its count alone.
 std::pair<uint32_t, uint32_t> nodesBelowPair(uint32_t count) {
@@ -80,6 +72,18 @@ std::pair<uint32_t, uint32_t> nodesBelowPair(uint32_t count) {
 
 uint32_t nodesBelow(uint32_t count) { return nodesBelowPair(count).first; }
 
+// What a node's sums read of one triangle, packed: the items of a node are
+// contiguous (partitioned with the triangles they describe), so a node's
+// loops stream through memory instead of gathering 240-byte shapes.
+struct TreeItem {
+  std::array<int64_t, 3> key; // 3 x centroid, exact
+  double lo[3], hi[3];
+  double halfCross[3]; // as windingTriangle computes them
+  double centroid[3];
+  double area;
+  uint32_t triangle; // input index
+};
+
 // Fills the tree top-down: a node's children sit at the next free pair of
 // slots and its first child's subtree before its second's (pre-order), as a
 // serial recursion would place them; subtrees of many triangles are filled
@@ -87,9 +91,7 @@ uint32_t nodesBelow(uint32_t count) { return nodesBelowPair(count).first; }
 // triangles in order, so the tree is the same whatever the thread count.
 struct TreeBuilder {
   static constexpr uint32_t kParallelTriangles = 4096;
-  const WindingTree::PerTriangle<WindingTriangle>& shapes; // windingTriangle of each input triangle
-  std::vector<uint32_t> order;                              // triangle indices, partitioned in place
-  WindingTree::PerTriangle<std::array<int64_t, 3>> key;     // 3 x centroid, exact
+  std::vector<TreeItem> items; // partitioned in place
   WindingTree& tree;
 
   void fill(uint32_t node, uint32_t first, uint32_t count, uint32_t freeSlot) {
@@ -99,19 +101,17 @@ struct TreeBuilder {
       n.hi[a] = -INFINITY;
     }
     int64_t klo[3] = {INT64_MAX, INT64_MAX, INT64_MAX}, khi[3] = {INT64_MIN, INT64_MIN, INT64_MIN};
-    for (uint32_t i = first; i < first + count; ++i) {
-      const uint32_t t = order[i];
-      const WindingTriangle& w = shapes[t];
-      double hc[3];
-      halfCross(w, hc);
+    const TreeItem* const begin = items.data() + first;
+    const TreeItem* const end = begin + count;
+    for (const TreeItem* it = begin; it != end; ++it) {
       for (int a = 0; a < 3; ++a) {
-        n.lo[a] = std::min(n.lo[a], w.lo[a]);
-        n.hi[a] = std::max(n.hi[a], w.hi[a]);
-        n.dipole[a] += hc[a];
-        klo[a] = std::min(klo[a], key[t][size_t(a)]);
-        khi[a] = std::max(khi[a], key[t][size_t(a)]);
+        n.lo[a] = std::min(n.lo[a], it->lo[a]);
+        n.hi[a] = std::max(n.hi[a], it->hi[a]);
+        n.dipole[a] += it->halfCross[a];
+        klo[a] = std::min(klo[a], it->key[size_t(a)]);
+        khi[a] = std::max(khi[a], it->key[size_t(a)]);
       }
-      n.area += w.area;
+      n.area += it->area;
     }
     double r2 = 0;
     for (int a = 0; a < 3; ++a) {
@@ -120,17 +120,14 @@ struct TreeBuilder {
       r2 += h * h;
     }
     // The quadrupole moment: integral of n (x - centre)^T = area n (centroid - centre)^T.
-    for (uint32_t i = first; i < first + count; ++i) {
-      const WindingTriangle& w = shapes[order[i]];
-      double hc[3];
-      halfCross(w, hc);
+    for (const TreeItem* it = begin; it != end; ++it)
       for (int r = 0; r < 3; ++r)
-        for (int c = 0; c < 3; ++c)
-          n.quad[3 * r + c] += hc[r] * ((w.v[c] + w.v[3 + c] + w.v[6 + c]) / 3.0 - n.centre[c]);
-    }
+        for (int c = 0; c < 3; ++c) n.quad[3 * r + c] += it->halfCross[r] * (it->centroid[c] - n.centre[c]);
     n.radius = std::sqrt(r2) * (1 + 1e-12); // covers the rounding of the half diagonal
+    const auto at = [this](uint32_t i) { return items.begin() + std::ptrdiff_t(i); };
     if (count <= kLeafTriangles) {
-      std::sort(order.begin() + first, order.begin() + first + count);
+      std::sort(at(first), at(first + count),
+                [](const TreeItem& x, const TreeItem& y) { return x.triangle < y.triangle; });
       n.first = first;
       n.count = count;
       tree.nodes[node] = n;
@@ -140,11 +137,10 @@ struct TreeBuilder {
     for (int a = 1; a < 3; ++a)
       if (khi[a] - klo[a] > khi[axis] - klo[axis]) axis = a;
     const uint32_t half = count / 2;
-    std::nth_element(order.begin() + first, order.begin() + first + half, order.begin() + first + count,
-                     [&](uint32_t x, uint32_t y) {
-                       const int64_t kx = key[x][size_t(axis)], ky = key[y][size_t(axis)];
-                       return kx != ky ? kx < ky : x < y;
-                     });
+    std::nth_element(at(first), at(first + half), at(first + count), [axis](const TreeItem& x, const TreeItem& y) {
+      const int64_t kx = x.key[size_t(axis)], ky = y.key[size_t(axis)];
+      return kx != ky ? kx < ky : x.triangle < y.triangle;
+    });
     const uint32_t child = freeSlot;
     n.first = child;
     n.count = 0;
@@ -167,22 +163,29 @@ WindingTree buildWindingTree(const LatticeTriangles& triangles) {
   WindingTree tree;
   if (triangles.empty()) return tree;
   const size_t n = triangles.size();
-  WindingTree::PerTriangle<WindingTriangle> shapes(n);
-  WindingTree::PerTriangle<std::array<int64_t, 3>> key(n);
+  TreeBuilder b{std::vector<TreeItem>(n), tree};
   tbb::parallel_for(size_t(0), n, [&](size_t t) {
-    shapes[t] = windingTriangle(triangles[t]);
-    for (int a = 0; a < 3; ++a)
-      key[t][size_t(a)] = int64_t(triangles[t].v[0][a]) + triangles[t].v[1][a] + triangles[t].v[2][a];
+    const WindingTriangle w = windingTriangle(triangles[t]);
+    TreeItem& it = b.items[t];
+    for (int a = 0; a < 3; ++a) {
+      it.key[size_t(a)] = int64_t(triangles[t].v[0][a]) + triangles[t].v[1][a] + triangles[t].v[2][a];
+      it.lo[a] = w.lo[a];
+      it.hi[a] = w.hi[a];
+      it.halfCross[a] = w.halfCross[a];
+      it.centroid[a] = w.centroid[a];
+    }
+    it.area = w.area;
+    it.triangle = uint32_t(t);
   });
-  TreeBuilder b{shapes, std::vector<uint32_t>(n), std::move(key), tree};
-  std::iota(b.order.begin(), b.order.end(), 0u);
   tree.nodes.resize(1 + size_t(nodesBelow(uint32_t(n))));
   b.fill(0, 0, uint32_t(n), 1);
   tree.triangles.resize(n);
   tree.lattice.resize(n);
+  // Each shape computed again in tree order rather than kept from above: an
+  // array of them in input order would only be copied, its pages faulted in.
   tbb::parallel_for(size_t(0), n, [&](size_t i) {
-    tree.triangles[i] = shapes[b.order[i]];
-    tree.lattice[i] = triangles[b.order[i]];
+    tree.triangles[i] = windingTriangle(triangles[b.items[i].triangle]);
+    tree.lattice[i] = triangles[b.items[i].triangle];
   });
   buildWindingEdges(triangles, tree);
   return tree;
@@ -206,17 +209,25 @@ void buildWindingEdges(const LatticeTriangles& triangles, WindingTree& tree) {
     Corner lo, hi; // the corners in lexicographic order
     int sign;      // +1: the triangle runs lo -> hi
   };
-  std::vector<Directed> all;
-  all.reserve(3 * triangles.size());
-  for (const LatticeTriangle& t : triangles) {
+  // The corners' lexicographic order, element by element (std::array's
+  // operators compare through memcmp calls, most of the sort's time).
+  const auto cornerLess = [](const Corner& x, const Corner& y) {
+    return x[0] != y[0] ? x[0] < y[0] : x[1] != y[1] ? x[1] < y[1] : x[2] < y[2];
+  };
+  const auto sameCorner = [](const Corner& x, const Corner& y) { return x[0] == y[0] && x[1] == y[1] && x[2] == y[2]; };
+  const auto sameEdge = [&](const Directed& x, const Directed& y) { return sameCorner(x.lo, y.lo) && sameCorner(x.hi, y.hi); };
+  std::vector<Directed> all(3 * triangles.size());
+  tbb::parallel_for(size_t(0), triangles.size(), [&](size_t i) {
+    const LatticeTriangle& t = triangles[i];
     for (int j = 0; j < 3; ++j) {
       const Corner from{t.v[j][0], t.v[j][1], t.v[j][2]};
       const Corner to{t.v[(j + 1) % 3][0], t.v[(j + 1) % 3][1], t.v[(j + 1) % 3][2]};
-      all.push_back(from < to ? Directed{from, to, 1} : Directed{to, from, -1});
+      all[3 * i + size_t(j)] = cornerLess(from, to) ? Directed{from, to, 1} : Directed{to, from, -1};
     }
-  }
-  tbb::parallel_sort(all.begin(), all.end(),
-                     [](const Directed& x, const Directed& y) { return x.lo != y.lo ? x.lo < y.lo : x.hi < y.hi; });
+  });
+  tbb::parallel_sort(all.begin(), all.end(), [&](const Directed& x, const Directed& y) {
+    return !sameCorner(x.lo, y.lo) ? cornerLess(x.lo, y.lo) : cornerLess(x.hi, y.hi);
+  });
   struct Keyed {
     uint64_t key;
     Corner lo, hi;
@@ -226,7 +237,7 @@ void buildWindingEdges(const LatticeTriangles& triangles, WindingTree& tree) {
   for (size_t i = 0; i < all.size();) {
     size_t j = i;
     int net = 0;
-    for (; j < all.size() && all[j].lo == all[i].lo && all[j].hi == all[i].hi; ++j) net += all[j].sign;
+    for (; j < all.size() && sameEdge(all[j], all[i]); ++j) net += all[j].sign;
     if (net != 0) {
       // Midpoint key in whole voxels (lattice coordinates are non-negative).
       const auto mid = [&](int a) { return uint64_t((int64_t(all[i].lo[size_t(a)]) + all[i].hi[size_t(a)]) / 512); };
@@ -234,9 +245,9 @@ void buildWindingEdges(const LatticeTriangles& triangles, WindingTree& tree) {
     }
     i = j;
   }
-  tbb::parallel_sort(open.begin(), open.end(), [](const Keyed& x, const Keyed& y) {
+  tbb::parallel_sort(open.begin(), open.end(), [&](const Keyed& x, const Keyed& y) {
     if (x.key != y.key) return x.key < y.key;
-    return x.lo != y.lo ? x.lo < y.lo : x.hi < y.hi;
+    return !sameCorner(x.lo, y.lo) ? cornerLess(x.lo, y.lo) : cornerLess(x.hi, y.hi);
   });
   tree.edges.clear();
   tree.edgeGroups.clear();
