@@ -14,7 +14,11 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <future>
 #include <numeric>
+#include <stdexcept>
 
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
@@ -25,6 +29,15 @@ namespace hdt {
 namespace {
 
 constexpr uint32_t kLeafTriangles = 4;
+
+// HDT_WINDING_TRACE set: the host's phases of the inside test on stderr (the
+// device passes print theirs, cuda/src/winding_device.cu).
+void traceWinding(const char* phase, std::chrono::steady_clock::time_point since) {
+  static const bool on = std::getenv("HDT_WINDING_TRACE") != nullptr;
+  if (!on) return;
+  const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - since).count();
+  std::fprintf(stderr, "winding host: %s %.2f ms\n", phase, ms);
+}
 
 WindingTriangle windingTriangle(const LatticeTriangle& t) {
   WindingTriangle w;
@@ -91,7 +104,7 @@ struct TreeItem {
 // triangles in order, so the tree is the same whatever the thread count.
 struct TreeBuilder {
   static constexpr uint32_t kParallelTriangles = 4096;
-  std::vector<TreeItem> items; // partitioned in place
+  std::vector<TreeItem, HugePageScratchAllocator<TreeItem>> items; // partitioned in place; written before read
   WindingTree& tree;
 
   void fill(uint32_t node, uint32_t first, uint32_t count, uint32_t freeSlot) {
@@ -163,7 +176,7 @@ WindingTree buildWindingTree(const LatticeTriangles& triangles) {
   WindingTree tree;
   if (triangles.empty()) return tree;
   const size_t n = triangles.size();
-  TreeBuilder b{std::vector<TreeItem>(n), tree};
+  TreeBuilder b{std::vector<TreeItem, HugePageScratchAllocator<TreeItem>>(n), tree};
   tbb::parallel_for(size_t(0), n, [&](size_t t) {
     const WindingTriangle w = windingTriangle(triangles[t]);
     TreeItem& it = b.items[t];
@@ -216,7 +229,7 @@ void buildWindingEdges(const LatticeTriangles& triangles, WindingTree& tree) {
   };
   const auto sameCorner = [](const Corner& x, const Corner& y) { return x[0] == y[0] && x[1] == y[1] && x[2] == y[2]; };
   const auto sameEdge = [&](const Directed& x, const Directed& y) { return sameCorner(x.lo, y.lo) && sameCorner(x.hi, y.hi); };
-  std::vector<Directed> all(3 * triangles.size());
+  std::vector<Directed, HugePageScratchAllocator<Directed>> all(3 * triangles.size()); // each written below
   tbb::parallel_for(size_t(0), triangles.size(), [&](size_t i) {
     const LatticeTriangle& t = triangles[i];
     for (int j = 0; j < 3; ++j) {
@@ -583,98 +596,198 @@ struct LaidElement {
   std::array<int, 3> origin{0, 0, 0};
 };
 
+// Counts carried along a level by scanInChunks.
+struct LaySums {
+  uint64_t a = 0, b = 0, c = 0;
+  LaySums& operator+=(const LaySums& o) {
+    a += o.a;
+    b += o.b;
+    c += o.c;
+    return *this;
+  }
+};
+
+// A serial loop `for i in [0, n): step(i, sums, write)` run in parallel:
+// the chunks counted first (write false), then sized(total) (the outputs
+// sized), then each chunk walked again from the sums of those before it
+// (write true). The results are the serial loop's.
+template <class Step, class Sized>
+LaySums scanInChunks(size_t n, const Step& step, const Sized& sized) {
+  constexpr size_t kChunk = 8192;
+  const size_t chunks = (n + kChunk - 1) / kChunk;
+  std::vector<LaySums> before(chunks + 1);
+  tbb::parallel_for(size_t(0), chunks, [&](size_t c) {
+    LaySums s;
+    for (size_t i = c * kChunk, end = std::min(n, i + kChunk); i < end; ++i) step(i, s, false);
+    before[c + 1] = s;
+  });
+  for (size_t c = 0; c < chunks; ++c) before[c + 1] += before[c];
+  sized(before[chunks]);
+  tbb::parallel_for(size_t(0), chunks, [&](size_t c) {
+    LaySums s = before[c];
+    for (size_t i = c * kChunk, end = std::min(n, i + kChunk); i < end; ++i) step(i, s, true);
+  });
+  return before[chunks];
+}
+
+// The elements of the refined layout from its levels (LaidElement, level
+// order), each level in parallel: Branch payloads and leaf indices are prefix
+// sums. leafSource[i]: leaf i's old index, or -1 - (its index among the
+// `freshCount` fresh leaves, those of the split elements in level order).
+void layOutRefined(const Volume& v, const std::vector<std::vector<LaidElement>>& levels,
+                   std::vector<uint64_t>& levelStart, std::vector<ElementWord>& elements,
+                   std::vector<int64_t>& leafSource, size_t freshCount) {
+  const int height = v.grid.height;
+  for (int k = 0; k <= height; ++k) levelStart[size_t(k) + 1] = levelStart[size_t(k)] + levels[size_t(k)].size();
+  if (levelStart.back() - 1 > kMaxElementPayload) {
+    throw Error(ErrorKind::OutOfResources, "refining the winding number's w = 1/2 surface exceeds 2^30 elements");
+  }
+  elements.resize(levelStart.back());
+  uint64_t freshSeen = 0;
+  for (int k = 0; k <= height; ++k) {
+    const std::vector<LaidElement>& level = levels[size_t(k)];
+    ElementWord* out = elements.data() + levelStart[size_t(k)];
+    const uint64_t leafBase = leafSource.size(), freshBase = freshSeen;
+    // a: branches before element i, b: leaves, c: fresh leaves.
+    const LaySums total = scanInChunks(
+        level.size(),
+        [&](size_t i, LaySums& s, bool write) {
+          const LaidElement& e = level[i];
+          const ElementWord old = e.fresh ? makeElement(e.inside ? ElementState::Full : ElementState::Empty, 0)
+                                          : v.elements[e.old];
+          const ElementState state = elementState(old);
+          if (state == ElementState::Branch || (e.split && k < height)) {
+            if (write) out[i] = makeElement(ElementState::Branch, uint32_t(levelStart[size_t(k) + 1] + 8 * s.a));
+            ++s.a;
+          } else if (state == ElementState::Boundary || e.split) {
+            const uint64_t leaf = leafBase + s.b++;
+            if (write) out[i] = makeElement(ElementState::Boundary, uint32_t(leaf));
+            if (state == ElementState::Boundary) {
+              if (write) leafSource[leaf] = int64_t(elementPayload(old));
+            } else {
+              const uint64_t fresh = freshBase + s.c++;
+              if (write) leafSource[leaf] = -1 - int64_t(fresh);
+            }
+          } else if (write) {
+            out[i] = old;
+          }
+        },
+        [&](const LaySums& sums) {
+          if (leafBase + sums.b > kMaxElementPayload) {
+            throw Error(ErrorKind::OutOfResources,
+                        "refining the winding number's w = 1/2 surface exceeds 2^30 elements");
+          }
+          leafSource.resize(leafBase + sums.b);
+        });
+    freshSeen += total.c;
+  }
+  if (freshSeen != freshCount) throw std::logic_error("refined layout: fresh leaves out of step");
+}
+
 // Re-lays the tree in canonical level order with every split uniform element
 // refined: a Branch of 8 fresh children above the last level, a Boundary
 // with a new leaf grid (no surface voxel; every centre decided) at it.
-// Returns the number of elements refined.
+// Each level is laid out in parallel (scanInChunks: the places of children,
+// branches and leaves are prefix sums). Returns the number of elements refined.
 uint64_t refineSplitElements(const WindingTree& tree, Volume& v, const std::vector<uint8_t>& split,
                              const WindingUniformPass& uniformPass, const WindingFreshLeafPass& freshPass) {
+  auto t0 = std::chrono::steady_clock::now();
   const WindingTreeView t = tree.view();
   const GridSpec& g = v.grid;
   const int L = g.leafSize, height = g.height;
   const uint64_t R = uint64_t(g.rootGrid);
   std::vector<std::vector<LaidElement>> levels(size_t(height) + 1);
-  for (uint64_t i = 0; i < R * R * R; ++i) {
-    LaidElement e;
+  levels[0].resize(R * R * R);
+  tbb::parallel_for(uint64_t(0), R * R * R, [&](uint64_t i) {
+    LaidElement& e = levels[0][i];
     e.old = i;
     e.split = split[i];
     const int edge = g.rootCellVoxels();
     e.origin = {int(i % R) * edge, int((i / R) % R) * edge, int(i / (R * R)) * edge};
-    levels[0].push_back(e);
-  }
+  });
   uint64_t refined = 0;
+  double passMs = 0; // the fresh children's passes
   for (int k = 0; k < height; ++k) {
+    const std::vector<LaidElement>& level = levels[size_t(k)];
     std::vector<LaidElement>& next = levels[size_t(k) + 1];
-    const int edge = g.elementVoxels(k);
-    for (const LaidElement& e : levels[size_t(k)]) {
-      const bool oldBranch = !e.fresh && elementState(v.elements[e.old]) == ElementState::Branch;
-      if (!oldBranch && !e.split) continue;
-      refined += e.split;
-      for (int c = 0; c < 8; ++c) {
-        LaidElement child;
-        child.origin = childOrigin(e.origin, edge, c);
-        if (oldBranch) {
-          child.old = uint64_t(elementPayload(v.elements[e.old])) + uint64_t(c);
-          child.split = split[child.old];
-        } else {
-          child.fresh = true;
-        }
-        next.push_back(child);
-      }
-    }
-    const int childEdge = g.elementVoxels(k + 1);
+    const int edge = g.elementVoxels(k), childEdge = g.elementVoxels(k + 1);
     std::vector<WindingUniformJob> jobs; // the fresh children
-    std::vector<size_t> at;
-    for (size_t i = 0; i < next.size(); ++i)
-      if (next[i].fresh) {
-        jobs.push_back({0, next[i].origin, childEdge});
-        at.push_back(i);
-      }
+    std::vector<uint64_t> at;            // their places in next
+    // a: children before element i, b: split elements before it (each has 8
+    // fresh children, the jobs).
+    const LaySums total = scanInChunks(
+        level.size(),
+        [&](size_t i, LaySums& s, bool write) {
+          const LaidElement& e = level[i];
+          const bool oldBranch = !e.fresh && elementState(v.elements[e.old]) == ElementState::Branch;
+          if (!oldBranch && !e.split) return;
+          for (int c = 0; write && c < 8; ++c) {
+            LaidElement& child = next[s.a + uint64_t(c)];
+            child = LaidElement();
+            child.origin = childOrigin(e.origin, edge, c);
+            if (oldBranch) {
+              child.old = uint64_t(elementPayload(v.elements[e.old])) + uint64_t(c);
+              child.split = split[child.old];
+            } else {
+              child.fresh = true;
+              jobs[8 * s.b + uint64_t(c)] = {0, child.origin, childEdge};
+              at[8 * s.b + uint64_t(c)] = s.a + uint64_t(c);
+            }
+          }
+          s.a += 8;
+          s.b += e.split;
+        },
+        [&](const LaySums& sums) {
+          next.resize(sums.a);
+          jobs.resize(8 * sums.b);
+          at.resize(8 * sums.b);
+        });
+    refined += total.b;
+    const auto passStart = std::chrono::steady_clock::now();
     const std::vector<UniformVerdict> verdicts = decideUniformJobs(tree, jobs, uniformPass);
-    for (size_t j = 0; j < jobs.size(); ++j) {
+    passMs += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - passStart).count();
+    tbb::parallel_for(size_t(0), jobs.size(), [&](size_t j) {
       next[at[j]].inside = verdicts[j].inside;
       next[at[j]].split = verdicts[j].split;
-    }
+    });
   }
   for (const LaidElement& e : levels[size_t(height)]) refined += e.split;
+  traceWinding("re-lay: levels (fresh children's passes included)", t0);
+  if (std::getenv("HDT_WINDING_TRACE")) std::fprintf(stderr, "winding host: re-lay: fresh children's passes %.2f ms\n", passMs);
+  t0 = std::chrono::steady_clock::now();
 
-  std::vector<ElementWord> elements;
-  std::vector<uint64_t> levelStart(size_t(height) + 2, 0);
-  for (int k = 0; k <= height; ++k) levelStart[size_t(k) + 1] = levelStart[size_t(k)] + levels[size_t(k)].size();
-  elements.reserve(levelStart.back());
-  std::vector<int64_t> leafSource;                  // old leaf index, or -1 - (index into freshLeaves)
+  // The fresh leaves: the split elements of the last level, in level order
+  // (the order of their Boundary elements below).
+  const std::vector<LaidElement>& last = levels[size_t(height)];
   std::vector<std::array<int, 3>> freshLeaves;
-  for (int k = 0; k <= height; ++k) {
-    uint64_t branches = 0;
-    for (const LaidElement& e : levels[size_t(k)]) {
-      const ElementWord old = e.fresh ? makeElement(e.inside ? ElementState::Full : ElementState::Empty, 0)
-                                      : v.elements[e.old];
-      const ElementState s = elementState(old);
-      if (s == ElementState::Branch || (e.split && k < height)) {
-        elements.push_back(makeElement(ElementState::Branch, uint32_t(levelStart[size_t(k) + 1] + 8 * branches++)));
-      } else if (s == ElementState::Boundary || e.split) {
-        elements.push_back(makeElement(ElementState::Boundary, uint32_t(leafSource.size())));
-        if (s == ElementState::Boundary) {
-          leafSource.push_back(int64_t(elementPayload(old)));
-        } else {
-          leafSource.push_back(-1 - int64_t(freshLeaves.size()));
-          freshLeaves.push_back(e.origin);
-        }
-      } else {
-        elements.push_back(old);
-      }
-    }
-  }
-  if (elements.size() - 1 > kMaxElementPayload || leafSource.size() > kMaxElementPayload) {
-    throw Error(ErrorKind::OutOfResources, "refining the winding number's w = 1/2 surface exceeds 2^30 elements");
-  }
+  scanInChunks(
+      last.size(),
+      [&](size_t i, LaySums& s, bool write) {
+        if (!last[i].split) return;
+        if (write) freshLeaves[s.a] = last[i].origin;
+        ++s.a;
+      },
+      [&](const LaySums& sums) { freshLeaves.resize(sums.a); });
+  // The new elements and the old leaves' words (host work) on a host thread
+  // while the fresh leaves' pass runs (on the device, in the CUDA driver).
   const uint32_t wc = leafWordCount(L);
+  std::vector<uint64_t> levelStart(size_t(height) + 2, 0);
+  std::vector<ElementWord> elements;
+  std::vector<int64_t> leafSource; // old leaf index, or -1 - (index into freshLeaves)
   LeafWordVector words;
-  words.resize(leafSource.size() * wc);
-  adviseHugePages(words.data(), words.size() * sizeof(uint32_t)); // written once below: few page faults
-  // Fresh leaves by the pass first (into their own array), the rest here.
+  auto layout = std::async(std::launch::async, [&] {
+    layOutRefined(v, levels, levelStart, elements, leafSource, freshLeaves.size());
+    words.resize(leafSource.size() * wc);
+    adviseHugePages(words.data(), words.size() * sizeof(uint32_t)); // written once below: few page faults
+    tbb::parallel_for(size_t(0), leafSource.size(), [&](size_t i) {
+      if (leafSource[i] >= 0) std::copy_n(v.leafWords.data() + uint64_t(leafSource[i]) * wc, wc, words.data() + i * wc);
+    });
+  });
+  // Fresh leaves by the pass first (into their own array), the rest below.
   std::vector<uint32_t> freshWords;
   std::vector<uint8_t> freshDone(freshLeaves.size(), 0);
+  // (Should the pass throw, `layout`'s destructor waits for the task before
+  // what it writes is destroyed: a future of std::async does.)
   if (freshPass && !freshLeaves.empty()) {
     freshWords.assign(freshLeaves.size() * wc, 0u);
     std::vector<uint32_t> left;
@@ -683,12 +796,13 @@ uint64_t refineSplitElements(const WindingTree& tree, Volume& v, const std::vect
       for (uint32_t i : left) freshDone[i] = 0;
     }
   }
+  traceWinding("re-lay: fresh leaves' pass", t0);
+  layout.get();
+  traceWinding("re-lay: elements and old leaves (beside the fresh leaves' pass)", t0);
+  t0 = std::chrono::steady_clock::now();
   tbb::parallel_for(size_t(0), leafSource.size(), [&](size_t i) {
+    if (leafSource[i] >= 0) return;
     uint32_t* to = words.data() + i * wc;
-    if (leafSource[i] >= 0) {
-      std::copy_n(v.leafWords.data() + uint64_t(leafSource[i]) * wc, wc, to);
-      return;
-    }
     const size_t f = size_t(-1 - leafSource[i]);
     if (freshDone[f]) {
       std::copy_n(freshWords.data() + f * wc, wc, to);
@@ -700,6 +814,7 @@ uint64_t refineSplitElements(const WindingTree& tree, Volume& v, const std::vect
   v.elements = std::move(elements);
   v.levelStart = std::move(levelStart);
   v.leafWords = std::move(words);
+  traceWinding("re-lay: fresh leaves' words", t0);
   return refined;
 }
 
@@ -842,6 +957,38 @@ void classifyLeavesByCrossings(const WindingTree& tree, Volume& volume,
   });
 }
 
+// The leaves' origins (by leaf index) and the uniform elements in the order
+// of walkVolume, the root cells walked in parallel: each root's uniform
+// elements counted by a first walk, written at their place by a second.
+void walkForWinding(const Volume& v, int deepest, std::vector<std::array<int, 3>>& leafOrigins,
+                    std::vector<WindingUniformJob>& jobs) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const uint64_t R = uint64_t(v.grid.rootGrid), roots = R * R * R;
+  const auto uniform = [](const WalkedElement& e) {
+    return e.state() == ElementState::Empty || e.state() == ElementState::Full;
+  };
+  std::vector<uint64_t> start(roots + 1, 0);
+  tbb::parallel_for(uint64_t(0), roots, [&](uint64_t r) {
+    uint64_t n = 0;
+    auto visit = [&](const WalkedElement& e) {
+      if (e.state() == ElementState::Boundary) leafOrigins[e.payload()] = e.origin;
+      n += uniform(e);
+    };
+    walkSubtree(v, rootElement(v, r), deepest, visit);
+    start[r + 1] = n;
+  });
+  std::partial_sum(start.begin(), start.end(), start.begin());
+  jobs.resize(start.back());
+  tbb::parallel_for(uint64_t(0), roots, [&](uint64_t r) {
+    WindingUniformJob* out = jobs.data() + start[r];
+    auto visit = [&](const WalkedElement& e) {
+      if (uniform(e)) *out++ = {e.index, e.origin, e.edge};
+    };
+    walkSubtree(v, rootElement(v, r), deepest, visit);
+  });
+  traceWinding("walk of the volume", t0);
+}
+
 } // namespace
 
 WindingOutcome classifyByWindingNumber(const WindingTree& tree, Volume& volume) {
@@ -858,10 +1005,7 @@ WindingOutcome classifyByWindingNumber(const WindingTree& tree, Volume& volume, 
   const size_t leafCount = volume.leafWords.size() / leafWordCount(L);
   std::vector<std::array<int, 3>> leafOrigins(leafCount);
   std::vector<WindingUniformJob> jobs; // the uniform elements, in walk order
-  walkVolume(volume, deepest, [&](const WalkedElement& e) {
-    if (e.state() == ElementState::Boundary) leafOrigins[e.payload()] = e.origin;
-    if (e.state() == ElementState::Empty || e.state() == ElementState::Full) jobs.push_back({e.index, e.origin, e.edge});
-  });
+  walkForWinding(volume, deepest, leafOrigins, jobs);
   // The blocks of the leaves and of the uniform elements that fit in one,
   // for the host's passes.
   CoarseThresholds coarse;
@@ -899,13 +1043,29 @@ double applyInsideTest(const PreparedMesh& mesh, Volume& volume) {
 }
 
 double applyInsideTest(const PreparedMesh& mesh, Volume& volume, const WindingLeafPass& leafPass,
-                       const WindingUniformPass& uniformPass, const WindingFreshLeafPass& freshPass) {
+                       const WindingUniformPass& uniformPass, const WindingFreshLeafPass& freshPass,
+                       WindingTreeInBackground* early) {
   volume.insideTest = mesh.surfaceOnly ? InsideTest::Parity : mesh.insideTest;
   if (mesh.surfaceOnly || mesh.insideTest != InsideTest::WindingNumber) return 0;
   const auto t0 = std::chrono::steady_clock::now();
-  const WindingTree tree = buildWindingTree(mesh.triangles);
+  WindingTree local;
+  const WindingTree& tree = early && early->started() ? early->get() : (local = buildWindingTree(mesh.triangles));
+  traceWinding("tree (built or waited for)", t0);
   volume.stats.windingRefinedElements = classifyByWindingNumber(tree, volume, leafPass, uniformPass, freshPass).refinedElements;
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
+WindingTreeInBackground::WindingTreeInBackground(const PreparedMesh& mesh) {
+  if (mesh.surfaceOnly || mesh.insideTest != InsideTest::WindingNumber || mesh.triangles.empty()) return;
+  future_ = std::async(std::launch::async, [&mesh] { return buildWindingTree(mesh.triangles); });
+}
+
+const WindingTree& WindingTreeInBackground::get() {
+  if (!ready_) {
+    tree_ = future_.get();
+    ready_ = true;
+  }
+  return tree_;
 }
 
 } // namespace hdt

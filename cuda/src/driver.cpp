@@ -17,6 +17,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <optional>
 #include <string>
 #include <thread>
 
@@ -37,7 +38,8 @@ uint64_t mib(uint64_t bytes) { return (bytes + (uint64_t(1) << 20) - 1) >> 20; }
 // and the children of refined elements decided on the device
 // (winding_device.hpp); a leaf whose counts exceed 16 bits, and any pass the
 // device has no room for, on the host. Logs where the time went.
-double applyInsideTestOnDevice(const PreparedMesh& mesh, Volume& v, const BuildOptions& options) {
+double applyInsideTestOnDevice(const PreparedMesh& mesh, Volume& v, const BuildOptions& options,
+                               WindingTreeInBackground& tree) {
   cuda::WindingDevicePass device;
   double uniformMs = 0;
   // Host time around the device passes: tree + walk before, then the rest.
@@ -84,9 +86,9 @@ double applyInsideTestOnDevice(const PreparedMesh& mesh, Volume& v, const BuildO
     }
     return ran;
   };
-  const double windingMs = applyInsideTest(mesh, v, leafPass, uniformPass, freshPass);
+  const double windingMs = applyInsideTest(mesh, v, leafPass, uniformPass, freshPass, &tree);
   if (options.log && windingMs > 0)
-    options.log("CUDA driver: winding pass " + std::to_string(msSince(windingStart)) + " ms, of which host tree + walk " +
+    options.log("CUDA driver: winding pass " + std::to_string(msSince(windingStart)) + " ms, of which host tree (the rest of its build, started with the build) + walk " +
                 std::to_string(beforeDeviceMs) + " ms, uniform passes " + std::to_string(uniformWallMs) +
                 " ms (" + std::to_string(uniformBoxes) + " boxes), leaf pass " + std::to_string(leavesWallMs) + " ms, fresh leaves " + std::to_string(freshWallMs) +
                 " ms (wall, allocations included; fresh kernels " + std::to_string(freshMs) + " ms, " +
@@ -102,6 +104,10 @@ Volume build(const PreparedMesh& mesh, const BuildOptions& options, CudaBuildRep
   if (mesh.triangles.empty()) throw Error(ErrorKind::BadInput, "the mesh has no triangles");
   const uint64_t cells = uint64_t(g.rootGrid) * g.rootGrid * g.rootGrid;
   checkElementLimit(cells, 0, 0); // the root grid, before allocating it
+  // The winding tree (a function of the triangles) built on the host while
+  // the device builds the volume and copies it back.
+  std::optional<WindingTreeInBackground> windingTree;
+  if (keepResult) windingTree.emplace(mesh);
 
   Session s(mesh, options);
   report.device = s.device;
@@ -143,7 +149,7 @@ Volume build(const PreparedMesh& mesh, const BuildOptions& options, CudaBuildRep
   }
 
   const auto host0 = Clock::now();
-  const double windingMs = keepResult ? applyInsideTestOnDevice(mesh, v, options) : 0.0;
+  const double windingMs = keepResult ? applyInsideTestOnDevice(mesh, v, options, *windingTree) : 0.0;
   // A whole build counted its voxels on the device (buildWhole) unless the
   // winding-number pass rewrote them on the host.
   if (!whole || (keepResult && mesh.insideTest == InsideTest::WindingNumber)) computeStructureStatistics(v);

@@ -5,6 +5,7 @@
 
 #include "hdt/config.hpp"
 #include "hdt/default_init_allocator.hpp"
+#include "hdt/huge_pages.hpp"
 #include "hdt/lattice.hpp"
 #include "hdt/mesh.hpp" // LatticeTriangles
 #include "hdt/winding.hpp"
@@ -12,6 +13,7 @@
 #include <array>
 #include <cstdint>
 #include <functional>
+#include <future>
 #include <string>
 #include <vector>
 
@@ -25,8 +27,9 @@ struct PreparedMesh;
 // integer centroid keys with the triangle index as tie-break, triangles of
 // a leaf in input order.
 struct WindingTree {
-  // Per-triangle arrays are sized, then written in parallel (first touch there).
-  template <class T> using PerTriangle = std::vector<T, DefaultInit<std::allocator<T>>>;
+  // Per-triangle arrays are sized, then written in parallel (first touch
+  // there, on huge pages: fewer page faults).
+  template <class T> using PerTriangle = std::vector<T, HugePageScratchAllocator<T>>;
   std::vector<WindingNode> nodes;
   PerTriangle<WindingTriangle> triangles;
   std::vector<WindingEdge> edges;           // the boundary 1-chain, in groups
@@ -105,9 +108,31 @@ WindingOutcome classifyByWindingNumber(const WindingTree& tree, Volume& volume, 
 // classification it replaces may have run or not); records the test that ran
 // in volume.insideTest and the refined elements in its statistics. Returns the
 // milliseconds spent (0 under Parity). Call before the statistics are computed.
+//
+// The tree depends on the triangles alone: a driver with device work to do
+// first starts it early (WindingTreeInBackground) and hands it over here.
+class WindingTreeInBackground;
 double applyInsideTest(const PreparedMesh& mesh, Volume& volume);
 double applyInsideTest(const PreparedMesh& mesh, Volume& volume, const WindingLeafPass& leafPass,
                         const WindingUniformPass& uniformPass = WindingUniformPass(),
-                        const WindingFreshLeafPass& freshPass = WindingFreshLeafPass());
+                        const WindingFreshLeafPass& freshPass = WindingFreshLeafPass(),
+                        WindingTreeInBackground* early = nullptr);
+
+// The winding tree of a mesh whose inside test is WindingNumber (solid),
+// built on a host thread from construction on, so that it overlaps a
+// driver's device work; nothing for other meshes. get() waits for it (and
+// rethrows what the build threw); the destructor waits too, so the mesh
+// must outlive this object.
+class WindingTreeInBackground {
+public:
+  explicit WindingTreeInBackground(const PreparedMesh& mesh);
+  bool started() const { return future_.valid() || ready_; }
+  const WindingTree& get();
+
+private:
+  std::future<WindingTree> future_;
+  WindingTree tree_;
+  bool ready_ = false;
+};
 
 } // namespace hdt
