@@ -588,13 +588,18 @@ std::array<int, 3> childOrigin(const std::array<int, 3>& o, int edge, int c) {
 
 // An element of the refined layout: an old one (by index) or a new child of
 // a split element.
+// No member initializers: a level is sized unwritten (LaidLevel) and each
+// element written whole, `LaidElement()` (zeros) first.
 struct LaidElement {
-  uint64_t old = 0;
-  bool fresh = false;
-  bool split = false;
-  bool inside = false; // fresh uniform elements
-  std::array<int, 3> origin{0, 0, 0};
+  uint64_t old;
+  bool fresh;
+  bool split;
+  bool inside; // fresh uniform elements
+  std::array<int, 3> origin;
 };
+// One level of the refined layout (tens of MB at 8192^3: huge pages, sized
+// without writing it, then written in parallel).
+using LaidLevel = std::vector<LaidElement, HugePageScratchAllocator<LaidElement>>;
 
 // Counts carried along a level by scanInChunks.
 struct LaySums {
@@ -634,7 +639,7 @@ LaySums scanInChunks(size_t n, const Step& step, const Sized& sized) {
 // order), each level in parallel: Branch payloads and leaf indices are prefix
 // sums. leafSource[i]: leaf i's old index, or -1 - (its index among the
 // `freshCount` fresh leaves, those of the split elements in level order).
-void layOutRefined(const Volume& v, const std::vector<std::vector<LaidElement>>& levels,
+void layOutRefined(const Volume& v, const std::vector<LaidLevel>& levels,
                    std::vector<uint64_t>& levelStart, std::vector<ElementWord>& elements,
                    std::vector<int64_t>& leafSource, size_t freshCount) {
   const int height = v.grid.height;
@@ -645,7 +650,7 @@ void layOutRefined(const Volume& v, const std::vector<std::vector<LaidElement>>&
   elements.resize(levelStart.back());
   uint64_t freshSeen = 0;
   for (int k = 0; k <= height; ++k) {
-    const std::vector<LaidElement>& level = levels[size_t(k)];
+    const LaidLevel& level = levels[size_t(k)];
     ElementWord* out = elements.data() + levelStart[size_t(k)];
     const uint64_t leafBase = leafSource.size(), freshBase = freshSeen;
     // a: branches before element i, b: leaves, c: fresh leaves.
@@ -696,10 +701,11 @@ uint64_t refineSplitElements(const WindingTree& tree, Volume& v, const std::vect
   const GridSpec& g = v.grid;
   const int L = g.leafSize, height = g.height;
   const uint64_t R = uint64_t(g.rootGrid);
-  std::vector<std::vector<LaidElement>> levels(size_t(height) + 1);
+  std::vector<LaidLevel> levels(size_t(height) + 1);
   levels[0].resize(R * R * R);
   tbb::parallel_for(uint64_t(0), R * R * R, [&](uint64_t i) {
     LaidElement& e = levels[0][i];
+    e = LaidElement();
     e.old = i;
     e.split = split[i];
     const int edge = g.rootCellVoxels();
@@ -708,8 +714,8 @@ uint64_t refineSplitElements(const WindingTree& tree, Volume& v, const std::vect
   uint64_t refined = 0;
   double passMs = 0; // the fresh children's passes
   for (int k = 0; k < height; ++k) {
-    const std::vector<LaidElement>& level = levels[size_t(k)];
-    std::vector<LaidElement>& next = levels[size_t(k) + 1];
+    const LaidLevel& level = levels[size_t(k)];
+    LaidLevel& next = levels[size_t(k) + 1];
     const int edge = g.elementVoxels(k), childEdge = g.elementVoxels(k + 1);
     std::vector<WindingUniformJob> jobs; // the fresh children
     std::vector<uint64_t> at;            // their places in next
@@ -743,6 +749,7 @@ uint64_t refineSplitElements(const WindingTree& tree, Volume& v, const std::vect
           at.resize(8 * sums.b);
         });
     refined += total.b;
+    if (jobs.empty()) continue; // no pass to run (nor a device call to make)
     const auto passStart = std::chrono::steady_clock::now();
     const std::vector<UniformVerdict> verdicts = decideUniformJobs(tree, jobs, uniformPass);
     passMs += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - passStart).count();
@@ -758,7 +765,7 @@ uint64_t refineSplitElements(const WindingTree& tree, Volume& v, const std::vect
 
   // The fresh leaves: the split elements of the last level, in level order
   // (the order of their Boundary elements below).
-  const std::vector<LaidElement>& last = levels[size_t(height)];
+  const LaidLevel& last = levels[size_t(height)];
   std::vector<std::array<int, 3>> freshLeaves;
   scanInChunks(
       last.size(),
@@ -957,34 +964,48 @@ void classifyLeavesByCrossings(const WindingTree& tree, Volume& volume,
   });
 }
 
+// The walk's units in its order: the elements it stops at above level
+// `unitLevel` and the subtrees rooted at that level (up to 64 per root cell
+// at level 2: many small tasks, so one dense root cell is not one thread's).
+void collectWalkUnits(const Volume& v, const WalkedElement& e, int deepest, int unitLevel,
+                      std::vector<WalkedElement>& units) {
+  if (e.state() != ElementState::Branch || e.level >= deepest || e.level >= unitLevel) {
+    units.push_back(e);
+    return;
+  }
+  for (int c = 0; c < 8; ++c) collectWalkUnits(v, childElement(v, e, c), deepest, unitLevel, units);
+}
+
 // The leaves' origins (by leaf index) and the uniform elements in the order
-// of walkVolume, the root cells walked in parallel: each root's uniform
-// elements counted by a first walk, written at their place by a second.
+// of walkVolume, the walk's units (collectWalkUnits) in parallel: each unit's
+// uniform elements counted by a first walk, written at their place by a second.
 void walkForWinding(const Volume& v, int deepest, std::vector<std::array<int, 3>>& leafOrigins,
                     std::vector<WindingUniformJob>& jobs) {
   const auto t0 = std::chrono::steady_clock::now();
   const uint64_t R = uint64_t(v.grid.rootGrid), roots = R * R * R;
+  std::vector<WalkedElement> units;
+  for (uint64_t r = 0; r < roots; ++r) collectWalkUnits(v, rootElement(v, r), deepest, 2, units);
   const auto uniform = [](const WalkedElement& e) {
     return e.state() == ElementState::Empty || e.state() == ElementState::Full;
   };
-  std::vector<uint64_t> start(roots + 1, 0);
-  tbb::parallel_for(uint64_t(0), roots, [&](uint64_t r) {
+  std::vector<uint64_t> start(units.size() + 1, 0);
+  tbb::parallel_for(size_t(0), units.size(), [&](size_t u) {
     uint64_t n = 0;
     auto visit = [&](const WalkedElement& e) {
       if (e.state() == ElementState::Boundary) leafOrigins[e.payload()] = e.origin;
       n += uniform(e);
     };
-    walkSubtree(v, rootElement(v, r), deepest, visit);
-    start[r + 1] = n;
+    walkSubtree(v, units[u], deepest, visit);
+    start[u + 1] = n;
   });
   std::partial_sum(start.begin(), start.end(), start.begin());
   jobs.resize(start.back());
-  tbb::parallel_for(uint64_t(0), roots, [&](uint64_t r) {
-    WindingUniformJob* out = jobs.data() + start[r];
+  tbb::parallel_for(size_t(0), units.size(), [&](size_t u) {
+    WindingUniformJob* out = jobs.data() + start[u];
     auto visit = [&](const WalkedElement& e) {
       if (uniform(e)) *out++ = {e.index, e.origin, e.edge};
     };
-    walkSubtree(v, rootElement(v, r), deepest, visit);
+    walkSubtree(v, units[u], deepest, visit);
   });
   traceWinding("walk of the volume", t0);
 }
