@@ -12,6 +12,7 @@
 #include "hdt/winding_leaf.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -637,56 +638,69 @@ LaySums scanInChunks(size_t n, const Step& step, const Sized& sized) {
 
 // The elements of the refined layout from its levels (LaidElement, level
 // order), each level in parallel: Branch payloads and leaf indices are prefix
-// sums. leafSource[i]: leaf i's old index, or -1 - (its index among the
-// `freshCount` fresh leaves, those of the split elements in level order).
-void layOutRefined(const Volume& v, const std::vector<LaidLevel>& levels,
-                   std::vector<uint64_t>& levelStart, std::vector<ElementWord>& elements,
-                   std::vector<int64_t>& leafSource, size_t freshCount) {
+// sums. Returns the number of leaves (old and fresh).
+uint64_t layOutRefined(const Volume& v, const std::vector<LaidLevel>& levels, std::vector<uint64_t>& levelStart,
+                       std::vector<ElementWord>& elements) {
   const int height = v.grid.height;
   for (int k = 0; k <= height; ++k) levelStart[size_t(k) + 1] = levelStart[size_t(k)] + levels[size_t(k)].size();
   if (levelStart.back() - 1 > kMaxElementPayload) {
     throw Error(ErrorKind::OutOfResources, "refining the winding number's w = 1/2 surface exceeds 2^30 elements");
   }
   elements.resize(levelStart.back());
-  uint64_t freshSeen = 0;
+  uint64_t leaves = 0;
   for (int k = 0; k <= height; ++k) {
     const LaidLevel& level = levels[size_t(k)];
     ElementWord* out = elements.data() + levelStart[size_t(k)];
-    const uint64_t leafBase = leafSource.size(), freshBase = freshSeen;
-    // a: branches before element i, b: leaves, c: fresh leaves.
-    const LaySums total = scanInChunks(
-        level.size(),
-        [&](size_t i, LaySums& s, bool write) {
-          const LaidElement& e = level[i];
-          const ElementWord old = e.fresh ? makeElement(e.inside ? ElementState::Full : ElementState::Empty, 0)
-                                          : v.elements[e.old];
-          const ElementState state = elementState(old);
-          if (state == ElementState::Branch || (e.split && k < height)) {
-            if (write) out[i] = makeElement(ElementState::Branch, uint32_t(levelStart[size_t(k) + 1] + 8 * s.a));
-            ++s.a;
-          } else if (state == ElementState::Boundary || e.split) {
-            const uint64_t leaf = leafBase + s.b++;
-            if (write) out[i] = makeElement(ElementState::Boundary, uint32_t(leaf));
-            if (state == ElementState::Boundary) {
-              if (write) leafSource[leaf] = int64_t(elementPayload(old));
-            } else {
-              const uint64_t fresh = freshBase + s.c++;
-              if (write) leafSource[leaf] = -1 - int64_t(fresh);
-            }
-          } else if (write) {
-            out[i] = old;
-          }
-        },
-        [&](const LaySums& sums) {
-          if (leafBase + sums.b > kMaxElementPayload) {
-            throw Error(ErrorKind::OutOfResources,
-                        "refining the winding number's w = 1/2 surface exceeds 2^30 elements");
-          }
-          leafSource.resize(leafBase + sums.b);
-        });
-    freshSeen += total.c;
+    const uint64_t leafBase = leaves;
+    // a: branches before element i, b: leaves.
+    leaves += scanInChunks(
+                  level.size(),
+                  [&](size_t i, LaySums& s, bool write) {
+                    const LaidElement& e = level[i];
+                    const ElementWord old = e.fresh
+                                                ? makeElement(e.inside ? ElementState::Full : ElementState::Empty, 0)
+                                                : v.elements[e.old];
+                    const ElementState state = elementState(old);
+                    if (state == ElementState::Branch || (e.split && k < height)) {
+                      if (write) out[i] = makeElement(ElementState::Branch, uint32_t(levelStart[size_t(k) + 1] + 8 * s.a));
+                      ++s.a;
+                    } else if (state == ElementState::Boundary || e.split) {
+                      if (write) out[i] = makeElement(ElementState::Boundary, uint32_t(leafBase + s.b));
+                      ++s.b;
+                    } else if (write) {
+                      out[i] = old;
+                    }
+                  },
+                  [&](const LaySums& sums) {
+                    if (leafBase + sums.b > kMaxElementPayload) {
+                      throw Error(ErrorKind::OutOfResources,
+                                  "refining the winding number's w = 1/2 surface exceeds 2^30 elements");
+                    }
+                  })
+                  .b;
   }
-  if (freshSeen != freshCount) throw std::logic_error("refined layout: fresh leaves out of step");
+  return leaves;
+}
+
+// Copies the old leaves' words into the refined layout: old leaf l goes to
+// l + (fresh leaves before it), where fresh leaf j has cuts[j] old leaves
+// before it (cuts ascending). Runs of old leaves between two fresh ones move
+// by one offset: copied in blocks, in parallel.
+void copyOldLeaves(const uint32_t* from, uint64_t oldLeaves, const std::vector<uint64_t>& cuts, uint32_t wc,
+                   uint32_t* to) {
+  constexpr uint64_t kBlock = 1024; // leaves
+  tbb::parallel_for(uint64_t(0), (oldLeaves + kBlock - 1) / kBlock, [&](uint64_t block) {
+    uint64_t l = block * kBlock;
+    const uint64_t end = std::min(oldLeaves, l + kBlock);
+    // fresh leaves before old leaf l: those with cuts[j] <= l
+    uint64_t j = uint64_t(std::upper_bound(cuts.begin(), cuts.end(), l) - cuts.begin());
+    while (l < end) {
+      const uint64_t runEnd = j < cuts.size() ? std::min(end, cuts[j]) : end;
+      std::copy(from + l * wc, from + runEnd * wc, to + (l + j) * wc);
+      l = runEnd;
+      while (j < cuts.size() && cuts[j] <= l) ++j;
+    }
+  });
 }
 
 // Re-lays the tree in canonical level order with every split uniform element
@@ -763,38 +777,63 @@ uint64_t refineSplitElements(const WindingTree& tree, Volume& v, const std::vect
   if (std::getenv("HDT_WINDING_TRACE")) std::fprintf(stderr, "winding host: re-lay: fresh children's passes %.2f ms\n", passMs);
   t0 = std::chrono::steady_clock::now();
 
-  // The fresh leaves: the split elements of the last level, in level order
-  // (the order of their Boundary elements below).
+  // The fresh leaves: the split elements of the last level, in level order,
+  // and the old leaves before each. Old leaves keep their order (a level's
+  // old elements do, and leaf i is the i-th Boundary element); the leaves
+  // of the last level follow those above it.
   const LaidLevel& last = levels[size_t(height)];
+  const uint32_t wc = leafWordCount(L);
+  const uint64_t oldLeaves = v.leafWords.size() / wc;
   std::vector<std::array<int, 3>> freshLeaves;
-  scanInChunks(
-      last.size(),
-      [&](size_t i, LaySums& s, bool write) {
-        if (!last[i].split) return;
-        if (write) freshLeaves[s.a] = last[i].origin;
-        ++s.a;
-      },
-      [&](const LaySums& sums) { freshLeaves.resize(sums.a); });
+  std::vector<uint64_t> cuts; // old leaves before fresh leaf j
+  uint64_t lastBase = 0;      // old leaves above the last level
+  {
+    std::atomic<bool> canonical{true}; // each old leaf where its order says
+    // a: fresh leaves before element i, b: old leaves of the last level before it.
+    scanInChunks(
+        last.size(),
+        [&](size_t i, LaySums& s, bool write) {
+          const LaidElement& e = last[i];
+          if (e.split) {
+            if (write) {
+              freshLeaves[s.a] = e.origin;
+              cuts[s.a] = lastBase + s.b;
+            }
+            ++s.a;
+          } else if (!e.fresh && elementState(v.elements[e.old]) == ElementState::Boundary) {
+            if (write && elementPayload(v.elements[e.old]) != lastBase + s.b) canonical = false;
+            ++s.b;
+          }
+        },
+        [&](const LaySums& sums) {
+          if (sums.b > oldLeaves) throw std::logic_error("refined layout: more leaves than leaf grids");
+          lastBase = oldLeaves - sums.b;
+          freshLeaves.resize(sums.a);
+          cuts.resize(sums.a);
+        });
+    if (!canonical) throw std::logic_error("refined layout: the volume's leaves are not in level order");
+  }
   // The new elements and the old leaves' words (host work) on a host thread
   // while the fresh leaves' pass runs (on the device, in the CUDA driver).
-  const uint32_t wc = leafWordCount(L);
   std::vector<uint64_t> levelStart(size_t(height) + 2, 0);
   std::vector<ElementWord> elements;
-  std::vector<int64_t> leafSource; // old leaf index, or -1 - (index into freshLeaves)
   LeafWordVector words;
   auto layout = std::async(std::launch::async, [&] {
-    layOutRefined(v, levels, levelStart, elements, leafSource, freshLeaves.size());
-    words.resize(leafSource.size() * wc);
-    adviseHugePages(words.data(), words.size() * sizeof(uint32_t)); // written once below: few page faults
-    tbb::parallel_for(size_t(0), leafSource.size(), [&](size_t i) {
-      if (leafSource[i] >= 0) std::copy_n(v.leafWords.data() + uint64_t(leafSource[i]) * wc, wc, words.data() + i * wc);
-    });
+    uint64_t leaves = 0;
+    tbb::parallel_invoke([&] { leaves = layOutRefined(v, levels, levelStart, elements); },
+                         [&] {
+                           words.resize((oldLeaves + freshLeaves.size()) * wc);
+                           // written once below: few page faults
+                           adviseHugePages(words.data(), words.size() * sizeof(uint32_t));
+                           copyOldLeaves(v.leafWords.data(), oldLeaves, cuts, wc, words.data());
+                         });
+    if (leaves != oldLeaves + freshLeaves.size()) throw std::logic_error("refined layout: leaves out of step");
   });
   // Fresh leaves by the pass first (into their own array), the rest below.
-  std::vector<uint32_t> freshWords;
-  std::vector<uint8_t> freshDone(freshLeaves.size(), 0);
   // (Should the pass throw, `layout`'s destructor waits for the task before
   // what it writes is destroyed: a future of std::async does.)
+  std::vector<uint32_t> freshWords;
+  std::vector<uint8_t> freshDone(freshLeaves.size(), 0);
   if (freshPass && !freshLeaves.empty()) {
     freshWords.assign(freshLeaves.size() * wc, 0u);
     std::vector<uint32_t> left;
@@ -807,10 +846,8 @@ uint64_t refineSplitElements(const WindingTree& tree, Volume& v, const std::vect
   layout.get();
   traceWinding("re-lay: elements and old leaves (beside the fresh leaves' pass)", t0);
   t0 = std::chrono::steady_clock::now();
-  tbb::parallel_for(size_t(0), leafSource.size(), [&](size_t i) {
-    if (leafSource[i] >= 0) return;
-    uint32_t* to = words.data() + i * wc;
-    const size_t f = size_t(-1 - leafSource[i]);
+  tbb::parallel_for(size_t(0), freshLeaves.size(), [&](size_t f) {
+    uint32_t* to = words.data() + (cuts[f] + f) * wc;
     if (freshDone[f]) {
       std::copy_n(freshWords.data() + f * wc, wc, to);
     } else {
