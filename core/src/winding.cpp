@@ -191,17 +191,22 @@ WindingTree buildWindingTree(const LatticeTriangles& triangles) {
     it.area = w.area;
     it.triangle = uint32_t(t);
   });
-  tree.nodes.resize(1 + size_t(nodesBelow(uint32_t(n))));
-  b.fill(0, 0, uint32_t(n), 1);
-  tree.triangles.resize(n);
-  tree.lattice.resize(n);
-  // Each shape computed again in tree order rather than kept from above: an
-  // array of them in input order would only be copied, its pages faulted in.
-  tbb::parallel_for(size_t(0), n, [&](size_t i) {
-    tree.triangles[i] = windingTriangle(triangles[b.items[i].triangle]);
-    tree.lattice[i] = triangles[b.items[i].triangle];
-  });
-  buildWindingEdges(triangles, tree);
+  // The nodes and the boundary edges write different members of the tree:
+  // side by side (the top of the node recursion is serial).
+  tbb::parallel_invoke(
+      [&] {
+        tree.nodes.resize(1 + size_t(nodesBelow(uint32_t(n))));
+        b.fill(0, 0, uint32_t(n), 1);
+        tree.triangles.resize(n);
+        tree.lattice.resize(n);
+        // Each shape computed again in tree order rather than kept from above: an
+        // array of them in input order would only be copied, its pages faulted in.
+        tbb::parallel_for(size_t(0), n, [&](size_t i) {
+          tree.triangles[i] = windingTriangle(triangles[b.items[i].triangle]);
+          tree.lattice[i] = triangles[b.items[i].triangle];
+        });
+      },
+      [&] { buildWindingEdges(triangles, tree); });
   return tree;
 }
 
