@@ -5,7 +5,8 @@
 // binary can be built anywhere and timed on the GPU machine's cores (bench/gpu/prepare_first.sh).
 //   prepare_first MESH.ply K REPS [cold|warm|sleep|wake] [TRIANGLES]
 // warm: as hdt-voxelize (keepHostThreadsAwake after the pages, until prepareMesh or 1 s);
-// retouch: as warm, and the warm pages prepareMesh takes written once more just before it, untimed;
+// rehearse: as warm, and a small grid mesh prepared on the warm-up thread before the workers are
+// kept awake (untimed, beside the read); retouch: as warm, and the warm pages prepareMesh takes written once more just before it, untimed;
 // sleep: as warm without keepHostThreadsAwake (the workers fall asleep during the read);
 // cold: no warm-up thread (threads and pages at first use); wake: as sleep, and startHostThreads
 // again just before the first call, untimed (how much of that call is waking the threads up:
@@ -61,15 +62,30 @@ int main(int argc, char** argv) {
   const bool cold = argc > 4 && !strcmp(argv[4], "cold"), wake = argc > 4 && !strcmp(argv[4], "wake");
   const bool sleep = wake || (argc > 4 && !strcmp(argv[4], "sleep"));
   const bool retouch = argc > 4 && !strcmp(argv[4], "retouch");
+  const bool rehearse = argc > 4 && !strcmp(argv[4], "rehearse");
   const size_t cut = argc > 5 ? size_t(atoll(argv[5])) : SIZE_MAX;
   const Clock::time_point start = Clock::now();
   std::thread warm;
   if (!cold) {
     const uint64_t fileBytes = uint64_t(std::filesystem::file_size(argv[1])) << (2 * k);
     const uint64_t bytes = std::min<uint64_t>(uint64_t(1) << 30, 4 * fileBytes + (uint64_t(8) << 20));
-    warm = std::thread([bytes, sleep] {
+    warm = std::thread([bytes, sleep, rehearse] {
       startHostThreads();
       reserveWarmPages(bytes);
+      if (rehearse) { // a grid of 2 x 200^2 triangles prepared once beside the read (is the first call's code cold?)
+        TriangleMesh g;
+        const uint32_t n = 200;
+        for (uint32_t i = 0; i <= n; ++i)
+          for (uint32_t j = 0; j <= n; ++j) g.points.insert(g.points.end(), {double(i), double(j), double((i * j) % 7)});
+        for (uint32_t i = 0; i < n; ++i)
+          for (uint32_t j = 0; j < n; ++j) {
+            const uint32_t a = i * (n + 1) + j;
+            g.triangles.insert(g.triangles.end(), {a, a + 1, a + n + 1, a + 1, a + n + 2, a + n + 1});
+          }
+        BuildConfig small;
+        small.resolution = 1024;
+        prepareMesh(g, small);
+      }
       if (!sleep) keepHostThreadsAwake(1000);
     });
   }
