@@ -245,7 +245,7 @@ template <class Entry> size_t slotOf(Entry e, size_t mask) {
 template <class Entry> struct BucketTally {
   const EntryCode<Entry>& code;
   std::atomic<bool>& open;
-  std::vector<Entry> sorted, corners;
+  std::vector<Entry> sorted, corners, cornerTable;
   std::vector<uint32_t> count, ends;
   bool parity = true; // this point's edges are checked
 
@@ -277,15 +277,15 @@ template <class Entry> struct BucketTally {
     size_t size = 16;
     while (size < 2 * c) size *= 2;
     const size_t mask = size - 1;
-    corners.assign(size, Entry(0));
+    cornerTable.assign(size, Entry(0));
     b.forEachPart(bucket, [&](const Entry* f, const Entry* l) {
       for (; f != l; ++f) {
         const Entry e = *f;
         if ((e & none) == none) continue;
         size_t slot = slotOf(e, mask);
-        while (corners[slot] != 0 && corners[slot] != e) slot = (slot + 1) & mask;
-        if (corners[slot] == e) ++t.duplicates;
-        else corners[slot] = e;
+        while (cornerTable[slot] != 0 && cornerTable[slot] != e) slot = (slot + 1) & mask;
+        if (cornerTable[slot] == e) ++t.duplicates;
+        else cornerTable[slot] = e;
       }
     });
   }
@@ -345,7 +345,7 @@ SurfaceTopology tally(const uint32_t* indices, const uint8_t* keep, size_t trian
     return tbb::parallel_reduce(
         tbb::blocked_range<size_t>(0, buckets), Tally{},
         [&](const tbb::blocked_range<size_t>& r, Tally sum) {
-          BucketTally<Entry> bucket{code, open, {}, {}, {}, {}};
+          BucketTally<Entry> bucket{code, open, {}, {}, {}, {}, {}};
           for (size_t k = r.begin(); k != r.end(); ++k) bucket(b, k, sum);
           return sum;
         },
