@@ -207,6 +207,7 @@ JoiningThread startHostWarmUp(const std::string& meshPath) {
   return JoiningThread([bytes] {
     startHostThreads();
     reserveWarmPages(bytes);
+    keepHostThreadsAwake(1000); // until prepareMesh
   });
 }
 

@@ -13,7 +13,9 @@
 #include <gtest/gtest.h>
 #include <tbb/task_arena.h>
 
+#include <chrono>
 #include <cstdint>
+#include <ctime>
 #include <cstring>
 #include <numeric>
 #include <thread>
@@ -132,6 +134,30 @@ TEST_F(WarmPages, PrepareMeshGivesTheSameBytesInEveryArena) {
   EXPECT_TRUE(sameTriangles(first, afterStart));
   EXPECT_TRUE(sameTriangles(first, single));
   EXPECT_EQ(first.triangles.size(), mesh.triangleCount());
+}
+
+double processCpuMs() {
+  timespec t{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+  return double(t.tv_sec) * 1e3 + double(t.tv_nsec) * 1e-6;
+}
+
+// keepHostThreadsAwake's workers spin until prepareMesh comes (a minute at
+// most here): it gives the same bytes, and afterwards the process uses no CPU
+// time while this thread sleeps (spinning workers would use a core each).
+TEST_F(WarmPages, WorkersKeptAwakeStopAtPrepareMesh) {
+  const TriangleMesh mesh = icosphere(5, 1.0);
+  BuildConfig config;
+  config.resolution = 1024;
+  const PreparedMesh first = prepareMesh(mesh, config);
+  startHostThreads();
+  keepHostThreadsAwake(60000);
+  const PreparedMesh awake = prepareMesh(mesh, config);
+  EXPECT_TRUE(sameTriangles(first, awake));
+  std::this_thread::sleep_for(std::chrono::milliseconds(20)); // the spinning tasks see the flag down
+  const double before = processCpuMs();
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  if (std::thread::hardware_concurrency() > 1) EXPECT_LT(processCpuMs() - before, 40.0);
 }
 
 TEST_F(WarmPages, StartHostThreadsReturns) {

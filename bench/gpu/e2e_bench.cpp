@@ -160,6 +160,7 @@ int main(int argc, char** argv) {
       hostWarmUp = std::thread([bytes] {
         startHostThreads();
         reserveWarmPages(bytes);
+        keepHostThreadsAwake(1000); // until prepareMesh
       });
     }
     TriangleMesh mesh = readMesh(a.mesh);

@@ -3,8 +3,12 @@
 // times), then prepareMesh timed with its steps, the minor page faults and context switches of
 // the call (getrusage), then the best of REPS more calls. CPU only (no CUDA), so one tree's
 // binary can be built anywhere and timed on the GPU machine's cores (bench/gpu/prepare_first.sh).
-//   prepare_first MESH.ply K REPS [cold|warm|wake] [TRIANGLES]
-// cold: no warm-up thread (threads and pages at first use); wake: as warm, and startHostThreads
+//   prepare_first MESH.ply K REPS [cold|warm|sleep|wake] [TRIANGLES]
+// warm: as hdt-voxelize (keepHostThreadsAwake after the pages, until prepareMesh or 1 s);
+// rehearse: as warm, and a small grid mesh prepared on the warm-up thread before the workers are
+// kept awake (untimed, beside the read); retouch: as warm, and the warm pages prepareMesh takes written once more just before it, untimed;
+// sleep: as warm without keepHostThreadsAwake (the workers fall asleep during the read);
+// cold: no warm-up thread (threads and pages at first use); wake: as sleep, and startHostThreads
 // again just before the first call, untimed (how much of that call is waking the threads up:
 // after the read they have slept for its length); TRIANGLES: only the first TRIANGLES
 // triangles of the subdivided mesh and the points they use (in their order), e.g. exactly 350 K.
@@ -56,15 +60,33 @@ int main(int argc, char** argv) {
   if (argc < 4) return 2;
   const int k = atoi(argv[2]), reps = atoi(argv[3]);
   const bool cold = argc > 4 && !strcmp(argv[4], "cold"), wake = argc > 4 && !strcmp(argv[4], "wake");
+  const bool sleep = wake || (argc > 4 && !strcmp(argv[4], "sleep"));
+  const bool retouch = argc > 4 && !strcmp(argv[4], "retouch");
+  const bool rehearse = argc > 4 && !strcmp(argv[4], "rehearse");
   const size_t cut = argc > 5 ? size_t(atoll(argv[5])) : SIZE_MAX;
   const Clock::time_point start = Clock::now();
   std::thread warm;
   if (!cold) {
     const uint64_t fileBytes = uint64_t(std::filesystem::file_size(argv[1])) << (2 * k);
     const uint64_t bytes = std::min<uint64_t>(uint64_t(1) << 30, 4 * fileBytes + (uint64_t(8) << 20));
-    warm = std::thread([bytes] {
+    warm = std::thread([bytes, sleep, rehearse] {
       startHostThreads();
       reserveWarmPages(bytes);
+      if (rehearse) { // a grid of 2 x 200^2 triangles prepared once beside the read (is the first call's code cold?)
+        TriangleMesh g;
+        const uint32_t n = 200;
+        for (uint32_t i = 0; i <= n; ++i)
+          for (uint32_t j = 0; j <= n; ++j) g.points.insert(g.points.end(), {double(i), double(j), double((i * j) % 7)});
+        for (uint32_t i = 0; i < n; ++i)
+          for (uint32_t j = 0; j < n; ++j) {
+            const uint32_t a = i * (n + 1) + j;
+            g.triangles.insert(g.triangles.end(), {a, a + 1, a + n + 1, a + 1, a + n + 2, a + n + 1});
+          }
+        BuildConfig small;
+        small.resolution = 1024;
+        prepareMesh(g, small);
+      }
+      if (!sleep) keepHostThreadsAwake(1000);
     });
   }
   TriangleMesh m = readMesh(argv[1]);
@@ -77,14 +99,18 @@ int main(int argc, char** argv) {
   c.resolution = 8192;
   PrepareTimes first;
   if (wake) startHostThreads();
+  if (retouch) { // the warm pages prepareMesh will take written again, untimed (are they cold in cache?)
+    std::vector<uint8_t, HugePageScratchAllocator<uint8_t>> pages(prepareMeshWarmBytes(m.triangleCount(), m.pointCount()));
+    memset(pages.data(), 1, pages.size());
+  }
   const rusage u0 = usage();
   const Clock::time_point t0 = Clock::now();
   PreparedMesh p = prepareMesh(m, c, &first);
   const Clock::time_point t1 = Clock::now();
   const rusage u1 = usage();
   trimWarmPages();
-  printf("{\"mesh\": \"%s\", \"subdivide\": %d, \"triangles\": %zu, \"points\": %zu, \"cold\": %d, \"wake\": %d, \"read_ms\": %.2f, \"warm_wait_ms\": %.2f,",
-         argv[1], k, m.triangleCount(), m.pointCount(), int(cold), int(wake), ms(start, read), ms(read, ready));
+  printf("{\"mesh\": \"%s\", \"subdivide\": %d, \"triangles\": %zu, \"points\": %zu, \"cold\": %d, \"sleep\": %d, \"wake\": %d, \"read_ms\": %.2f, \"warm_wait_ms\": %.2f,",
+         argv[1], k, m.triangleCount(), m.pointCount(), int(cold), int(sleep), int(wake), ms(start, read), ms(read, ready));
   steps("first", ms(t0, t1), first);
   printf(" \"first_minflt\": %ld, \"first_nvcsw\": %ld, \"first_nivcsw\": %ld,", u1.ru_minflt - u0.ru_minflt,
          u1.ru_nvcsw - u0.ru_nvcsw, u1.ru_nivcsw - u0.ru_nivcsw);

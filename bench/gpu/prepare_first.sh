@@ -6,18 +6,21 @@
 #     build-device/core/libhdt_core.a -L.devdeps/lib/x86_64-linux-gnu -ltbb -lzstd -lz -lpthread -o DIR/pf-new
 #   OUT=DIR bench/gpu/prepare_first.sh DIR/pf-base DIR/pf-new      (from the repository root)
 # Meshes from .devdeps/meshes (PREPARE_FIRST_MESHES: "MESH:SUBDIVIDE[:TRIANGLES] ...": TRIANGLES cuts
-# the subdivided mesh to its first TRIANGLES triangles), ROUNDS rounds.
+# the subdivided mesh to its first TRIANGLES triangles), ROUNDS rounds. A binary given as BIN:MODE runs
+# in that prepare_first mode (warm, sleep, wake, cold; default warm), e.g. DIR/pf-new:sleep.
 # Lines to $OUT/prepare-first-ab.jsonl, a summary (ranges, medians, steps) on stdout.
 set -u
 D=$(pwd)/.devdeps
 export LD_LIBRARY_PATH=$D/lib/x86_64-linux-gnu:${LD_LIBRARY_PATH:-}
-echo "nproc $(nproc) $(date -u +%FT%TZ) $(uname -r)"
+echo "nproc $(nproc) $(date -u +%FT%TZ) $(uname -r) $(grep -m1 "model name" /proc/cpuinfo | cut -d: -f2)"
 for spec in ${PREPARE_FIRST_MESHES:-stanford-dragon-100k:1 nefertiti:1}; do
   for r in $(seq 1 "${ROUNDS:-10}"); do
-    for b in "$@"; do
-      echo -n "{\"round\": $r, \"variant\": \"$(basename "$b")\", \"run\": "
+    for v in "$@"; do
+      b=${v%%:*} mode=warm
+      [[ $v == *:* ]] && mode=${v#*:}
+      echo -n "{\"round\": $r, \"variant\": \"$(basename "$v")\", \"run\": "
       IFS=: read -r mesh k cut <<<"$spec"
-      "$b" "$D/meshes/$mesh.ply" "$k" 8 warm ${cut:-} | tr -d '\n'
+      "$b" "$D/meshes/$mesh.ply" "$k" 8 "$mode" ${cut:-} | tr -d '\n'
       echo "}"
     done
   done

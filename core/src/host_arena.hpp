@@ -13,4 +13,8 @@ namespace hdt {
 // made and filled once, by whichever thread comes first.
 tbb::task_arena& hostArena();
 
+// Ends keepHostThreadsAwake's tasks (warm_pages.hpp): prepareMesh's work is
+// there for the workers.
+void releaseHostThreads();
+
 } // namespace hdt

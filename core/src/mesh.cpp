@@ -231,6 +231,7 @@ PreparedMesh prepareInArena(const TriangleMesh& mesh, const BuildConfig& config,
 // process finds the workers there. A caller in an arena of fewer threads
 // keeps its limit.
 PreparedMesh prepareMesh(const TriangleMesh& mesh, const BuildConfig& config, PrepareTimes* times) {
+  releaseHostThreads();
   if (tbb::this_task_arena::max_concurrency() < hostArena().max_concurrency()) return prepareInArena(mesh, config, times);
   return hostArena().execute([&] { return prepareInArena(mesh, config, times); });
 }

@@ -8,6 +8,7 @@
 #include <tbb/task_arena.h>
 
 #include <algorithm>
+#include <atomic>
 #include <utility>
 #include <vector>
 
@@ -106,26 +107,58 @@ uint64_t hashOf(int32_t x, int32_t y, int32_t z) {
   return h ^ (h >> 32);
 }
 
-// One bucket's points, in index order: the first of equal ones numbers them
-// all (an open-addressing table of positions, in cache).
-void numberBucket(const Point* points, size_t n, NumberedPoint* out, std::vector<uint32_t>& table) {
+size_t numberTableSize(size_t points) {
   size_t size = 16;
-  while (size < 2 * n) size *= 2;
-  table.assign(size, 0); // position + 1; 0 is free
-  for (size_t i = 0; i < n; ++i) {
-    const Point& p = points[i];
-    size_t slot = hashOf(p.x, p.y, p.z) & (size - 1);
-    uint32_t number = p.index;
-    for (; table[slot] != 0; slot = (slot + 1) & (size - 1)) {
-      const Point& q = points[table[slot] - 1];
-      if (q.x == p.x && q.y == p.y && q.z == p.z) {
-        number = q.index;
-        break;
+  while (size < 2 * points) size *= 2;
+  return size;
+}
+
+// One bucket's points, read where the scatter put them (its blocks' parts, in
+// index order): the first of equal ones numbers them all. The open-addressing
+// table holds positions + 1 in the scattered values (0 is free), so the
+// bucket is not copied first; a probe reads a value of this bucket (in
+// cache). Position: uint32_t, or uint64_t where the values are more.
+template <class Position, class Scattered>
+void numberBucket(const Scattered& b, size_t bucket, NumberedPoint* out, Position* table) {
+  size_t n = 0;
+  b.forEachPart(bucket, [&n](const Point* f, const Point* l) { n += size_t(l - f); });
+  const size_t mask = numberTableSize(n) - 1;
+  std::fill(table, table + mask + 1, Position(0));
+  const Point* values = b.values.data();
+  b.forEachPart(bucket, [&](const Point* f, const Point* l) {
+    for (; f != l; ++f) {
+      const Point& p = *f;
+      size_t slot = hashOf(p.x, p.y, p.z) & mask;
+      uint32_t number = p.index;
+      for (; table[slot] != 0; slot = (slot + 1) & mask) {
+        const Point& q = values[table[slot] - 1];
+        if (q.x == p.x && q.y == p.y && q.z == p.z) {
+          number = q.index;
+          break;
+        }
       }
+      if (number == p.index) table[slot] = Position(f - values + 1);
+      out[p.index].number = number;
     }
-    if (number == p.index) table[slot] = uint32_t(i + 1);
-    out[p.index].number = number;
+  });
+}
+
+// Each bucket numbered with one table a thread (warm pages, reused bucket
+// after bucket), of the largest bucket's size.
+template <class Position, class Scattered> void numberBuckets(const Scattered& b, NumberedPoint* out) {
+  size_t largest = 0;
+  for (size_t k = 0; k < b.buckets; ++k) {
+    size_t n = 0;
+    b.forEachPart(k, [&n](const Point* f, const Point* l) { n += size_t(l - f); });
+    largest = std::max(largest, n);
   }
+  const size_t slots = size_t(std::max(1, tbb::this_task_arena::max_concurrency()));
+  const size_t tableSize = numberTableSize(largest);
+  Scratch<Position> tables(slots * tableSize);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, b.buckets), [&](const tbb::blocked_range<size_t>& r) {
+    const size_t slot = std::min(slots - 1, size_t(std::max(0, tbb::this_task_arena::current_thread_index())));
+    for (size_t k = r.begin(); k != r.end(); ++k) numberBucket(b, k, out, tables.data() + slot * tableSize);
+  });
 }
 
 // ---- edges and corners ------------------------------------------------------------------
@@ -140,8 +173,8 @@ void numberBucket(const Point* points, size_t n, NumberedPoint* out, std::vector
 // corner entries.
 
 struct Tally {
-  size_t oddPoints = 0, duplicates = 0;
-  Tally operator+(const Tally& o) const { return {oddPoints + o.oddPoints, duplicates + o.duplicates}; }
+  size_t duplicates = 0;
+  Tally operator+(const Tally& o) const { return {duplicates + o.duplicates}; }
 };
 
 template <class Entry> struct EntryCode {
@@ -154,19 +187,6 @@ template <class Entry> struct EntryCode {
   uint32_t q(Entry e) const { return uint32_t((e >> idBits) & none); }
   Entry r(Entry e) const { return e & none; }
 };
-
-template <class T> void sortSmall(T* first, T* last) {
-  if (last - first > 16) {
-    std::sort(first, last);
-    return;
-  }
-  for (T* i = first + 1; i < last; ++i) {
-    const T v = *i;
-    T* j = i;
-    for (; j != first && v < *(j - 1); --j) *j = *(j - 1);
-    *j = v;
-  }
-}
 
 // Values that equal an earlier one in [first, last): a run of m equal values
 // gives m - 1. Pairwise for the few values of a point, else sorted.
@@ -207,29 +227,73 @@ bool someOddCount(uint32_t* first, uint32_t* last) {
   return false;
 }
 
-// One bucket: ordered by point (a counting sort over the bucket's 2^shift
-// points, or a plain sort where it has fewer entries than points), then each
-// point's entries on their own: repeated corner entries, and the other ends
-// of its edges, each of which must come an even number of times.
+// A hash of an entry, for a table of mask + 1 slots.
+template <class Entry> size_t slotOf(Entry e, size_t mask) {
+  uint64_t x = uint64_t(e);
+  if constexpr (sizeof(Entry) > 8) x ^= uint64_t(e >> 64) * 0xC2B2AE3D27D4EB4Full;
+  x *= 0x9E3779B97F4A7C15ull;
+  return size_t(x ^ (x >> 32)) & mask;
+}
+
+// One bucket. While the mesh may be closed: ordered by point (a counting sort
+// over the bucket's 2^shift points, or a plain sort where it has fewer entries
+// than points), then each point's entries on their own: repeated corner
+// entries, and the other ends of its edges, each of which must come an even
+// number of times. Once one has not, the mesh is open (open set): the buckets
+// tallied after that only count their repeated corner entries, in any order,
+// in a hash table (in cache, no sort).
 template <class Entry> struct BucketTally {
   const EntryCode<Entry>& code;
-  std::vector<Entry> sorted, corners;
+  std::atomic<bool>& open;
+  std::vector<Entry> sorted, corners, cornerTable;
   std::vector<uint32_t> count, ends;
+  bool parity = true; // this point's edges are checked
 
   void point(const Entry* first, const Entry* last, Tally& t) {
     const size_t n = size_t(last - first);
     if (ends.size() < 2 * n) ends.resize(2 * n), corners.resize(n);
     size_t e = 0, c = 0;
-    for (const Entry* i = first; i != last; ++i) {
-      ends[e++] = code.q(*i);
-      if (code.r(*i) != code.none) ends[e++] = uint32_t(code.r(*i)), corners[c++] = *i;
+    if (parity) {
+      for (const Entry* i = first; i != last; ++i) {
+        ends[e++] = code.q(*i);
+        if (code.r(*i) != code.none) ends[e++] = uint32_t(code.r(*i)), corners[c++] = *i;
+      }
+      if (someOddCount(ends.data(), ends.data() + e)) open.store(true, std::memory_order_relaxed), parity = false;
+    } else {
+      for (const Entry* i = first; i != last; ++i)
+        if (code.r(*i) != code.none) corners[c++] = *i;
     }
     t.duplicates += repeats(corners.data(), corners.data() + c);
-    t.oddPoints += someOddCount(ends.data(), ends.data() + e);
+  }
+
+  // Repeated corner entries of bucket `bucket`: a table of them (0 is free:
+  // no corner entry is 0, its r is above its q).
+  template <class Scattered> void duplicatesOnly(const Scattered& b, size_t bucket, Tally& t) {
+    const Entry none = code.none;
+    size_t c = 0;
+    b.forEachPart(bucket, [&](const Entry* f, const Entry* l) {
+      for (; f != l; ++f) c += (*f & none) != none;
+    });
+    size_t size = 16;
+    while (size < 2 * c) size *= 2;
+    const size_t mask = size - 1;
+    cornerTable.assign(size, Entry(0));
+    b.forEachPart(bucket, [&](const Entry* f, const Entry* l) {
+      for (; f != l; ++f) {
+        const Entry e = *f;
+        if ((e & none) == none) continue;
+        size_t slot = slotOf(e, mask);
+        while (cornerTable[slot] != 0 && cornerTable[slot] != e) slot = (slot + 1) & mask;
+        if (cornerTable[slot] == e) ++t.duplicates;
+        else cornerTable[slot] = e;
+      }
+    });
   }
 
   // Bucket `bucket` of the scattered entries b, read from its blocks' parts.
   template <class Scattered> void operator()(const Scattered& b, size_t bucket, Tally& t) {
+    if (open.load(std::memory_order_relaxed)) return duplicatesOnly(b, bucket, t);
+    parity = true;
     const size_t points = size_t(1) << code.shift;
     size_t n = 0;
     b.forEachPart(bucket, [&n](const Entry* f, const Entry* l) { n += size_t(l - f); });
@@ -276,17 +340,18 @@ SurfaceTopology tally(const uint32_t* indices, const uint8_t* keep, size_t trian
     put(v[0] >> shift, code.of(v[0], v[1], v[2]));
     put(v[1] >> shift, code.of(v[1], v[2], code.none));
   };
+  std::atomic<bool> open{false};
   const Tally t = scatter<Entry>(triangles, 2, buckets, file, before, [&](const auto& b) {
     return tbb::parallel_reduce(
         tbb::blocked_range<size_t>(0, buckets), Tally{},
         [&](const tbb::blocked_range<size_t>& r, Tally sum) {
-          BucketTally<Entry> bucket{code, {}, {}, {}, {}};
+          BucketTally<Entry> bucket{code, open, {}, {}, {}, {}, {}};
           for (size_t k = r.begin(); k != r.end(); ++k) bucket(b, k, sum);
           return sum;
         },
         [](const Tally& x, const Tally& y) { return x + y; });
   });
-  return SurfaceTopology{t.oddPoints == 0, t.duplicates};
+  return SurfaceTopology{!open.load(), t.duplicates};
 }
 
 } // namespace
@@ -311,14 +376,8 @@ void numberLatticePoints(NumberedPoint* points, size_t count, const BlockWork& b
     put(bits ? size_t(h >> (64 - bits)) : 0, Point{p.x, p.y, p.z, uint32_t(i)});
   };
   scatter<Point>(count, 1, size_t(1) << bits, file, before, [&](const auto& b) {
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, b.buckets), [&](const tbb::blocked_range<size_t>& r) {
-      std::vector<uint32_t> table;
-      std::vector<Point> bucket;
-      for (size_t k = r.begin(); k != r.end(); ++k) {
-        b.gather(k, bucket);
-        numberBucket(bucket.data(), bucket.size(), points, table);
-      }
-    });
+    if (b.values.size() < UINT32_MAX) numberBuckets<uint32_t>(b, points);
+    else numberBuckets<uint64_t>(b, points);
     return 0;
   });
 }

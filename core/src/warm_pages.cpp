@@ -49,6 +49,26 @@ void startHostThreads() {
   });
 }
 
+namespace {
+std::atomic<bool> keepAwake{false};
+} // namespace
+
+void keepHostThreadsAwake(unsigned limitMs) {
+  keepAwake.store(true);
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(limitMs);
+  // One task a worker (the arena keeps a slot for a caller); one more queued
+  // behind them would find the flag down and end at once.
+  const int workers = std::max(1, hostArena().max_concurrency() - 1);
+  for (int i = 0; i < workers; ++i) {
+    hostArena().enqueue([deadline] {
+      while (keepAwake.load(std::memory_order_relaxed) && std::chrono::steady_clock::now() < deadline)
+        std::this_thread::yield();
+    });
+  }
+}
+
+void releaseHostThreads() { keepAwake.store(false, std::memory_order_relaxed); }
+
 #if defined(__linux__)
 namespace {
 

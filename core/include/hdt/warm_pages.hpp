@@ -26,6 +26,14 @@ namespace hdt {
 // afterwards does not wait for threads to be created or moved.
 void startHostThreads();
 
+// Keeps oneTBB's workers awake in that arena, without blocking the caller,
+// until prepareMesh is called or `limitMs` has passed: each yields its core
+// to any other thread that wants one. Call it after startHostThreads and
+// reserveWarmPages, while the mesh is read: idle workers fall asleep soon,
+// and waking them, one after another, is a few tenths of a ms of
+// prepareMesh's first call on a VM (its first loop waits for them).
+void keepHostThreadsAwake(unsigned limitMs);
+
 // Reserves `bytes` (rounded up to 2 MiB) of faulted-in memory, in parallel.
 // Only a hint: when the memory cannot be mapped nothing is reserved. Thread-safe.
 // `smallestArray`: only arrays of at least this many bytes take these pages
