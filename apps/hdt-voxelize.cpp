@@ -37,6 +37,7 @@
 #include <iostream>
 #include <memory>
 #include <new>
+#include <thread>
 
 namespace hdt::cli {
 namespace {
@@ -207,7 +208,10 @@ JoiningThread startHostWarmUp(const std::string& meshPath) {
   return JoiningThread([bytes] {
     startHostThreads();
     reserveWarmPages(bytes);
-    keepHostThreadsAwake(1000); // until prepareMesh
+    // Until prepareMesh. Not on a machine of few cores: there the spinning
+    // workers take the cores the reader and CUDA's set-up need (a read on 2
+    // cores took up to 4x as long, bench/results/end-to-end.md).
+    if (std::thread::hardware_concurrency() >= 8) keepHostThreadsAwake(1000);
   });
 }
 
