@@ -354,7 +354,7 @@ __global__ void firstBoxesKernel(WindingTreeView t, const WindingUniformJob* job
   const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i >= count) return;
   const WindingUniformJob job = jobs[i];
-  if (jobT && jobT[i] != INT_MIN) {
+  if (jobT && jobT[i] != kNoThreshold) {
     const int64_t P[3] = {latticeOfVoxelCentre(job.origin[0] + job.edge / 2),
                           latticeOfVoxelCentre(job.origin[1] + job.edge / 2),
                           latticeOfVoxelCentre(job.origin[2] + job.edge / 2)};
