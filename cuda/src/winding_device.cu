@@ -36,11 +36,14 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <climits>
 #include <chrono>
+#include <exception>
 #include <cstdio>
 #include <cstdlib>
 #include <memory>
 #include <new>
+#include <thread>
 #include <utility>
 
 namespace hdt {
@@ -173,10 +176,16 @@ __global__ void lineSuffixKernel(const uint32_t* lineStarts, uint32_t lines, uin
 
 // ---- counts and decisions -----------------------------------------------------------
 
+// A leaf's threshold when its block holds (blocks below), else this.
+constexpr int kNoThreshold = INT_MIN;
+
 // One thread per (leaf, row); fits[leaf] starts at 1 and any row that does
 // not fit writes 0 (the same value whatever the order).
+// With leafT (L a multiple of 16: a row is whole 16-voxel words), a leaf of
+// a held block keeps no counts: its rows give the words' inside bits
+// (N >= T, before the surface mask) in insideBits, one 16-bit group a word.
 __global__ void countsKernel(uint32_t leafCount, int L, const int32_t* exits, const int32_t* rowHits, int16_t* counts,
-                             uint8_t* fits) {
+                             uint8_t* fits, const int* leafT, uint16_t* insideBits) {
   const uint64_t k = uint64_t(blockIdx.x) * blockDim.x + threadIdx.x;
   const uint64_t rows = uint64_t(L) * uint64_t(L);
   if (k >= uint64_t(leafCount) * rows) return; // k = leaf * rows + row
@@ -199,8 +208,16 @@ __global__ void countsKernel(uint32_t leafCount, int L, const int32_t* exits, co
     fit = n >= INT16_MIN && n <= INT16_MAX;
     r[x] = int16_t(n);
   }
-  if (wide)
+  const int T = leafT ? leafT[k / rows] : kNoThreshold;
+  if (T != kNoThreshold && wide) {
+    for (int g = 0; g < L / kVoxelsPerWord; ++g) {
+      uint32_t bits = 0;
+      for (int x = 0; x < kVoxelsPerWord; ++x) bits |= uint32_t(int(row[g * kVoxelsPerWord + x]) >= T) << x;
+      insideBits[k * uint64_t(L / kVoxelsPerWord) + uint64_t(g)] = uint16_t(bits);
+    }
+  } else if (wide) {
     for (int i = 0; i < L / 8; ++i) reinterpret_cast<int4*>(c)[i] = reinterpret_cast<const int4*>(row)[i];
+  }
   if (!fit) fits[k / rows] = 0;
 }
 
@@ -329,16 +346,31 @@ __global__ void uniformBoxesKernel(WindingTreeView t, const QueuedBox* in, uint3
   }
 }
 
-__global__ void firstBoxesKernel(const WindingUniformJob* jobs, uint32_t count, QueuedBox* boxes) {
+// An element whose block holds (jobT[i], a threshold; null: none) takes N at
+// one voxel centre against T; the others (and those whose ray walk cannot
+// say) are queued whole, in any order.
+__global__ void firstBoxesKernel(WindingTreeView t, const WindingUniformJob* jobs, uint32_t count, const int* jobT,
+                                 uint32_t* seen, QueuedBox* boxes, uint32_t* queued) {
   const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i >= count) return;
+  const WindingUniformJob job = jobs[i];
+  if (jobT && jobT[i] != kNoThreshold) {
+    const int64_t P[3] = {latticeOfVoxelCentre(job.origin[0] + job.edge / 2),
+                          latticeOfVoxelCentre(job.origin[1] + job.edge / 2),
+                          latticeOfVoxelCentre(job.origin[2] + job.edge / 2)};
+    int N = 0;
+    if (windingRayCrossings(t, P, N)) {
+      seen[i] = N >= jobT[i] ? kSeenInside : kSeenOutside;
+      return;
+    }
+  }
   QueuedBox q;
   for (int a = 0; a < 3; ++a) {
-    q.box.lo[a] = jobs[i].origin[a];
-    q.box.hi[a] = jobs[i].origin[a] + jobs[i].edge;
+    q.box.lo[a] = job.origin[a];
+    q.box.hi[a] = job.origin[a] + job.edge;
   }
   q.job = i;
-  boxes[i] = q;
+  boxes[atomicAdd(queued, 1u)] = q;
 }
 
 // ---- leaves, breadth first ----------------------------------------------------------
@@ -379,10 +411,13 @@ __device__ void settleLeafBox(uint32_t* words, uint32_t L, const VoxelBox& b, co
   if (mask) atomicOr(words + word, mask);
 }
 
-__global__ void firstLeafBoxesKernel(uint32_t leafCount, int L, const uint8_t* fits, LeafBox* boxes) {
+// The whole leaves that fit and that no block settled, queued in any order
+// (every verdict is certified).
+__global__ void firstLeafBoxesKernel(uint32_t leafCount, int L, const uint8_t* fits, const int* leafT, LeafBox* boxes,
+                                     uint32_t* count) {
   const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
-  if (i >= leafCount) return;
-  boxes[i] = LeafBox{VoxelBox{{0, 0, 0}, {L, L, L}}, fits[i] ? i : kNoJob, INFINITY};
+  if (i >= leafCount || !fits[i] || (leafT && leafT[i] != kNoThreshold)) return;
+  boxes[atomicAdd(count, 1u)] = LeafBox{VoxelBox{{0, 0, 0}, {L, L, L}}, i, INFINITY};
 }
 
 // Voxels that the count and the strips leave unsure (the centre lies in a
@@ -459,6 +494,114 @@ void checkLaunch(const char* name) {
   HDT_CUDA_CHECK_LAUNCH(name);
 }
 
+// ---- blocks of leaves ------------------------------------------------------------
+//
+// The host's blocks (core/src/winding.cpp, coarseThresholds): aligned cubes of
+// kBlockLeaves leaf edges a side; a block that no strip sheet meets and whose
+// K range holds no tie (windingBoxThreshold over the block's voxel centres)
+// certifies one threshold T for every point in it: inside iff N >= T. So a
+// leaf in a held block is settled from its counts alone (no K per leaf), and
+// a uniform element in one by N at one voxel centre (w is continuous over it
+// and never 1/2 in the block). One thread per block; the blocks are those of
+// the items asked, deduplicated by a sort. A block past the volume's far side
+// is not clipped: its box then holds more points than needed, still certified.
+constexpr int kBlockLeaves = 4;
+constexpr uint64_t kNoBlock = ~uint64_t(0);
+
+__host__ __device__ uint64_t blockKey(int x, int y, int z, int edge) {
+  return (uint64_t(uint32_t(z / edge)) << 42) | (uint64_t(uint32_t(y / edge)) << 21) | uint64_t(uint32_t(x / edge));
+}
+
+__global__ void leafBlockKeysKernel(const LeafOrigin* origins, uint32_t n, int edge, uint64_t* keys) {
+  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i < n) keys[i] = blockKey(origins[i].o[0], origins[i].o[1], origins[i].o[2], edge);
+}
+
+// Elements larger than a block have none.
+__global__ void jobBlockKeysKernel(const WindingUniformJob* jobs, uint32_t n, int edge, uint64_t* keys) {
+  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= n) return;
+  const WindingUniformJob j = jobs[i];
+  keys[i] = j.edge <= edge ? blockKey(j.origin[0], j.origin[1], j.origin[2], edge) : kNoBlock;
+}
+
+__global__ void blockThresholdKernel(WindingTreeView t, const uint64_t* keys, uint32_t n, int edge, int* T) {
+  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= n) return;
+  const uint64_t k = keys[i];
+  const uint32_t b[3] = {uint32_t(k & 0x1FFFFFu), uint32_t((k >> 21) & 0x1FFFFFu), uint32_t(k >> 42)};
+  double lo[3], hi[3];
+  for (int a = 0; a < 3; ++a) {
+    lo[a] = double(b[a]) * edge + 0.5;
+    hi[a] = double(b[a] + 1) * edge - 0.5;
+  }
+  double gradient = INFINITY;
+  int threshold = 0;
+  const bool holds = k != kNoBlock && !windingSheetsMeetBox(t, lo, hi) && windingBoxThreshold(t, lo, hi, threshold, gradient);
+  T[i] = holds ? threshold : kNoThreshold;
+}
+
+// Each item's block threshold (kNoThreshold: none) by binary search of its
+// key among the sorted unique blocks.
+__global__ void blockLookupKernel(const uint64_t* itemKeys, uint32_t n, const uint64_t* keys, const int* T,
+                                  uint32_t blockCount, int* itemT) {
+  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= n) return;
+  const uint64_t k = itemKeys[i];
+  uint32_t lo = 0, hi = blockCount;
+  while (lo < hi) {
+    const uint32_t mid = (lo + hi) / 2;
+    if (keys[mid] < k) lo = mid + 1;
+    else hi = mid;
+  }
+  itemT[i] = (k != kNoBlock && lo < blockCount && keys[lo] == k) ? T[lo] : kNoThreshold;
+}
+
+// itemT[i]: the threshold of item i's block (keys: each item's block key,
+// kNoBlock for none), kNoThreshold where it does not hold. Returns the
+// number of blocks evaluated.
+uint32_t blockThresholds(const WindingTreeView& t, const uint64_t* itemKeys, uint32_t n, int edge, int* itemT) {
+  Array<uint64_t> sorted(n), unique(n);
+  Array<uint32_t> uniqueCount(1);
+  size_t sortBytes = 0, uniqueBytes = 0;
+  HDT_CUDA_CHECK(cub::DeviceRadixSort::SortKeys(nullptr, sortBytes, itemKeys, sorted.data(), int(n)));
+  HDT_CUDA_CHECK(cub::DeviceSelect::Unique(nullptr, uniqueBytes, sorted.data(), unique.data(), uniqueCount.data(), int(n)));
+  Array<uint8_t> temp(std::max<size_t>(std::max(sortBytes, uniqueBytes), 16));
+  HDT_CUDA_CHECK(cub::DeviceRadixSort::SortKeys(temp.data(), sortBytes, itemKeys, sorted.data(), int(n)));
+  HDT_CUDA_CHECK(cub::DeviceSelect::Unique(temp.data(), uniqueBytes, sorted.data(), unique.data(), uniqueCount.data(), int(n)));
+  uint32_t count = 0;
+  uniqueCount.download(&count);
+  Array<int> T(std::max<uint32_t>(count, 1));
+  blockThresholdKernel<<<(count + kBoxBlock - 1) / kBoxBlock, kBoxBlock>>>(t, unique.data(), count, edge, T.data());
+  HDT_CUDA_CHECK_LAUNCH("blockThresholdKernel");
+  blockLookupKernel<<<blocks(n), kBlock>>>(itemKeys, n, unique.data(), T.data(), count, itemT);
+  HDT_CUDA_CHECK_LAUNCH("blockLookupKernel");
+  HDT_CUDA_CHECK(cudaStreamSynchronize(0)); // before the temporaries go (not the words' upload)
+  return count;
+}
+
+// A leaf of a held block: each non-surface voxel inside iff N >= T (one
+// thread per word; the word's inside plane rewritten).
+// insideBits: the bits countsKernel left (else from the counts).
+__global__ void settleBlockLeavesKernel(uint64_t wordCount, int L, const uint8_t* fits, const int* leafT,
+                                        const int16_t* counts, const uint16_t* insideBits, uint32_t* words) {
+  const uint64_t i = uint64_t(blockIdx.x) * blockDim.x + threadIdx.x;
+  const uint32_t wc = leafWordCount(L);
+  if (i >= wordCount) return;
+  const uint64_t leaf = i / wc;
+  const int T = leafT[leaf];
+  if (!fits[leaf] || T == kNoThreshold) return;
+  uint32_t inside = 0;
+  if (insideBits) {
+    inside = insideBits[i];
+  } else {
+    const int16_t* N = counts + leaf * uint64_t(L) * uint64_t(L) * uint64_t(L) + (i % wc) * kVoxelsPerWord;
+    for (uint32_t v = 0; v < kVoxelsPerWord; ++v) inside |= uint32_t(int(N[v]) >= T) << v;
+  }
+  words[i] = withInsidePlane(words[i], inside);
+}
+
+
 // The device's state between the steps.
 struct CountsOnDevice {
   Array<LeafOrigin> origins;
@@ -487,7 +630,7 @@ public:
   }
 
 private:
-  cudaEvent_t e_[8];
+  cudaEvent_t e_[9];
 };
 
 // HDT_WINDING_TRACE set: each level's boxes and kernel time on stderr.
@@ -570,20 +713,27 @@ uint64_t runQueueLevels(const char* name, uint32_t first, uint32_t capacity, Box
 
 // The leaves' boxes level by level (leafBoxesKernel); returns the boxes taken.
 // hard: on return the voxels left to the host (decideHardVoxels).
+// leafT: each leaf's block threshold (those with one are settled already), or null.
 uint64_t decideLeavesBreadthFirst(const WindingTreeView& t, const LeafOrigin* origins, uint32_t leaves, int L,
-                                  const int16_t* counts, uint8_t* fits, uint32_t* words, QueueMemory& memory,
-                                  std::vector<uint2>& hard) {
+                                  const int16_t* counts, uint8_t* fits, const int* leafT, uint32_t* words,
+                                  QueueMemory& memory, std::vector<uint2>& hard) {
   const uint32_t capacity = std::max<uint32_t>(2 * leaves, leastQueueBoxes(kLeafQueue));
   Array<uint32_t> hardCount(1);
   Array<uint2> hardItems(kHardVoxels);
   hardCount.zero();
   const bool allHard = std::getenv("HDT_WINDING_HOST_VOXELS") != nullptr;
   auto [in, out] = memory.queues<LeafBox>(capacity);
-  firstLeafBoxesKernel<<<blocks(leaves), kBlock>>>(leaves, L, fits, in);
-  checkLaunch("firstLeafBoxesKernel");
+  uint32_t first = 0;
+  {
+    Array<uint32_t> firstCount(1);
+    firstCount.zero();
+    firstLeafBoxesKernel<<<blocks(leaves), kBlock>>>(leaves, L, fits, leafT, in, firstCount.data());
+    checkLaunch("firstLeafBoxesKernel");
+    firstCount.download(&first);
+  }
   const HardVoxels hardVoxels{hardItems.data(), hardCount.data(), kHardVoxels};
   const uint64_t total =
-      runQueueLevels("leaves", leaves, capacity, in, out, [&](LeafBox* from, uint32_t n, LeafBox* to, uint32_t* toCount) {
+      runQueueLevels("leaves", first, capacity, in, out, [&](LeafBox* from, uint32_t n, LeafBox* to, uint32_t* toCount) {
         leafBoxesKernel<<<(n + kBoxBlock - 1) / kBoxBlock, kBoxBlock>>>(t, origins, L, counts, fits, words, from, n, to,
                                                                          toCount, capacity, hardVoxels, allHard);
         checkLaunch("leafBoxesKernel");
@@ -617,13 +767,18 @@ void decideHardVoxels(const WindingTreeView& t, const std::vector<std::array<int
 }
 
 // crossings, lines, counts: N per voxel in d.counts.
+void uploadOrigins(const std::vector<std::array<int, 3>>& origins, CountsOnDevice& d) {
+  std::vector<LeafOrigin> host(origins.size());
+  for (size_t i = 0; i < origins.size(); ++i) host[i] = {{origins[i][0], origins[i][1], origins[i][2]}};
+  d.origins.upload(host.data());
+}
+
+// leafT, insideBits: countsKernel's (null: every leaf's counts kept).
+// d.origins uploaded already (uploadOrigins).
 void computeCounts(const WindingTreeView& t, const std::vector<std::array<int, 3>>& origins, int L,
-                   CountsOnDevice& d, Events& ev) {
+                   CountsOnDevice& d, Events& ev, const int* leafT = nullptr, uint16_t* insideBits = nullptr) {
   const uint32_t leaves = uint32_t(origins.size());
   const uint32_t rows = uint32_t(L * L);
-  std::vector<LeafOrigin> host(leaves);
-  for (size_t i = 0; i < leaves; ++i) host[i] = {{origins[i][0], origins[i][1], origins[i][2]}};
-  d.origins.upload(host.data());
   d.totals.zero();
   d.hits.zero();
   d.counts.zero();
@@ -659,14 +814,57 @@ void computeCounts(const WindingTreeView& t, const std::vector<std::array<int, 3
                                                                   sortedOrder.data(), rows, d.totals.data());
     checkLaunch("lineSuffixKernel");
     ev.mark(3);
-    HDT_CUDA_CHECK(cudaDeviceSynchronize()); // before the temporaries go
+    HDT_CUDA_CHECK(cudaStreamSynchronize(0)); // before the temporaries go (not the words' upload)
   }
   HDT_CUDA_CHECK(cudaMemset(d.fits.data(), 1, leaves));
   countsKernel<<<blocks(uint64_t(leaves) * rows), kBlock>>>(leaves, L, d.totals.data(), d.hits.data(), d.counts.data(),
-                                           d.fits.data());
+                                                            d.fits.data(), leafT, insideBits);
   checkLaunch("countsKernel");
   ev.mark(4);
 }
+
+// The volume's leaf words copied up on a stream of their own (non-blocking:
+// the legacy stream's kernels do not wait for it) by a thread of its own,
+// while the counts run: the copy is bound by the host threads filling the
+// pinned ring, so it hides behind the crossings, lines and counts. wait()
+// returns when the words are on the device (rethrowing the copy's error) and
+// the copy's own wall time; the destructor waits too (the words must outlive
+// the copy).
+class WordsUpload {
+public:
+  WordsUpload(uint32_t* device, const uint32_t* host, size_t words) {
+    int gpu = 0;
+    HDT_CUDA_CHECK(cudaGetDevice(&gpu));
+    HDT_CUDA_CHECK(cudaStreamCreateWithFlags(&stream_, cudaStreamNonBlocking));
+    thread_ = std::thread([this, gpu, device, host, words] {
+      const auto t0 = std::chrono::steady_clock::now();
+      try {
+        HDT_CUDA_CHECK(cudaSetDevice(gpu));
+        copyToDevice(stream_, device, host, words * sizeof(uint32_t));
+      } catch (...) {
+        error_ = std::current_exception();
+      }
+      ms_ = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    });
+  }
+  ~WordsUpload() {
+    if (thread_.joinable()) thread_.join();
+    cudaStreamDestroy(stream_);
+  }
+  WordsUpload(const WordsUpload&) = delete;
+  WordsUpload& operator=(const WordsUpload&) = delete;
+  double wait() {
+    if (thread_.joinable()) thread_.join();
+    if (error_) std::rethrow_exception(error_);
+    return ms_;
+  }
+
+private:
+  cudaStream_t stream_ = nullptr;
+  std::thread thread_;
+  std::exception_ptr error_;
+  double ms_ = 0;
+};
 
 } // namespace
 
@@ -674,6 +872,7 @@ struct WindingDevicePass::Impl {
   const WindingTree* host = nullptr;
   DeviceTree* tree = nullptr;
   QueueMemory queues;
+  int blockEdge = 0; // the blocks' edge in voxels, once known
   ~Impl() { delete tree; }
   const DeviceTree& upload(const WindingTree& t) {
     if (host != &t) {
@@ -702,13 +901,37 @@ bool WindingDevicePass::leaves(const WindingTree& tree, Volume& volume, const st
     CountsOnDevice d(leaves, L);
     std::vector<uint2> hard;
     Array<uint32_t> words(volume.leafWords.size());
-    copyToDevice(0, words.data(), volume.leafWords.data(), words.size() * sizeof(uint32_t));
-    computeCounts(t.view(), origins, L, d, ev);
+    WordsUpload upload(words.data(), volume.leafWords.data(), words.size());
+    // Each leaf's block threshold first: the counts kernel settles the leaves
+    // of held blocks (their counts are not kept where L is a multiple of 16).
+    uploadOrigins(origins, d);
+    if (impl_->blockEdge == 0) impl_->blockEdge = kBlockLeaves * L;
+    const int edge = impl_->blockEdge;
+    Array<int> leafT(leaves);
+    uint32_t blockCount = 0;
+    {
+      Array<uint64_t> keys(leaves);
+      leafBlockKeysKernel<<<blocks(leaves), kBlock>>>(d.origins.data(), leaves, edge, keys.data());
+      checkLaunch("leafBlockKeysKernel");
+      blockCount = blockThresholds(t.view(), keys.data(), leaves, edge, leafT.data());
+    }
+    ev.mark(8);
+    const bool fuse = L % kVoxelsPerWord == 0 && L <= 32;
+    Array<uint16_t> insideBits(fuse ? words.size() : 0);
+    computeCounts(t.view(), origins, L, d, ev, fuse ? leafT.data() : nullptr, fuse ? insideBits.data() : nullptr);
+    const auto wait0 = std::chrono::steady_clock::now();
+    const double uploadMs = upload.wait();
+    const double uploadWaitMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - wait0).count();
     clearInsideKernel<<<blocks(words.size()), kBlock>>>(words.size(), L, d.fits.data(), words.data());
     checkLaunch("clearInsideKernel");
+    settleBlockLeavesKernel<<<blocks(words.size()), kBlock>>>(words.size(), L, d.fits.data(), leafT.data(),
+                                                             d.counts.data(), fuse ? insideBits.data() : nullptr,
+                                                             words.data());
+    checkLaunch("settleBlockLeavesKernel");
+    ev.mark(7);
     const uint64_t boxes =
-        decideLeavesBreadthFirst(t.view(), d.origins.data(), leaves, L, d.counts.data(), d.fits.data(), words.data(),
-                                 impl_->queues, hard);
+        decideLeavesBreadthFirst(t.view(), d.origins.data(), leaves, L, d.counts.data(), d.fits.data(), leafT.data(),
+                                 words.data(), impl_->queues, hard);
     ev.mark(5);
     std::vector<uint8_t> fits(leaves);
     d.fits.download(fits.data());
@@ -719,14 +942,24 @@ bool WindingDevicePass::leaves(const WindingTree& tree, Volume& volume, const st
     const double hardMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - hard0).count();
     for (uint32_t i = 0; i < leaves; ++i)
       if (!fits[i]) leftLeaves.push_back(i);
+    if (traceLevels()) {
+      std::vector<int> T(leaves);
+      leafT.download(T.data());
+      const size_t settled = size_t(std::count_if(T.begin(), T.end(), [](int x) { return x != kNoThreshold; }));
+      std::fprintf(stderr,
+                   "winding trace leaves: %u leaves, %u blocks of %d voxels, %zu leaves settled by them, %.3f ms; "
+                   "words up %.3f ms beside the counts, %.3f ms waited for\n",
+                   leaves, blockCount, edge, settled, ev.ms(0, 8), uploadMs, uploadWaitMs);
+    }
     if (times) {
       times->hardVoxels = hard.size();
       times->hardMs = hardMs;
-      times->upload = ev.ms(0, 1);
+      times->upload = ev.ms(8, 1) + uploadWaitMs; // the words' upload beyond the counts
       times->crossings = ev.ms(1, 2);
       times->lines = ev.ms(2, 3);
       times->counts = ev.ms(3, 4);
-      times->decide = ev.ms(4, 5);
+      times->blocks = ev.ms(0, 8);
+      times->decide = ev.ms(7, 5);
       times->download = ev.ms(5, 6);
       times->boxes = boxes;
     }
@@ -751,10 +984,38 @@ bool WindingDevicePass::uniform(const WindingTree& tree, const std::vector<Windi
     seen.zero();
     const uint32_t capacity = std::max<uint32_t>(2 * count, leastQueueBoxes(kUniformQueue));
     auto [in, out] = impl_->queues.queues<QueuedBox>(capacity);
-    firstBoxesKernel<<<blocks(count), kBlock>>>(d.data(), count, in);
-    checkLaunch("firstBoxesKernel");
+    // The blocks of the elements that fit in one: the leaves' blocks when the
+    // edge is known, else kBlockLeaves of the smallest element's edges (the
+    // leaf's, but for a volume with no element at the last level).
+    if (impl_->blockEdge == 0) {
+      int smallest = INT_MAX;
+      for (const WindingUniformJob& j : jobs) smallest = std::min(smallest, j.edge);
+      impl_->blockEdge = kBlockLeaves * smallest;
+    }
+    const int edge = impl_->blockEdge;
+    const bool anyInBlock = std::any_of(jobs.begin(), jobs.end(), [&](const WindingUniformJob& j) { return j.edge <= edge; });
+    std::unique_ptr<Array<int>> jobT;
+    uint32_t first = 0, blockCount = 0;
+    {
+      if (anyInBlock) {
+        jobT = std::make_unique<Array<int>>(count);
+        Array<uint64_t> keys(count);
+        jobBlockKeysKernel<<<blocks(count), kBlock>>>(d.data(), count, edge, keys.data());
+        checkLaunch("jobBlockKeysKernel");
+        blockCount = blockThresholds(t.view(), keys.data(), count, edge, jobT->data());
+      }
+      Array<uint32_t> queued(1);
+      queued.zero();
+      firstBoxesKernel<<<blocks(count), kBlock>>>(t.view(), d.data(), count, jobT ? jobT->data() : nullptr, seen.data(),
+                                                  in, queued.data());
+      checkLaunch("firstBoxesKernel");
+      queued.download(&first);
+    }
+    if (traceLevels())
+      std::fprintf(stderr, "winding trace uniform: %u elements, %u blocks of %d voxels, %u elements queued\n", count,
+                   blockCount, edge, first);
     const uint64_t total =
-        runQueueLevels("uniform", count, capacity, in, out, [&](QueuedBox* from, uint32_t n, QueuedBox* to, uint32_t* toCount) {
+        runQueueLevels("uniform", first, capacity, in, out, [&](QueuedBox* from, uint32_t n, QueuedBox* to, uint32_t* toCount) {
           uniformBoxesKernel<<<(n + kBoxBlock - 1) / kBoxBlock, kBoxBlock>>>(t.view(), from, n, to, toCount, capacity,
                                                                              seen.data());
           checkLaunch("uniformBoxesKernel");
@@ -816,7 +1077,8 @@ bool WindingDevicePass::fresh(const WindingTree& tree, int L, const std::vector<
                                                                  fits.data());
     checkLaunch("freshCountsKernel");
     std::vector<uint2> hard;
-    decideLeavesBreadthFirst(t.view(), o.data(), leaves, L, counts.data(), fits.data(), w.data(), impl_->queues, hard);
+    decideLeavesBreadthFirst(t.view(), o.data(), leaves, L, counts.data(), fits.data(), nullptr, w.data(), impl_->queues,
+                             hard);
     std::vector<uint8_t> hostFits(leaves);
     fits.download(hostFits.data());
     copyToHost(0, words, w.data(), w.size() * sizeof(uint32_t));
@@ -840,6 +1102,7 @@ void windingCountsOnDevice(const WindingTree& tree, int L, const std::vector<std
   Events ev;
   DeviceTree t(tree);
   CountsOnDevice d(leaves, L);
+  uploadOrigins(origins, d);
   computeCounts(t.view(), origins, L, d, ev);
   d.counts.download(counts.data());
   d.fits.download(fits.data());

@@ -20,6 +20,7 @@ namespace cuda {
 // CUDA-event times of the device pass (milliseconds).
 struct WindingDeviceTimes {
   double upload = 0, crossings = 0, lines = 0, counts = 0, decide = 0, download = 0;
+  double blocks = 0; // block thresholds and the leaves they settle (decide: the rest)
   uint64_t boxes = 0;      // leaf boxes decided (breadth first)
   uint64_t hardVoxels = 0; // voxels decided on the host afterwards (windingInsideAt)
   double hardMs = 0;       // their host time
