@@ -15,7 +15,11 @@
 //             hits come in pair order = triangle order, and the counters give
 //             each hit's rank among its child's and the parent's hits before
 //             its child's. No sort: one scan of the pairs instead of a radix
-//             sort of the hits (several passes over keys and values).
+//             sort of the hits (several passes over keys and values). When
+//             no element can hold 65,536 pairs (fewer triangles than that),
+//             the scan is a segmented one of 16-bit counters with the rank and
+//             the hit count folded in (SegmentCounts): 24 bytes a pair instead
+//             of 32, and no separate rank scan.
 // One host synchronisation per level reads the touched and hit counts that
 // size the next level.
 #include "device_common.cuh"
@@ -78,16 +82,65 @@ __global__ void rootCoordsKernel(uint32_t count, uint64_t firstCell, uint64_t R,
 }
 
 // childCoords == nullptr: the leaf level (Boundary elements, leaf tables).
+// The segmented form: per pair (or over a range of pairs), the hits of each
+// child as 16-bit lanes (child k in lane k % 4 of lanes[k / 4]) since the
+// range's last first-pair-of-an-element, the first pairs of elements in the
+// range (rank) and all the hits in it. The inclusive scan's entry i holds
+// pair i's rank (1-based), the hits of its element's pairs up to i by child,
+// and every hit up to i. The lanes cannot carry into each other while no
+// element has 65,536 pairs (an element's pairs are distinct triangles).
+struct alignas(8) SegmentCounts {
+  uint64_t lanes[2];
+  uint32_t rank, hits;
+};
+constexpr uint32_t kSegmentMaxTriangles = 65535;
+static_assert(sizeof(SegmentCounts) == 24, "the rank is read as every sixth word");
+
+struct AddSegmentCounts {
+  __device__ SegmentCounts operator()(const SegmentCounts& a, const SegmentCounts& b) const {
+    SegmentCounts r;
+    r.lanes[0] = b.rank ? b.lanes[0] : a.lanes[0] + b.lanes[0];
+    r.lanes[1] = b.rank ? b.lanes[1] : a.lanes[1] + b.lanes[1];
+    r.rank = a.rank + b.rank;
+    r.hits = a.hits + b.hits;
+    return r;
+  }
+};
+
+__device__ __forceinline__ uint64_t spreadToLanes(uint32_t bits4) {
+  return uint64_t(bits4 & 1u) | uint64_t(bits4 >> 1 & 1u) << 16 | uint64_t(bits4 >> 2 & 1u) << 32 |
+         uint64_t(bits4 >> 3 & 1u) << 48;
+}
+__device__ __forceinline__ uint32_t lane(const SegmentCounts& v, int k) {
+  return uint32_t(v.lanes[k >> 2] >> (16 * (k & 3))) & 0xffffu;
+}
+
+struct MaskToSegmentCounts {
+  const uint32_t* element;
+  const uint8_t* masks;
+  __device__ SegmentCounts operator()(uint32_t i) const {
+    const uint32_t m = masks[i];
+    SegmentCounts r;
+    r.lanes[0] = spreadToLanes(m & 15u);
+    r.lanes[1] = spreadToLanes(m >> 4);
+    r.rank = i == 0 || element[i] != element[i - 1] ? 1u : 0u;
+    r.hits = uint32_t(__popc(m));
+    return r;
+  }
+};
+
 // With childCoords, segmentStart[r] = the first pair of touched element r.
+// rank: pair i's at rank[i * rankStride] (inside SegmentCounts or not).
 __global__ void markLevelKernel(uint32_t n, const uint32_t* element, const uint32_t* rank, const uint64_t* coords,
                                 ElementWord* words, uint32_t branchBase, uint64_t* childCoords,
-                                uint64_t* leafCoord, uint32_t* leafPairStart, uint32_t* segmentStart) {
+                                uint64_t* leafCoord, uint32_t* leafPairStart, uint32_t* segmentStart,
+                                uint32_t rankStride) {
   const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i >= n) return;
   const uint32_t e = element[i];
-  if (!childCoords && i == n - 1) leafPairStart[rank[i]] = n;
+  if (!childCoords && i == n - 1) leafPairStart[rank[size_t(i) * rankStride]] = n;
   if (i > 0 && element[i - 1] == e) return;
-  const uint32_t r = rank[i] - 1;
+  const uint32_t r = rank[size_t(i) * rankStride] - 1;
   const uint64_t c = coords[e];
   if (!childCoords) {
     words[e] = makeElement(ElementState::Boundary, r);
@@ -135,6 +188,38 @@ __global__ void childWriteKernel(uint32_t n, uint32_t touched, const uint32_t* r
     }
     o += atEnd.c[k] - atHead.c[k];
   }
+}
+
+// childWriteKernel's placement from the segmented scan: the hits before
+// this element are the hits up to i less the element's own up to i; its
+// totals by child are the scan's entry at its last pair.
+__global__ void childWriteSegmentKernel(uint32_t n, uint32_t touched, const uint32_t* segmentStart,
+                                        const uint32_t* tri, const uint8_t* masks, const SegmentCounts* incl,
+                                        uint32_t* childElement, uint32_t* childTri) {
+  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= n) return;
+  const uint32_t m = masks[i];
+  if (!m) return;
+  const SegmentCounts own = incl[i];
+  const uint32_t r = own.rank - 1, t = tri[i];
+  const SegmentCounts total = incl[(r + 1 < touched ? segmentStart[r + 1] : n) - 1];
+  uint32_t o = own.hits;
+#pragma unroll
+  for (int k = 0; k < 8; ++k) o -= lane(own, k);
+#pragma unroll
+  for (int k = 0; k < 8; ++k) {
+    if (m >> k & 1u) {
+      const uint32_t at = o + lane(own, k) - 1;
+      childElement[at] = 8 * r + uint32_t(k);
+      childTri[at] = t;
+    }
+    o += lane(total, k);
+  }
+}
+
+__global__ void segmentTotalsKernel(uint32_t n, const SegmentCounts* incl, uint64_t* out) {
+  out[0] = incl[n - 1].rank;
+  out[1] = incl[n - 1].hits;
 }
 
 // totals: the exclusive scan's entry n (the sums over all pairs), or null.
@@ -212,8 +297,10 @@ Tree buildTree(DeviceMemory& mem, HostScalars& scalars, const DeviceMesh& mesh, 
     const uint32_t n = pairs.count;
     const uint64_t nextStart = levelStart + lv.count;
 
-    DeviceBuffer<uint32_t> rank(mem, n);
-    if (n > 0) {
+    // The segmented scan gives the ranks too (childTest does not need them).
+    const bool segmented = !leafLevel && mesh.count <= kSegmentMaxTriangles && n <= (1u << 29);
+    DeviceBuffer<uint32_t> rank(mem, segmented ? 0 : n);
+    if (n > 0 && !segmented) {
       auto heads = thrust::make_transform_iterator(thrust::counting_iterator<uint32_t>(0), HeadFlag{pairs.element.data()});
       runCub(mem, [&](void* temp, size_t& bytes) {
         return cub::DeviceScan::InclusiveSum(temp, bytes, heads, rank.data(), n, s);
@@ -236,7 +323,7 @@ Tree buildTree(DeviceMemory& mem, HostScalars& scalars, const DeviceMesh& mesh, 
       if (n > 0) {
         markLevelKernel<<<blocksFor(n, kBlock), kBlock, 0, s>>>(n, pairs.element.data(), rank.data(), lv.coords.data(),
                                                                lv.words.data(), 0, nullptr, lf.coord.data(),
-                                                               lf.pairStart.data(), nullptr);
+                                                               lf.pairStart.data(), nullptr, 1);
         HDT_CUDA_CHECK_LAUNCH("markLevelKernel(leaf)");
       } else {
         HDT_CUDA_CHECK(cudaMemsetAsync(lf.pairStart.data(), 0, sizeof(uint32_t), s));
@@ -250,7 +337,8 @@ Tree buildTree(DeviceMemory& mem, HostScalars& scalars, const DeviceMesh& mesh, 
 
     // Children of the touched elements: tests, per-child counters before each pair.
     DeviceBuffer<uint8_t> masks(mem, n);
-    DeviceBuffer<ChildCounts> before(mem, n > 0 ? uint64_t(n) + 1 : 0);
+    DeviceBuffer<ChildCounts> before(mem, n > 0 && !segmented ? uint64_t(n) + 1 : 0);
+    DeviceBuffer<SegmentCounts> incl(mem, segmented ? n : 0);
     uint32_t touched = 0;
     uint64_t hits = 0;
     const int64_t childSize = int64_t(grid.elementVoxels(level + 1)) * kLatticePerVoxel;
@@ -258,12 +346,21 @@ Tree buildTree(DeviceMemory& mem, HostScalars& scalars, const DeviceMesh& mesh, 
       childTestKernel<<<blocksFor(n, kBlock), kBlock, 0, s>>>(
           n, pairs.element.data(), pairs.triangle.data(), lv.coords.data(), mesh.triangles, childSize, masks.data());
       HDT_CUDA_CHECK_LAUNCH("childTestKernel");
-      auto counts = thrust::make_transform_iterator(thrust::counting_iterator<uint32_t>(0), MaskToCounts{masks.data(), n});
-      runCub(mem, [&](void* temp, size_t& bytes) {
-        return cub::DeviceScan::ExclusiveScan(temp, bytes, counts, before.data(), AddChildCounts{}, ChildCounts{},
-                                              n + 1, s);
-      });
-      levelTotalsKernel<<<1, 1, 0, s>>>(n, rank.data(), before.data() + n, scalars.device());
+      if (segmented) {
+        auto counts = thrust::make_transform_iterator(thrust::counting_iterator<uint32_t>(0),
+                                                      MaskToSegmentCounts{pairs.element.data(), masks.data()});
+        runCub(mem, [&](void* temp, size_t& bytes) {
+          return cub::DeviceScan::InclusiveScan(temp, bytes, counts, incl.data(), AddSegmentCounts{}, n, s);
+        });
+        segmentTotalsKernel<<<1, 1, 0, s>>>(n, incl.data(), scalars.device());
+      } else {
+        auto counts = thrust::make_transform_iterator(thrust::counting_iterator<uint32_t>(0), MaskToCounts{masks.data(), n});
+        runCub(mem, [&](void* temp, size_t& bytes) {
+          return cub::DeviceScan::ExclusiveScan(temp, bytes, counts, before.data(), AddChildCounts{}, ChildCounts{},
+                                                n + 1, s);
+        });
+        levelTotalsKernel<<<1, 1, 0, s>>>(n, rank.data(), before.data() + n, scalars.device());
+      }
       HDT_CUDA_CHECK_LAUNCH("levelTotalsKernel");
       scalars.fetch(s, 2);
       touched = uint32_t(scalars.host()[0]);
@@ -285,13 +382,21 @@ Tree buildTree(DeviceMemory& mem, HostScalars& scalars, const DeviceMesh& mesh, 
     if (n > 0) {
       const uint32_t branchBase = unchunked ? uint32_t(nextStart) : 0u;
       DeviceBuffer<uint32_t> segmentStart(mem, touched);
-      markLevelKernel<<<blocksFor(n, kBlock), kBlock, 0, s>>>(n, pairs.element.data(), rank.data(), lv.coords.data(),
+      const uint32_t* ranks = segmented ? &incl.data()->rank : rank.data();
+      const uint32_t rankStride = segmented ? uint32_t(sizeof(SegmentCounts) / sizeof(uint32_t)) : 1u;
+      markLevelKernel<<<blocksFor(n, kBlock), kBlock, 0, s>>>(n, pairs.element.data(), ranks, lv.coords.data(),
                                                              lv.words.data(), branchBase, next.coords.data(),
-                                                             nullptr, nullptr, segmentStart.data());
+                                                             nullptr, nullptr, segmentStart.data(), rankStride);
       HDT_CUDA_CHECK_LAUNCH("markLevelKernel");
-      childWriteKernel<<<blocksFor(n, kBlock), kBlock, 0, s>>>(n, touched, rank.data(), segmentStart.data(),
-                                                              pairs.triangle.data(), masks.data(), before.data(),
-                                                              child.element.data(), child.triangle.data());
+      if (segmented) {
+        childWriteSegmentKernel<<<blocksFor(n, kBlock), kBlock, 0, s>>>(
+            n, touched, segmentStart.data(), pairs.triangle.data(), masks.data(), incl.data(), child.element.data(),
+            child.triangle.data());
+      } else {
+        childWriteKernel<<<blocksFor(n, kBlock), kBlock, 0, s>>>(n, touched, rank.data(), segmentStart.data(),
+                                                                pairs.triangle.data(), masks.data(), before.data(),
+                                                                child.element.data(), child.triangle.data());
+      }
       HDT_CUDA_CHECK_LAUNCH("childWriteKernel");
     }
     pairs = std::move(child);

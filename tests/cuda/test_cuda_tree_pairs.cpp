@@ -65,7 +65,13 @@ class CudaTreePairs : public ::testing::TestWithParam<TreeCase> {};
 TEST_P(CudaTreePairs, EveryLeafHoldsItsTrianglesInOrder) {
   HDT_REQUIRE_CUDA();
   const TreeCase& c = GetParam();
-  const Shape shape = makeShape(c.shape, c.n);
+  Shape shape;
+  if (c.shape == "fine_sphere") { // 81,920 triangles: more than the segmented scan's 16-bit counters allow
+    shape.name = c.shape;
+    shape.mesh = icosphere(6, 1.0, {0.1, -0.2, 0.3});
+  } else {
+    shape = makeShape(c.shape, c.n);
+  }
   const PreparedMesh mesh = prepareMesh(shape.mesh, shape.config(c.n, c.r, c.l, true));
   const BuildOptions options = cudaOptions();
   cuda::Session s(mesh, options);
@@ -101,11 +107,15 @@ TEST_P(CudaTreePairs, EveryLeafHoldsItsTrianglesInOrder) {
   EXPECT_EQ(wrong, 0u) << "leaves with wrong triangles";
 }
 
-// Several octree levels (n / r / l = 2^height), small and large segments (a
-// root cell of the sphere holds hundreds of pairs).
+// Three octree levels below the root grid (n / r / l = 8: an odd count, so
+// that an order reversed at every level does not come back to the right
+// one), small and large segments (a root cell of the sphere holds hundreds
+// of pairs); both scans of branching.cu (the segmented one below 65,536
+// triangles, fine_sphere above).
 INSTANTIATE_TEST_SUITE_P(Cuda, CudaTreePairs,
                          ::testing::Values(TreeCase{"sphere", 128, 2, 8}, TreeCase{"torus", 256, 4, 8},
-                                           TreeCase{"two_bodies", 128, 1, 8}, TreeCase{"degenerate_mix", 64, 2, 8}),
+                                           TreeCase{"two_bodies", 128, 2, 8}, TreeCase{"degenerate_mix", 64, 1, 8},
+                                           TreeCase{"fine_sphere", 128, 2, 8}),
                          [](const ::testing::TestParamInfo<TreeCase>& i) {
                            return i.param.shape + "_N" + std::to_string(i.param.n);
                          });
