@@ -33,6 +33,7 @@
 #include <thrust/iterator/counting_iterator.h>
 #include <thrust/iterator/transform_iterator.h>
 
+#include <cstddef> // offsetof
 #include <string>
 
 namespace hdt {
@@ -81,7 +82,6 @@ __global__ void rootCoordsKernel(uint32_t count, uint64_t firstCell, uint64_t R,
   coords[j] = packCoord(uint32_t(c % R), uint32_t((c / R) % R), uint32_t(c / (R * R)));
 }
 
-// childCoords == nullptr: the leaf level (Boundary elements, leaf tables).
 // The segmented form: per pair (or over a range of pairs), the hits of each
 // child as 16-bit lanes (child k in lane k % 4 of lanes[k / 4]) since the
 // range's last first-pair-of-an-element, the first pairs of elements in the
@@ -94,7 +94,8 @@ struct alignas(8) SegmentCounts {
   uint32_t rank, hits;
 };
 constexpr uint32_t kSegmentMaxTriangles = 65535;
-static_assert(sizeof(SegmentCounts) == 24, "the rank is read as every sixth word");
+static_assert(sizeof(SegmentCounts) == 24 && offsetof(SegmentCounts, rank) == 16,
+              "markLevelKernel reads the rank as every sixth word from the fifth");
 
 struct AddSegmentCounts {
   __device__ SegmentCounts operator()(const SegmentCounts& a, const SegmentCounts& b) const {
@@ -129,6 +130,7 @@ struct MaskToSegmentCounts {
   }
 };
 
+// childCoords == nullptr: the leaf level (Boundary elements, leaf tables).
 // With childCoords, segmentStart[r] = the first pair of touched element r.
 // rank: pair i's at rank[i * rankStride] (inside SegmentCounts or not).
 __global__ void markLevelKernel(uint32_t n, const uint32_t* element, const uint32_t* rank, const uint64_t* coords,
@@ -354,7 +356,8 @@ Tree buildTree(DeviceMemory& mem, HostScalars& scalars, const DeviceMesh& mesh, 
         });
         segmentTotalsKernel<<<1, 1, 0, s>>>(n, incl.data(), scalars.device());
       } else {
-        auto counts = thrust::make_transform_iterator(thrust::counting_iterator<uint32_t>(0), MaskToCounts{masks.data(), n});
+        auto counts =
+            thrust::make_transform_iterator(thrust::counting_iterator<uint32_t>(0), MaskToCounts{masks.data(), n});
         runCub(mem, [&](void* temp, size_t& bytes) {
           return cub::DeviceScan::ExclusiveScan(temp, bytes, counts, before.data(), AddChildCounts{}, ChildCounts{},
                                                 n + 1, s);
@@ -382,7 +385,9 @@ Tree buildTree(DeviceMemory& mem, HostScalars& scalars, const DeviceMesh& mesh, 
     if (n > 0) {
       const uint32_t branchBase = unchunked ? uint32_t(nextStart) : 0u;
       DeviceBuffer<uint32_t> segmentStart(mem, touched);
-      const uint32_t* ranks = segmented ? &incl.data()->rank : rank.data();
+      const uint32_t* ranks =
+          segmented ? reinterpret_cast<const uint32_t*>(incl.data()) + offsetof(SegmentCounts, rank) / sizeof(uint32_t)
+                    : rank.data();
       const uint32_t rankStride = segmented ? uint32_t(sizeof(SegmentCounts) / sizeof(uint32_t)) : 1u;
       markLevelKernel<<<blocksFor(n, kBlock), kBlock, 0, s>>>(n, pairs.element.data(), ranks, lv.coords.data(),
                                                              lv.words.data(), branchBase, next.coords.data(),
