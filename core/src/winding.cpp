@@ -621,7 +621,9 @@ struct LaySums {
 // A serial loop `for i in [0, n): step(i, sums, write)` run in parallel:
 // the chunks counted first (write false), then sized(total) (the outputs
 // sized), then each chunk walked again from the sums of those before it
-// (write true). The results are the serial loop's.
+// (write true). The results are the serial loop's. (Not tbb::parallel_scan:
+// its final pass may start before every chunk is counted, and the outputs
+// are sized from the total first.)
 template <class Step, class Sized>
 LaySums scanInChunks(size_t n, const Step& step, const Sized& sized) {
   constexpr size_t kChunk = 8192;
