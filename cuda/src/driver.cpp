@@ -17,6 +17,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <functional>
 #include <optional>
 #include <string>
 #include <thread>
@@ -77,7 +78,20 @@ double applyInsideTestOnDevice(cuda::Session& s, const PreparedMesh& mesh, Volum
     cuda::WindingDeviceTimes t;
     const auto t0 = Clock::now();
     uint32_t* onDevice = keptWords.size() == vol.leafWords.size() ? keptWords.data() : nullptr;
-    const bool ran = device.leaves(tree, vol, origins, left, &t, onDevice);
+    // The words' host pages, never written yet, faulted in while the device
+    // counts and decides, not inside the copy back.
+    std::thread touch;
+    const auto joinTouch = [&touch] {
+      if (touch.joinable()) touch.join();
+    };
+    const struct JoinOnExit {
+      const std::function<void()> join;
+      ~JoinOnExit() { join(); }
+    } joinOnExit{joinTouch};
+    if (onDevice)
+      touch = std::thread([&vol] { cuda::touchHostParallel(vol.leafWords.data(), vol.leafWords.size() * sizeof(uint32_t)); });
+    const bool ran = device.leaves(tree, vol, origins, left, &t, onDevice, joinTouch);
+    joinTouch();
     if (!ran && onDevice) cuda::copyLeafWordsBack(s, vol, keptWords);
     keptWords.reset();
     leavesWallMs = msSince(t0);

@@ -890,7 +890,8 @@ WindingDevicePass::WindingDevicePass() : impl_(std::make_unique<Impl>()) {}
 WindingDevicePass::~WindingDevicePass() = default;
 
 bool WindingDevicePass::leaves(const WindingTree& tree, Volume& volume, const std::vector<std::array<int, 3>>& origins,
-                               std::vector<uint32_t>& leftLeaves, WindingDeviceTimes* times, uint32_t* deviceWords) {
+                               std::vector<uint32_t>& leftLeaves, WindingDeviceTimes* times, uint32_t* deviceWords,
+                               const std::function<void()>& beforeCopyBack) {
   leftLeaves.clear();
   const int L = volume.grid.leafSize;
   const uint32_t leaves = uint32_t(origins.size());
@@ -947,6 +948,7 @@ bool WindingDevicePass::leaves(const WindingTree& tree, Volume& volume, const st
     ev.mark(5);
     std::vector<uint8_t> fits(leaves);
     d.fits.download(fits.data());
+    if (beforeCopyBack) beforeCopyBack();
     copyToHost(0, volume.leafWords.data(), words, wordCount * sizeof(uint32_t));
     ev.mark(6);
     const auto hard0 = std::chrono::steady_clock::now();
