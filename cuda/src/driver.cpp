@@ -17,6 +17,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <functional>
 #include <optional>
 #include <string>
 #include <thread>
@@ -38,8 +39,13 @@ uint64_t mib(uint64_t bytes) { return (bytes + (uint64_t(1) << 20) - 1) >> 20; }
 // and the children of refined elements decided on the device
 // (winding_device.hpp); a leaf whose counts exceed 16 bits, and any pass the
 // device has no room for, on the host. Logs where the time went.
-double applyInsideTestOnDevice(const PreparedMesh& mesh, Volume& v, const BuildOptions& options,
-                               WindingTreeInBackground& tree) {
+//
+// keptWords (a whole build's leaf words, left on the device by buildWhole):
+// the leaf pass works on them in place (v.leafWords are unwritten until its
+// result comes back); they are released after it, before refinement. When the
+// pass cannot run they are copied back for the host pass.
+double applyInsideTestOnDevice(cuda::Session& s, const PreparedMesh& mesh, Volume& v, const BuildOptions& options,
+                               WindingTreeInBackground& tree, cuda::DeviceBuffer<uint32_t>& keptWords) {
   cuda::WindingDevicePass device;
   double uniformMs = 0;
   // Host time around the device passes: tree + walk before, then the rest.
@@ -71,7 +77,23 @@ double applyInsideTestOnDevice(const PreparedMesh& mesh, Volume& v, const BuildO
                                        const std::vector<std::array<int, 3>>& origins, std::vector<uint32_t>& left) {
     cuda::WindingDeviceTimes t;
     const auto t0 = Clock::now();
-    const bool ran = device.leaves(tree, vol, origins, left, &t);
+    uint32_t* onDevice = keptWords.size() == vol.leafWords.size() ? keptWords.data() : nullptr;
+    // The words' host pages, never written yet, faulted in while the device
+    // counts and decides, not inside the copy back.
+    std::thread touch;
+    const auto joinTouch = [&touch] {
+      if (touch.joinable()) touch.join();
+    };
+    const struct JoinOnExit {
+      const std::function<void()> join;
+      ~JoinOnExit() { join(); }
+    } joinOnExit{joinTouch};
+    if (onDevice)
+      touch = std::thread([&vol] { cuda::touchHostParallel(vol.leafWords.data(), vol.leafWords.size() * sizeof(uint32_t)); });
+    const bool ran = device.leaves(tree, vol, origins, left, &t, onDevice, joinTouch);
+    joinTouch();
+    if (!ran && onDevice) cuda::copyLeafWordsBack(s, vol, keptWords);
+    keptWords.reset();
     leavesWallMs = msSince(t0);
     if (options.log) {
       options.log(ran ? "CUDA driver: winding pass on the device (ms): uniform " + std::to_string(uniformMs) +
@@ -120,11 +142,16 @@ Volume build(const PreparedMesh& mesh, const BuildOptions& options, CudaBuildRep
   Volume v;
   const SinkAbandonGuard abandonOnError(options.leafSink);
   bool whole = false;
+  // A winding-number build's leaf words stay on the device for its leaf pass
+  // (whole builds; chunked ones copy them back as they go). Holding them adds
+  // nothing to that pass's peak: it would allocate as many for the upload.
+  DeviceBuffer<uint32_t> keptWords;
+  const bool keepWords = keepResult && !mesh.surfaceOnly && mesh.insideTest == InsideTest::WindingNumber;
   try {
     RootMapping root = mapTrianglesToRootCells(s.memory, s.scalars, s.deviceMesh, g, 0, cells, true);
     report.estimatedBytes = fixedBytes(mesh) + estimateBytes(mesh, root.area, root.pairs.count, cells);
     if (report.estimatedBytes <= s.memory.budget()) {
-      v = buildWhole(s, std::move(root), keepResult);
+      v = buildWhole(s, std::move(root), keepResult, keepWords ? &keptWords : nullptr);
       whole = true;
     }
   } catch (const DeviceMemoryExhausted&) {
@@ -149,7 +176,7 @@ Volume build(const PreparedMesh& mesh, const BuildOptions& options, CudaBuildRep
   }
 
   const auto host0 = Clock::now();
-  const double windingMs = keepResult ? applyInsideTestOnDevice(mesh, v, options, *windingTree) : 0.0;
+  const double windingMs = keepResult ? applyInsideTestOnDevice(s, mesh, v, options, *windingTree, keptWords) : 0.0;
   // A whole build counted its voxels on the device (buildWhole) unless the
   // winding-number pass rewrote them on the host.
   if (!whole || (keepResult && mesh.insideTest == InsideTest::WindingNumber)) computeStructureStatistics(v);

@@ -244,6 +244,14 @@ void copyHostParallel(void* dstVoid, const void* srcVoid, size_t bytes) {
   });
 }
 
+void touchHostParallel(void* hostVoid, size_t bytes) {
+  auto* host = static_cast<uint8_t*>(hostVoid);
+  adviseHugePages(host, bytes);
+  const std::vector<Task> tasks = cutTasks(reinterpret_cast<uintptr_t>(host), bytes, bytes ? bytes : 1);
+  tbb::parallel_for(size_t(0), tasks.size(),
+                    [&](size_t i) { std::memset(host + tasks[i].begin, 0, tasks[i].end - tasks[i].begin); });
+}
+
 void reserveCopyStaging() {
   Ring& r = currentRing();
   std::lock_guard<std::mutex> lock(r.mutex);

@@ -41,6 +41,11 @@ void copyToDevice(cudaStream_t stream, void* device, const void* host, size_t by
 // page boundaries: what one core's memcpy cannot fill, first touch included.
 void copyHostParallel(void* dst, const void* src, size_t bytes);
 
+// Zeros over `bytes` at `host` in the same tasks: faults an unwritten
+// destination's pages in (their first touch costs a copy into them about as
+// much as the copy itself) before a copy lands there, off its critical path.
+void touchHostParallel(void* host, size_t bytes);
+
 // Allocates the current device's staging ring now (pinning costs tens of ms: at process start,
 // not inside the first build's copy-back). Idempotent.
 void reserveCopyStaging();

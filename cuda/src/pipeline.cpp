@@ -105,7 +105,7 @@ DeviceVolume buildOnDevice(Session& s, const DeviceMesh& mesh, bool closed, bool
   return d;
 }
 
-Volume buildWhole(Session& s, RootMapping root, bool keepResult) {
+Volume buildWhole(Session& s, RootMapping root, bool keepResult, DeviceBuffer<uint32_t>* deviceLeafWords) {
   const GridSpec& g = s.grid;
   DeviceVolume d = buildOnDevice(s, s.deviceMesh, s.mesh.closed, s.mesh.surfaceOnly, std::move(root));
   const Tree& tree = d.tree;
@@ -153,7 +153,11 @@ Volume buildWhole(Session& s, RootMapping root, bool keepResult) {
     sink->begin(v.leafWords.data(), wordCount);
     copied = [sink](size_t bytes) { sink->arrived(bytes / sizeof(uint32_t)); };
   }
-  download(s, v.leafWords.data(), words, wordCount, copied);
+  if (deviceLeafWords) {
+    *deviceLeafWords = std::move(d.words); // the winding leaf pass's input, in place
+  } else {
+    download(s, v.leafWords.data(), words, wordCount, copied);
+  }
   if (sink && wordCount == 0) sink->arrived(0);
   if (countHere) {
     unsigned long long counts[2] = {0, 0};
@@ -164,6 +168,10 @@ Volume buildWhole(Session& s, RootMapping root, bool keepResult) {
   s.sync();
   s.clock.collect(s.ms);
   return v;
+}
+
+void copyLeafWordsBack(Session& s, Volume& v, const DeviceBuffer<uint32_t>& words) {
+  download(s, v.leafWords.data(), words, words.size());
 }
 
 namespace {

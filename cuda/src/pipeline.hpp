@@ -43,7 +43,15 @@ private:
   const int exceptions_;
 };
 
-Volume buildWhole(Session& s, RootMapping root, bool keepResult);
+// deviceLeafWords (a winding-number build, whose leaf pass rewrites every
+// leaf's inside plane on the device): the leaf words stay on the device there
+// instead of coming back (v.leafWords is sized, unwritten); the leaf pass
+// reads them in place and copies the final words back once.
+Volume buildWhole(Session& s, RootMapping root, bool keepResult, DeviceBuffer<uint32_t>* deviceLeafWords = nullptr);
+
+// Copies leaf words kept on the device (buildWhole's deviceLeafWords) to
+// v.leafWords: the host pass's input when the device leaf pass cannot run.
+void copyLeafWordsBack(Session& s, Volume& v, const DeviceBuffer<uint32_t>& words);
 
 // Phase A of a chunk [firstCell, endCell): its tree (chunk-local payloads),
 // leaf coordinates and, for solid builds, the pass-1 row parity of its leaves

@@ -43,6 +43,7 @@
 #include <cstdlib>
 #include <memory>
 #include <new>
+#include <optional>
 #include <thread>
 #include <utility>
 
@@ -889,7 +890,8 @@ WindingDevicePass::WindingDevicePass() : impl_(std::make_unique<Impl>()) {}
 WindingDevicePass::~WindingDevicePass() = default;
 
 bool WindingDevicePass::leaves(const WindingTree& tree, Volume& volume, const std::vector<std::array<int, 3>>& origins,
-                               std::vector<uint32_t>& leftLeaves, WindingDeviceTimes* times) {
+                               std::vector<uint32_t>& leftLeaves, WindingDeviceTimes* times, uint32_t* deviceWords,
+                               const std::function<void()>& beforeCopyBack) {
   leftLeaves.clear();
   const int L = volume.grid.leafSize;
   const uint32_t leaves = uint32_t(origins.size());
@@ -900,8 +902,17 @@ bool WindingDevicePass::leaves(const WindingTree& tree, Volume& volume, const st
     const DeviceTree& t = impl_->upload(tree);
     CountsOnDevice d(leaves, L);
     std::vector<uint2> hard;
-    Array<uint32_t> words(volume.leafWords.size());
-    WordsUpload upload(words.data(), volume.leafWords.data(), words.size());
+    // The leaf words: already on the device (read and written in place), or
+    // copied up from the volume beside the counts.
+    const size_t wordCount = volume.leafWords.size();
+    std::optional<Array<uint32_t>> ownWords;
+    std::optional<WordsUpload> upload;
+    uint32_t* words = deviceWords;
+    if (!words) {
+      ownWords.emplace(wordCount);
+      words = ownWords->data();
+      upload.emplace(words, volume.leafWords.data(), wordCount);
+    }
     // Each leaf's block threshold first: the counts kernel settles the leaves
     // of held blocks (their counts are not kept where L is a multiple of 16).
     uploadOrigins(origins, d);
@@ -917,25 +928,28 @@ bool WindingDevicePass::leaves(const WindingTree& tree, Volume& volume, const st
     }
     ev.mark(8);
     const bool fuse = L % kVoxelsPerWord == 0 && L <= 32;
-    Array<uint16_t> insideBits(fuse ? words.size() : 0);
+    Array<uint16_t> insideBits(fuse ? wordCount : 0);
     computeCounts(t.view(), origins, L, d, ev, fuse ? leafT.data() : nullptr, fuse ? insideBits.data() : nullptr);
     const auto wait0 = std::chrono::steady_clock::now();
-    const double uploadMs = upload.wait();
+    const double uploadMs = upload ? upload->wait() : 0.0;
     const double uploadWaitMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - wait0).count();
-    clearInsideKernel<<<blocks(words.size()), kBlock>>>(words.size(), L, d.fits.data(), words.data());
+    clearInsideKernel<<<blocks(wordCount), kBlock>>>(wordCount, L, d.fits.data(), words);
     checkLaunch("clearInsideKernel");
-    settleBlockLeavesKernel<<<blocks(words.size()), kBlock>>>(words.size(), L, d.fits.data(), leafT.data(),
-                                                             d.counts.data(), fuse ? insideBits.data() : nullptr,
-                                                             words.data());
+    settleBlockLeavesKernel<<<blocks(wordCount), kBlock>>>(wordCount, L, d.fits.data(), leafT.data(),
+                                                          d.counts.data(), fuse ? insideBits.data() : nullptr, words);
     checkLaunch("settleBlockLeavesKernel");
+    // Tests: the pass failing for want of memory after it began rewriting the
+    // words (the breadth-first queues are its last allocations).
+    if (std::getenv("HDT_WINDING_LEAF_PASS_FAILS")) throw std::bad_alloc();
     ev.mark(7);
     const uint64_t boxes =
         decideLeavesBreadthFirst(t.view(), d.origins.data(), leaves, L, d.counts.data(), d.fits.data(), leafT.data(),
-                                 words.data(), impl_->queues, hard);
+                                 words, impl_->queues, hard);
     ev.mark(5);
     std::vector<uint8_t> fits(leaves);
     d.fits.download(fits.data());
-    copyToHost(0, volume.leafWords.data(), words.data(), words.size() * sizeof(uint32_t));
+    if (beforeCopyBack) beforeCopyBack();
+    copyToHost(0, volume.leafWords.data(), words, wordCount * sizeof(uint32_t));
     ev.mark(6);
     const auto hard0 = std::chrono::steady_clock::now();
     decideHardVoxels(tree.view(), origins, L, hard, fits, volume.leafWords.data());
@@ -948,8 +962,9 @@ bool WindingDevicePass::leaves(const WindingTree& tree, Volume& volume, const st
       const size_t settled = size_t(std::count_if(T.begin(), T.end(), [](int x) { return x != kNoThreshold; }));
       std::fprintf(stderr,
                    "winding trace leaves: %u leaves, %u blocks of %d voxels, %zu leaves settled by them, %.3f ms; "
-                   "words up %.3f ms beside the counts, %.3f ms waited for\n",
-                   leaves, blockCount, edge, settled, ev.ms(0, 8), uploadMs, uploadWaitMs);
+                   "words up %.3f ms beside the counts, %.3f ms waited for%s\n",
+                   leaves, blockCount, edge, settled, ev.ms(0, 8), uploadMs, uploadWaitMs,
+                   upload ? "" : " (kept on the device: none)");
     }
     if (times) {
       times->hardVoxels = hard.size();

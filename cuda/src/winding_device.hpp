@@ -11,6 +11,7 @@
 
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <vector>
 
@@ -41,9 +42,15 @@ public:
   // (windingInsideAt; HDT_WINDING_HOST_VOXELS set: every single voxel, to
   // test that path). Leaves whose counts do not fit 16 bits go to
   // leftLeaves. False (nothing written) when the device has no room: the
-  // caller runs the host pass.
+  // caller runs the host pass. deviceWords: the volume's leaf words already
+  // on the device (the build's own, kept), read and rewritten in place
+  // instead of uploaded (volume.leafWords need not hold them then; on
+  // return they hold the result either way; false leaves deviceWords' surface
+  // planes intact, their inside planes undefined). beforeCopyBack: called
+  // before the words come back into volume.leafWords (the caller readies them).
   bool leaves(const WindingTree& tree, Volume& volume, const std::vector<std::array<int, 3>>& origins,
-              std::vector<uint32_t>& leftLeaves, WindingDeviceTimes* times = nullptr);
+              std::vector<uint32_t>& leftLeaves, WindingDeviceTimes* times = nullptr,
+              uint32_t* deviceWords = nullptr, const std::function<void()>& beforeCopyBack = {});
 
   // A WindingUniformPass: classifyUniform's verdict per element, its boxes
   // breadth first (one thread per box and level, carried verdicts, halves);

@@ -16,6 +16,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <fstream>
 #include <regex>
@@ -166,9 +167,11 @@ uint64_t loggedCount(const std::vector<std::string>& lines, const std::string& p
 
 TEST(CudaWindingFallbacks, SameBytesWhenQueuesOverflowOrVoxelsGoToTheHost) {
   HDT_REQUIRE_CUDA();
-  for (const char* variable : {"HDT_WINDING_QUEUE_BOXES", "HDT_WINDING_HOST_VOXELS"}) {
+  // HDT_WINDING_LEAF_PASS_FAILS: the device leaf pass gives up midway; the
+  // host pass decides every leaf from the words the build kept on the device.
+  for (const char* variable : {"HDT_WINDING_QUEUE_BOXES", "HDT_WINDING_HOST_VOXELS", "HDT_WINDING_LEAF_PASS_FAILS"}) {
     const ScopedEnv forced(variable, "1");
-    uint64_t leftLeaves = 0, hostVoxels = 0;
+    uint64_t leftLeaves = 0, hostVoxels = 0, hostPasses = 0;
     for (const WindingShape& s : windingShapes()) {
       const PreparedMesh mesh = prepareMesh(s.mesh, config(128, 4, 16, InsideTest::WindingNumber));
       std::vector<std::string> log;
@@ -177,9 +180,13 @@ TEST(CudaWindingFallbacks, SameBytesWhenQueuesOverflowOrVoxelsGoToTheHost) {
       EXPECT_TRUE(sameVolume(build(mesh, o), build(mesh, cpuOptions()))) << s.name << " " << variable;
       leftLeaves += loggedCount(log, "([0-9]+) of [0-9]+ leaves left to the host");
       hostVoxels += loggedCount(log, "([0-9]+) voxels on the host");
+      hostPasses += uint64_t(std::count_if(log.begin(), log.end(), [](const std::string& l) {
+        return l.find("winding leaf pass; it runs on the host") != std::string::npos;
+      }));
     }
     if (std::string(variable) == "HDT_WINDING_QUEUE_BOXES") EXPECT_GT(leftLeaves, 0u) << "no queue overflowed";
     if (std::string(variable) == "HDT_WINDING_HOST_VOXELS") EXPECT_GT(hostVoxels, 0u) << "no voxel went to the host";
+    if (std::string(variable) == "HDT_WINDING_LEAF_PASS_FAILS") EXPECT_GT(hostPasses, 0u) << "the leaf pass never failed";
   }
 }
 
