@@ -29,6 +29,7 @@
 #include "hdt/build_steps.hpp"
 #include "hdt/geometry.hpp"
 #include "hdt/volume.hpp"
+#include "hdt/winding_far.hpp"
 #include "hdt/winding_leaf.hpp"
 
 #include <cub/device/device_radix_sort.cuh>
@@ -442,9 +443,95 @@ __device__ int countedVerdict(const WindingTreeView& t, const double* p, int N) 
   return windingVerdict(s, t.triangleCount);
 }
 
+// ---- a leaf's far edges to first order (winding_far.hpp) -------------------
+//
+// As the CPU driver's windingDecideLeafLinear: a leaf whose boundary has many
+// more edges than come near it splits them (windingSplitEdges) and takes the
+// far part to first order about its centre (windingFarExpansion, with a
+// certified remainder over any box inside the leaf). Its boxes below the
+// whole leaf then pay the near edges exactly and the expansion instead of K
+// and a gradient bound from every edge. One thread per queued leaf; the split
+// is kept in device memory (slot = the leaf's place in the first level).
+struct LeafFar {
+  WindingLeafSplit split;
+  WindingFarExpansion x;
+  int ok; // 0: the leaf takes every edge
+};
+
+constexpr uint32_t kNoSlot = 0xFFFFFFFFu;
+
+__global__ void leafFarKernel(WindingTreeView t, const LeafOrigin* origins, int L, const LeafBox* firstLevel,
+                              uint32_t first, LeafFar* far, uint32_t* slotOf) {
+  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= first) return;
+  const uint32_t leaf = firstLevel[i].leaf;
+  slotOf[leaf] = i;
+  LeafFar& f = far[i];
+  f.ok = 0;
+  double lo[3], hi[3];
+  windingBoxCentres(origins[leaf].o, VoxelBox{{0, 0, 0}, {L, L, L}}, lo, hi);
+  WindingFarLeaf farLeaf;
+  if (t.edgeCount > uint32_t(kWindingNearEdges) && windingSplitEdges(t, lo, hi, L, f.split) &&
+      4 * uint32_t(f.split.nearCount) < t.edgeCount && windingFarLeaf(t, f.split, lo, hi, farLeaf) &&
+      windingFarExpansion(t, f.split, farLeaf, lo, hi, f.x))
+    f.ok = 1;
+}
+
+// A box of a leaf with a far expansion: windingAnchoredBoxStep's tests with
+// K_far from the leaf's expansion (windingFarOverBox) and no exact far sum.
+// The expansion's remainder grows with the distance from the leaf's centre,
+// not with the box, so it settles the boxes near the centre and those well
+// clear of w = 1/2; the others go on to every edge (leafBoxesKernel).
+// Returns 1 when the box is settled (words written), 2 when a near sheet
+// meets it (far sheets do not meet the leaf: every edge would say the
+// same), 0 when the expansion cannot say.
+constexpr int kFarSettled = 1, kFarSheet = 2, kFarUnsure = 0;
+
+__device__ int leafFarBoxStep(const WindingTreeView& t, const LeafFar& f, uint32_t* leafWords, uint32_t L,
+                              const int16_t* N, const VoxelBox& b, const double* lo, const double* hi) {
+  const WindingLeafSplit& split = f.split;
+  double farK = 0, farStray = 0;
+  windingFarOverBox(f.x, lo, hi, farK, farStray);
+  if (b.single()) {
+    if (!(farStray < 2.0 * kWindingPi)) return kFarUnsure;
+    const uint32_t v = WindingLeafWords{leafWords, L}.index(b.lo[0], b.lo[1], b.lo[2]);
+    double nearK = 0, nearError = 0;
+    if (!windingPartStripSum(t, split, true, lo, nearK, nearError)) return kFarUnsure;
+    const double whole = 4.0 * kWindingPi * double(N[v]), K = nearK + farK;
+    const WindingSum s{whole + K, nearError + farStray + 4.0 * kWindingUlp * (fabs(whole) + fabs(nearK) + fabs(farK) + fabs(K)),
+                       true};
+    const int verdict = windingVerdict(s, t.triangleCount);
+    if (verdict == kWindingUnsure) return kFarUnsure;
+    if (verdict == kWindingInside) atomicOr(leafWords + v / kVoxelsPerWord, 1u << (2 * (v % kVoxelsPerWord)));
+    return kFarSettled;
+  }
+  for (int k = 0; k < split.nearCount; ++k)
+    if (windingSheetMeetsBox(t.edges[split.near[k]], lo, hi)) return kFarSheet;
+  if (!(farStray < 2.0 * kWindingPi)) return kFarUnsure;
+  double c[3], reach2 = 0;
+  for (int a = 0; a < 3; ++a) {
+    c[a] = 0.5 * (lo[a] + hi[a]);
+    reach2 = reach2 + 0.25 * (hi[a] - lo[a]) * (hi[a] - lo[a]);
+  }
+  const double nearGradient = windingPartGradientBound(t, split, true, lo, hi);
+  const double spread = sqrt(reach2) * (1 + 1e-12) * nearGradient + farStray;
+  double nearK = 0, nearError = 0;
+  int T = 0;
+  if (spread < 2.0 * kWindingPi && windingPartStripSum(t, split, true, c, nearK, nearError)) {
+    const double K = nearK + farK;
+    const double error = nearError + 4.0 * kWindingUlp * (fabs(nearK) + fabs(farK));
+    if (windingThresholdFrom(t, K, error, spread, T)) {
+      settleLeafBox(leafWords, L, b, N, T);
+      return kFarSettled;
+    }
+  }
+  return kFarUnsure;
+}
+
 __global__ void leafBoxesKernel(WindingTreeView t, const LeafOrigin* origins, int L, const int16_t* counts,
                                 uint8_t* fits, uint32_t* words, const LeafBox* in, uint32_t count, LeafBox* out,
-                                uint32_t* outCount, uint32_t capacity, HardVoxels hard, bool allHard) {
+                                uint32_t* outCount, uint32_t capacity, HardVoxels hard, bool allHard,
+                                const LeafFar* far, const uint32_t* slotOf) {
   const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i >= count) return;
   const LeafBox q = in[i];
@@ -456,6 +543,11 @@ __global__ void leafBoxesKernel(WindingTreeView t, const LeafOrigin* origins, in
   if (!w.open(b)) return;
   double lo[3], hi[3];
   windingBoxCentres(origins[q.leaf].o, b, lo, hi);
+  // Below the whole leaf, a leaf with a far expansion tries it first.
+  const uint32_t slot = far != nullptr && !allHard && b.size(0) + b.size(1) + b.size(2) < 3 * L ? slotOf[q.leaf] : kNoSlot;
+  const int byFar = slot != kNoSlot && far[slot].ok ? leafFarBoxStep(t, far[slot], leafWords, uint32_t(L), N, b, lo, hi)
+                                                    : kFarUnsure;
+  if (byFar == kFarSettled) return;
   if (b.single()) {
     const uint32_t v = w.index(b.lo[0], b.lo[1], b.lo[2]);
     const int verdict = allHard ? int(kWindingUnsure) : countedVerdict(t, lo, int(N[v]));
@@ -470,7 +562,7 @@ __global__ void leafBoxesKernel(WindingTreeView t, const LeafOrigin* origins, in
     }
     return;
   }
-  const bool sheet = windingSheetsMeetBox(t, lo, hi);
+  const bool sheet = byFar == kFarSheet || windingSheetsMeetBox(t, lo, hi);
   double gradient = q.gradient;
   int T = 0;
   if (!sheet && windingBoxThreshold(t, lo, hi, T, gradient)) {
@@ -731,11 +823,35 @@ uint64_t decideLeavesBreadthFirst(const WindingTreeView& t, const LeafOrigin* or
     checkLaunch("firstLeafBoxesKernel");
     firstCount.download(&first);
   }
+  // The queued leaves' far expansions (none when the device has no memory
+  // for them, or HDT_WINDING_NO_FAR is set: every box then takes every edge).
+  std::unique_ptr<Array<LeafFar>> far;
+  std::unique_ptr<Array<uint32_t>> slotOf;
+  static const bool noFar = std::getenv("HDT_WINDING_NO_FAR") != nullptr;
+  if (first > 0 && !noFar && t.edgeCount > uint32_t(kWindingNearEdges)) {
+    try {
+      far = std::make_unique<Array<LeafFar>>(first);
+      slotOf = std::make_unique<Array<uint32_t>>(leaves);
+      HDT_CUDA_CHECK(cudaMemset(slotOf->data(), 0xFF, size_t(leaves) * sizeof(uint32_t)));
+      LevelTrace trace("leaf far expansions");
+      trace.start();
+      leafFarKernel<<<(first + kBoxBlock - 1) / kBoxBlock, kBoxBlock>>>(t, origins, L, in, first, far->data(),
+                                                                          slotOf->data());
+      checkLaunch("leafFarKernel");
+      trace.stop(0, first);
+    } catch (const std::bad_alloc&) {
+      far.reset();
+      slotOf.reset();
+    }
+  }
+  const LeafFar* farData = far ? far->data() : nullptr;
+  const uint32_t* slotData = slotOf ? slotOf->data() : nullptr;
   const HardVoxels hardVoxels{hardItems.data(), hardCount.data(), kHardVoxels};
   const uint64_t total =
       runQueueLevels("leaves", first, capacity, in, out, [&](LeafBox* from, uint32_t n, LeafBox* to, uint32_t* toCount) {
         leafBoxesKernel<<<(n + kBoxBlock - 1) / kBoxBlock, kBoxBlock>>>(t, origins, L, counts, fits, words, from, n, to,
-                                                                         toCount, capacity, hardVoxels, allHard);
+                                                                         toCount, capacity, hardVoxels, allHard, farData,
+                                                                         slotData);
         checkLaunch("leafBoxesKernel");
       });
   uint32_t n = 0;
