@@ -297,7 +297,38 @@ uint32_t leastQueueBoxes(uint32_t standard) {
 struct QueuedBox {
   VoxelBox box;
   uint32_t job;
+  double gradient; // a bound on |grad K| over the box (its parent's; INFINITY: none known)
 };
+
+// windingCarriedBoxVerdict(t, b, false) with a gradient bound `known` that
+// holds over b (its parent's: b lies in the parent's box) tried first: only
+// where that cannot decide is b's own bound computed (and returned in known
+// for b's halves). The crossings and strips at the centre are summed once.
+// Every verdict is certified either way, so the bits are the same.
+__device__ int carriedVerdictWithKnown(const WindingTreeView& t, const VoxelBox& b, double& known) {
+  double lo[3], hi[3], centre[3], reach2 = 0;
+  for (int a = 0; a < 3; ++a) {
+    lo[a] = b.lo[a];
+    hi[a] = b.hi[a];
+    centre[a] = 0.5 * (lo[a] + hi[a]);
+    const double half = 0.5 * (b.size(a) - 1); // to the farthest voxel centre
+    reach2 = reach2 + half * half;
+  }
+  const double reach = sqrt(reach2) * (1 + 1e-12);
+  bool own = false;
+  if (!(reach * known < 2.0 * kWindingPi)) {
+    known = windingGradientBound(t, lo, hi);
+    own = true;
+    if (!(reach * known < 2.0 * kWindingPi)) return kWindingUnsure;
+  }
+  const WindingSum c = windingCrossingSumAt(t, centre);
+  if (!c.ok) return kWindingUnsure;
+  const int v = windingCarriedVerdict(c, reach, known, t.triangleCount);
+  if (v != kWindingUnsure || own) return v;
+  const double mine = windingGradientBound(t, lo, hi);
+  if (mine < known) known = mine;
+  return windingCarriedVerdict(c, reach, known, t.triangleCount);
+}
 
 __global__ void uniformBoxesKernel(WindingTreeView t, const QueuedBox* in, uint32_t count, QueuedBox* out,
                                    uint32_t* outCount, uint32_t capacity, uint32_t* seen) {
@@ -313,7 +344,8 @@ __global__ void uniformBoxesKernel(WindingTreeView t, const QueuedBox* in, uint3
     atomicOr(seen + q.job, inside ? kSeenInside : kSeenOutside);
     return;
   }
-  const int v = windingCarriedBoxVerdict(t, b, false);
+  double gradient = q.gradient;
+  const int v = carriedVerdictWithKnown(t, b, gradient);
   if (v != kWindingUnsure) {
     atomicOr(seen + q.job, v == kWindingInside ? kSeenInside : kSeenOutside);
     return;
@@ -343,7 +375,7 @@ __global__ void uniformBoxesKernel(WindingTreeView t, const QueuedBox* in, uint3
         s.hi[a] = mid;
       }
     }
-    if (exists) out[at + k++] = QueuedBox{s, q.job};
+    if (exists) out[at + k++] = QueuedBox{s, q.job, gradient};
   }
 }
 
@@ -371,6 +403,7 @@ __global__ void firstBoxesKernel(WindingTreeView t, const WindingUniformJob* job
     q.box.hi[a] = job.origin[a] + job.edge;
   }
   q.job = i;
+  q.gradient = INFINITY;
   boxes[atomicAdd(queued, 1u)] = q;
 }
 
