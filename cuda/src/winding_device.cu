@@ -422,10 +422,14 @@ __global__ void firstBoxesKernel(WindingTreeView t, const WindingUniformJob* job
 struct LeafBox {
   VoxelBox box; // leaf-local voxels
   uint32_t leaf;
+  uint32_t anchor; // the far expansion its anchor box made (kNoAnchor: none yet; kAnchorFailed: none to be had)
   double gradient; // a bound on |grad K| over the box (INFINITY: none known)
 };
 
+constexpr uint32_t kNoAnchor = 0xFFFFFFFFu, kAnchorFailed = 0xFFFFFFFEu;
+
 constexpr uint32_t kLeafQueue = 1u << 23; // boxes per level (at least twice the leaves)
+constexpr uint32_t kAnchorPool = 1u << 22; // anchors' far expansions per pass (more: every edge)
 
 // The inside bit of each non-surface voxel of b whose N reaches T.
 __device__ void settleLeafBox(uint32_t* words, uint32_t L, const VoxelBox& b, const int16_t* N, int T) {
@@ -451,7 +455,7 @@ __global__ void firstLeafBoxesKernel(uint32_t leafCount, int L, const uint8_t* f
                                      uint32_t* count) {
   const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i >= leafCount || !fits[i] || (leafT && leafT[i] != kNoThreshold)) return;
-  boxes[atomicAdd(count, 1u)] = LeafBox{VoxelBox{{0, 0, 0}, {L, L, L}}, i, INFINITY};
+  boxes[atomicAdd(count, 1u)] = LeafBox{VoxelBox{{0, 0, 0}, {L, L, L}}, i, kNoAnchor, INFINITY};
 }
 
 // Voxels that the count and the strips leave unsure (the centre lies in a
@@ -479,19 +483,27 @@ __device__ int countedVerdict(const WindingTreeView& t, const double* p, int N) 
 // ---- a leaf's far edges to first order (winding_far.hpp) -------------------
 //
 // As the CPU driver's windingDecideLeafLinear: a leaf whose boundary has many
-// more edges than come near it splits them (windingSplitEdges) and takes the
-// far part to first order about its centre (windingFarExpansion, with a
-// certified remainder over any box inside the leaf). Its boxes below the
-// whole leaf then pay the near edges exactly and the expansion instead of K
-// and a gradient bound from every edge. One thread per queued leaf; the split
-// is kept in device memory (slot = the leaf's place in the first level).
+// more edges than come near it splits them (windingSplitEdges, once per
+// queued leaf by leafFarKernel: slot = the leaf's place in the first level).
+// A box of at most kWindingLinearAnchorBox voxels a side that the old step
+// leaves unsure becomes an anchor: the far part to first order about its
+// centre (windingFarExpansion, a certified remainder over the box), kept in
+// a pool; it and its parts then pay the near edges exactly and the
+// expansion (windingFarOverBox) instead of K and a gradient bound from every
+// edge. Every verdict stays certified: the bits do not change.
 struct LeafFar {
   WindingLeafSplit split;
-  WindingFarExpansion x;
+  WindingFarLeaf far;
   int ok; // 0: the leaf takes every edge
 };
 
 constexpr uint32_t kNoSlot = 0xFFFFFFFFu;
+
+struct AnchorPool {
+  WindingFarExpansion* items;
+  uint32_t* count;
+  uint32_t capacity;
+};
 
 __global__ void leafFarKernel(WindingTreeView t, const LeafOrigin* origins, int L, const LeafBox* firstLevel,
                               uint32_t first, LeafFar* far, uint32_t* slotOf) {
@@ -500,33 +512,24 @@ __global__ void leafFarKernel(WindingTreeView t, const LeafOrigin* origins, int 
   const uint32_t leaf = firstLevel[i].leaf;
   slotOf[leaf] = i;
   LeafFar& f = far[i];
-  f.ok = 0;
   double lo[3], hi[3];
   windingBoxCentres(origins[leaf].o, VoxelBox{{0, 0, 0}, {L, L, L}}, lo, hi);
-  WindingFarLeaf farLeaf;
-  if (t.edgeCount > uint32_t(kWindingNearEdges) && windingSplitEdges(t, lo, hi, L, f.split) &&
-      4 * uint32_t(f.split.nearCount) < t.edgeCount && windingFarLeaf(t, f.split, lo, hi, farLeaf) &&
-      windingFarExpansion(t, f.split, farLeaf, lo, hi, f.x))
-    f.ok = 1;
+  f.ok = t.edgeCount > uint32_t(kWindingNearEdges) && windingSplitEdges(t, lo, hi, L, f.split) &&
+         4 * uint32_t(f.split.nearCount) < t.edgeCount && windingFarLeaf(t, f.split, lo, hi, f.far);
 }
 
-// A box of a leaf with a far expansion: windingAnchoredBoxStep's tests with
-// K_far from the leaf's expansion (windingFarOverBox) and no exact far sum.
-// The expansion's remainder grows with the distance from the leaf's centre,
-// not with the box, so it settles the boxes near the centre and those well
-// clear of w = 1/2; the others go on to every edge (leafBoxesKernel).
-// Returns 1 when the box is settled (words written), 2 when a near sheet
-// meets it (far sheets do not meet the leaf: every edge would say the
-// same), 0 when the expansion cannot say.
+// One box with K_far from the anchor's expansion x (windingAnchoredBoxStep's
+// tests, no exact far sum). Returns kFarSettled when the box is settled
+// (words written), kFarSheet when a near sheet meets it (far sheets do not
+// meet the leaf: every edge would say the same), kFarUnsure otherwise.
 constexpr int kFarSettled = 1, kFarSheet = 2, kFarUnsure = 0;
 
-__device__ int leafFarBoxStep(const WindingTreeView& t, const LeafFar& f, uint32_t* leafWords, uint32_t L,
-                              const int16_t* N, const VoxelBox& b, const double* lo, const double* hi) {
-  const WindingLeafSplit& split = f.split;
+__device__ int anchoredBoxStep(const WindingTreeView& t, const WindingLeafSplit& split, const WindingFarExpansion& x,
+                               uint32_t* leafWords, uint32_t L, const int16_t* N, const VoxelBox& b, const double* lo,
+                               const double* hi) {
   double farK = 0, farStray = 0;
-  windingFarOverBox(f.x, lo, hi, farK, farStray);
+  windingFarOverBox(x, lo, hi, farK, farStray);
   if (b.single()) {
-    if (!(farStray < 2.0 * kWindingPi)) return kFarUnsure;
     const uint32_t v = WindingLeafWords{leafWords, L}.index(b.lo[0], b.lo[1], b.lo[2]);
     double nearK = 0, nearError = 0;
     if (!windingPartStripSum(t, split, true, lo, nearK, nearError)) return kFarUnsure;
@@ -540,7 +543,6 @@ __device__ int leafFarBoxStep(const WindingTreeView& t, const LeafFar& f, uint32
   }
   for (int k = 0; k < split.nearCount; ++k)
     if (windingSheetMeetsBox(t.edges[split.near[k]], lo, hi)) return kFarSheet;
-  if (!(farStray < 2.0 * kWindingPi)) return kFarUnsure;
   double c[3], reach2 = 0;
   for (int a = 0; a < 3; ++a) {
     c[a] = 0.5 * (lo[a] + hi[a]);
@@ -561,10 +563,37 @@ __device__ int leafFarBoxStep(const WindingTreeView& t, const LeafFar& f, uint32
   return kFarUnsure;
 }
 
+// The box's halves into the next level (false: the queue is full; the leaf
+// is the host's then).
+__device__ bool queueHalves(const LeafBox& q, bool sheet, double gradient, uint32_t anchor, uint8_t* fits,
+                            LeafBox* out, uint32_t* outCount, uint32_t capacity) {
+  VoxelBox halves[8];
+  double known[8];
+  int n = 0;
+  windingPushHalves(q.box, sheet, halves, known, n, gradient);
+  const uint32_t at = atomicAdd(outCount, uint32_t(n));
+  if (at + uint32_t(n) > capacity) {
+    fits[q.leaf] = 0;
+    for (uint32_t k = at; k < capacity && k < at + uint32_t(n); ++k) out[k].leaf = kNoJob;
+    return false;
+  }
+  for (int k = 0; k < n; ++k) out[at + uint32_t(k)] = LeafBox{halves[k], q.leaf, anchor, known[k]};
+  return true;
+}
+
+__device__ void listHardVoxel(HardVoxels hard, uint8_t* fits, uint32_t leaf, uint32_t v) {
+  const uint32_t at = atomicAdd(hard.count, 1u);
+  if (at < hard.capacity) {
+    hard.items[at] = make_uint2(leaf, v);
+  } else {
+    fits[leaf] = 0; // the host's whole leaf
+  }
+}
+
 __global__ void leafBoxesKernel(WindingTreeView t, const LeafOrigin* origins, int L, const int16_t* counts,
                                 uint8_t* fits, uint32_t* words, const LeafBox* in, uint32_t count, LeafBox* out,
                                 uint32_t* outCount, uint32_t capacity, HardVoxels hard, bool allHard,
-                                const LeafFar* far, const uint32_t* slotOf) {
+                                const LeafFar* far, const uint32_t* slotOf, AnchorPool anchors) {
   const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i >= count) return;
   const LeafBox q = in[i];
@@ -576,43 +605,48 @@ __global__ void leafBoxesKernel(WindingTreeView t, const LeafOrigin* origins, in
   if (!w.open(b)) return;
   double lo[3], hi[3];
   windingBoxCentres(origins[q.leaf].o, b, lo, hi);
-  // Below the whole leaf, a leaf with a far expansion tries it first.
-  const uint32_t slot = far != nullptr && !allHard && b.size(0) + b.size(1) + b.size(2) < 3 * L ? slotOf[q.leaf] : kNoSlot;
-  const int byFar = slot != kNoSlot && far[slot].ok ? leafFarBoxStep(t, far[slot], leafWords, uint32_t(L), N, b, lo, hi)
-                                                    : kFarUnsure;
-  if (byFar == kFarSettled) return;
+  // Inside an anchor's expansion: the near edges and the expansion; a box
+  // they leave unsure is halved (a single voxel takes every edge below).
+  if (q.anchor < kAnchorFailed) {
+    const LeafFar& f = far[slotOf[q.leaf]];
+    const int step = anchoredBoxStep(t, f.split, anchors.items[q.anchor], leafWords, uint32_t(L), N, b, lo, hi);
+    if (step == kFarSettled) return;
+    if (!b.single()) {
+      queueHalves(q, step == kFarSheet, INFINITY, q.anchor, fits, out, outCount, capacity);
+      return;
+    }
+  }
   if (b.single()) {
     const uint32_t v = w.index(b.lo[0], b.lo[1], b.lo[2]);
     const int verdict = allHard ? int(kWindingUnsure) : countedVerdict(t, lo, int(N[v]));
     if (verdict == kWindingInside) atomicOr(leafWords + v / kVoxelsPerWord, 1u << (2 * (v % kVoxelsPerWord)));
-    if (verdict == kWindingUnsure) {
-      const uint32_t at = atomicAdd(hard.count, 1u);
-      if (at < hard.capacity) {
-        hard.items[at] = make_uint2(q.leaf, v);
-      } else {
-        fits[q.leaf] = 0; // the host's whole leaf
-      }
-    }
+    if (verdict == kWindingUnsure) listHardVoxel(hard, fits, q.leaf, v);
     return;
   }
-  const bool sheet = byFar == kFarSheet || windingSheetsMeetBox(t, lo, hi);
+  const bool sheet = windingSheetsMeetBox(t, lo, hi);
   double gradient = q.gradient;
   int T = 0;
   if (!sheet && windingBoxThreshold(t, lo, hi, T, gradient)) {
     settleLeafBox(leafWords, uint32_t(L), b, N, T);
     return;
   }
-  VoxelBox halves[8];
-  double known[8];
-  int n = 0;
-  windingPushHalves(b, sheet, halves, known, n, gradient);
-  const uint32_t at = atomicAdd(outCount, uint32_t(n));
-  if (at + uint32_t(n) > capacity) {
-    fits[q.leaf] = 0;
-    for (uint32_t k = at; k < capacity && k < at + uint32_t(n); ++k) out[k].leaf = kNoJob;
-    return;
+  // Unsure with every edge: a box small enough becomes an anchor (once).
+  uint32_t anchor = q.anchor;
+  const int M = kWindingLinearAnchorBox;
+  if (anchor == kNoAnchor && far != nullptr && !allHard && b.size(0) <= M && b.size(1) <= M && b.size(2) <= M) {
+    anchor = kAnchorFailed;
+    const uint32_t slot = slotOf[q.leaf];
+    WindingFarExpansion x;
+    if (slot != kNoSlot && far[slot].ok && windingFarExpansion(t, far[slot].split, far[slot].far, lo, hi, x) &&
+        windingFarExpansionUseful(x, lo, hi)) {
+      const uint32_t at = atomicAdd(anchors.count, 1u);
+      if (at < anchors.capacity) {
+        anchors.items[at] = x;
+        anchor = at;
+      }
+    }
   }
-  for (int k = 0; k < n; ++k) out[at + uint32_t(k)] = LeafBox{halves[k], q.leaf, known[k]};
+  queueHalves(q, sheet, gradient, anchor, fits, out, outCount, capacity);
 }
 
 void checkLaunch(const char* name) {
@@ -856,27 +890,32 @@ uint64_t decideLeavesBreadthFirst(const WindingTreeView& t, const LeafOrigin* or
     checkLaunch("firstLeafBoxesKernel");
     firstCount.download(&first);
   }
-  // The queued leaves' far expansions (none when the device has no memory
-  // for them, or HDT_WINDING_NO_FAR is set: every box then takes every edge).
+  // The queued leaves' near/far splits and a pool of anchors' expansions
+  // (none when the device has no memory for them, or HDT_WINDING_NO_FAR is
+  // set: every box then takes every edge).
   std::unique_ptr<Array<LeafFar>> far;
   std::unique_ptr<Array<uint32_t>> slotOf;
+  std::unique_ptr<Array<WindingFarExpansion>> anchorItems;
+  Array<uint32_t> anchorCount(1);
+  anchorCount.zero();
   static const bool noFar = std::getenv("HDT_WINDING_NO_FAR") != nullptr;
   if (first > 0 && !noFar && t.edgeCount > uint32_t(kWindingNearEdges)) {
     try {
       far = std::make_unique<Array<LeafFar>>(first);
       slotOf = std::make_unique<Array<uint32_t>>(leaves);
+      anchorItems = std::make_unique<Array<WindingFarExpansion>>(std::min<uint32_t>(capacity, kAnchorPool));
       HDT_CUDA_CHECK(cudaMemset(slotOf->data(), 0xFF, size_t(leaves) * sizeof(uint32_t)));
-      LevelTrace trace("leaf far expansions");
-      trace.start();
       leafFarKernel<<<(first + kBoxBlock - 1) / kBoxBlock, kBoxBlock>>>(t, origins, L, in, first, far->data(),
                                                                           slotOf->data());
       checkLaunch("leafFarKernel");
-      trace.stop(0, first);
     } catch (const std::bad_alloc&) {
       far.reset();
       slotOf.reset();
+      anchorItems.reset();
     }
   }
+  const AnchorPool anchors{anchorItems ? anchorItems->data() : nullptr, anchorCount.data(),
+                           anchorItems ? uint32_t(anchorItems->size()) : 0u};
   const LeafFar* farData = far ? far->data() : nullptr;
   const uint32_t* slotData = slotOf ? slotOf->data() : nullptr;
   const HardVoxels hardVoxels{hardItems.data(), hardCount.data(), kHardVoxels};
@@ -884,9 +923,14 @@ uint64_t decideLeavesBreadthFirst(const WindingTreeView& t, const LeafOrigin* or
       runQueueLevels("leaves", first, capacity, in, out, [&](LeafBox* from, uint32_t n, LeafBox* to, uint32_t* toCount) {
         leafBoxesKernel<<<(n + kBoxBlock - 1) / kBoxBlock, kBoxBlock>>>(t, origins, L, counts, fits, words, from, n, to,
                                                                          toCount, capacity, hardVoxels, allHard, farData,
-                                                                         slotData);
+                                                                         slotData, anchors);
         checkLaunch("leafBoxesKernel");
       });
+  if (traceLevels() && far) {
+    uint32_t made = 0;
+    anchorCount.download(&made);
+    std::fprintf(stderr, "winding trace leaves: %u anchors' far expansions (pool %u)\n", made, anchors.capacity);
+  }
   uint32_t n = 0;
   hardCount.download(&n);
   hard.resize(std::min(n, kHardVoxels));
