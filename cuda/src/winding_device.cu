@@ -29,7 +29,6 @@
 #include "hdt/build_steps.hpp"
 #include "hdt/geometry.hpp"
 #include "hdt/volume.hpp"
-#include "hdt/winding_far.hpp"
 #include "hdt/winding_leaf.hpp"
 
 #include <cub/device/device_radix_sort.cuh>
@@ -297,38 +296,7 @@ uint32_t leastQueueBoxes(uint32_t standard) {
 struct QueuedBox {
   VoxelBox box;
   uint32_t job;
-  double gradient; // a bound on |grad K| over the box (its parent's; INFINITY: none known)
 };
-
-// windingCarriedBoxVerdict(t, b, false) with a gradient bound `known` that
-// holds over b (its parent's: b lies in the parent's box) tried first: only
-// where that cannot decide is b's own bound computed (and returned in known
-// for b's halves). The crossings and strips at the centre are summed once.
-// Every verdict is certified either way, so the bits are the same.
-__device__ int carriedVerdictWithKnown(const WindingTreeView& t, const VoxelBox& b, double& known) {
-  double lo[3], hi[3], centre[3], reach2 = 0;
-  for (int a = 0; a < 3; ++a) {
-    lo[a] = b.lo[a];
-    hi[a] = b.hi[a];
-    centre[a] = 0.5 * (lo[a] + hi[a]);
-    const double half = 0.5 * (b.size(a) - 1); // to the farthest voxel centre
-    reach2 = reach2 + half * half;
-  }
-  const double reach = sqrt(reach2) * (1 + 1e-12);
-  bool own = false;
-  if (!(reach * known < 2.0 * kWindingPi)) {
-    known = windingGradientBound(t, lo, hi);
-    own = true;
-    if (!(reach * known < 2.0 * kWindingPi)) return kWindingUnsure;
-  }
-  const WindingSum c = windingCrossingSumAt(t, centre);
-  if (!c.ok) return kWindingUnsure;
-  const int v = windingCarriedVerdict(c, reach, known, t.triangleCount);
-  if (v != kWindingUnsure || own) return v;
-  const double mine = windingGradientBound(t, lo, hi);
-  if (mine < known) known = mine;
-  return windingCarriedVerdict(c, reach, known, t.triangleCount);
-}
 
 __global__ void uniformBoxesKernel(WindingTreeView t, const QueuedBox* in, uint32_t count, QueuedBox* out,
                                    uint32_t* outCount, uint32_t capacity, uint32_t* seen) {
@@ -344,8 +312,7 @@ __global__ void uniformBoxesKernel(WindingTreeView t, const QueuedBox* in, uint3
     atomicOr(seen + q.job, inside ? kSeenInside : kSeenOutside);
     return;
   }
-  double gradient = q.gradient;
-  const int v = carriedVerdictWithKnown(t, b, gradient);
+  const int v = windingCarriedBoxVerdict(t, b, false);
   if (v != kWindingUnsure) {
     atomicOr(seen + q.job, v == kWindingInside ? kSeenInside : kSeenOutside);
     return;
@@ -375,7 +342,7 @@ __global__ void uniformBoxesKernel(WindingTreeView t, const QueuedBox* in, uint3
         s.hi[a] = mid;
       }
     }
-    if (exists) out[at + k++] = QueuedBox{s, q.job, gradient};
+    if (exists) out[at + k++] = QueuedBox{s, q.job};
   }
 }
 
@@ -403,7 +370,6 @@ __global__ void firstBoxesKernel(WindingTreeView t, const WindingUniformJob* job
     q.box.hi[a] = job.origin[a] + job.edge;
   }
   q.job = i;
-  q.gradient = INFINITY;
   boxes[atomicAdd(queued, 1u)] = q;
 }
 
@@ -422,14 +388,10 @@ __global__ void firstBoxesKernel(WindingTreeView t, const WindingUniformJob* job
 struct LeafBox {
   VoxelBox box; // leaf-local voxels
   uint32_t leaf;
-  uint32_t anchor; // the far expansion its anchor box made (kNoAnchor: none yet; kAnchorFailed: none to be had)
   double gradient; // a bound on |grad K| over the box (INFINITY: none known)
 };
 
-constexpr uint32_t kNoAnchor = 0xFFFFFFFFu, kAnchorFailed = 0xFFFFFFFEu;
-
 constexpr uint32_t kLeafQueue = 1u << 23; // boxes per level (at least twice the leaves)
-constexpr uint32_t kAnchorPool = 1u << 22; // anchors' far expansions per pass (more: every edge)
 
 // The inside bit of each non-surface voxel of b whose N reaches T.
 __device__ void settleLeafBox(uint32_t* words, uint32_t L, const VoxelBox& b, const int16_t* N, int T) {
@@ -455,7 +417,7 @@ __global__ void firstLeafBoxesKernel(uint32_t leafCount, int L, const uint8_t* f
                                      uint32_t* count) {
   const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i >= leafCount || !fits[i] || (leafT && leafT[i] != kNoThreshold)) return;
-  boxes[atomicAdd(count, 1u)] = LeafBox{VoxelBox{{0, 0, 0}, {L, L, L}}, i, kNoAnchor, INFINITY};
+  boxes[atomicAdd(count, 1u)] = LeafBox{VoxelBox{{0, 0, 0}, {L, L, L}}, i, INFINITY};
 }
 
 // Voxels that the count and the strips leave unsure (the centre lies in a
@@ -480,120 +442,9 @@ __device__ int countedVerdict(const WindingTreeView& t, const double* p, int N) 
   return windingVerdict(s, t.triangleCount);
 }
 
-// ---- a leaf's far edges to first order (winding_far.hpp) -------------------
-//
-// As the CPU driver's windingDecideLeafLinear: a leaf whose boundary has many
-// more edges than come near it splits them (windingSplitEdges, once per
-// queued leaf by leafFarKernel: slot = the leaf's place in the first level).
-// A box of at most kWindingLinearAnchorBox voxels a side that the old step
-// leaves unsure becomes an anchor: the far part to first order about its
-// centre (windingFarExpansion, a certified remainder over the box), kept in
-// a pool; it and its parts then pay the near edges exactly and the
-// expansion (windingFarOverBox) instead of K and a gradient bound from every
-// edge. Every verdict stays certified: the bits do not change.
-struct LeafFar {
-  WindingLeafSplit split;
-  WindingFarLeaf far;
-  int ok; // 0: the leaf takes every edge
-};
-
-constexpr uint32_t kNoSlot = 0xFFFFFFFFu;
-
-struct AnchorPool {
-  WindingFarExpansion* items;
-  uint32_t* count;
-  uint32_t capacity;
-};
-
-__global__ void leafFarKernel(WindingTreeView t, const LeafOrigin* origins, int L, const LeafBox* firstLevel,
-                              uint32_t first, LeafFar* far, uint32_t* slotOf) {
-  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
-  if (i >= first) return;
-  const uint32_t leaf = firstLevel[i].leaf;
-  slotOf[leaf] = i;
-  LeafFar& f = far[i];
-  double lo[3], hi[3];
-  windingBoxCentres(origins[leaf].o, VoxelBox{{0, 0, 0}, {L, L, L}}, lo, hi);
-  f.ok = t.edgeCount > uint32_t(kWindingNearEdges) && windingSplitEdges(t, lo, hi, L, f.split) &&
-         4 * uint32_t(f.split.nearCount) < t.edgeCount && windingFarLeaf(t, f.split, lo, hi, f.far);
-}
-
-// One box with K_far from the anchor's expansion x (windingAnchoredBoxStep's
-// tests, no exact far sum). Returns kFarSettled when the box is settled
-// (words written), kFarSheet when a near sheet meets it (far sheets do not
-// meet the leaf: every edge would say the same), kFarUnsure otherwise.
-constexpr int kFarSettled = 1, kFarSheet = 2, kFarUnsure = 0;
-
-__device__ int anchoredBoxStep(const WindingTreeView& t, const WindingLeafSplit& split, const WindingFarExpansion& x,
-                               uint32_t* leafWords, uint32_t L, const int16_t* N, const VoxelBox& b, const double* lo,
-                               const double* hi) {
-  double farK = 0, farStray = 0;
-  windingFarOverBox(x, lo, hi, farK, farStray);
-  if (b.single()) {
-    const uint32_t v = WindingLeafWords{leafWords, L}.index(b.lo[0], b.lo[1], b.lo[2]);
-    double nearK = 0, nearError = 0;
-    if (!windingPartStripSum(t, split, true, lo, nearK, nearError)) return kFarUnsure;
-    const double whole = 4.0 * kWindingPi * double(N[v]), K = nearK + farK;
-    const WindingSum s{whole + K, nearError + farStray + 4.0 * kWindingUlp * (fabs(whole) + fabs(nearK) + fabs(farK) + fabs(K)),
-                       true};
-    const int verdict = windingVerdict(s, t.triangleCount);
-    if (verdict == kWindingUnsure) return kFarUnsure;
-    if (verdict == kWindingInside) atomicOr(leafWords + v / kVoxelsPerWord, 1u << (2 * (v % kVoxelsPerWord)));
-    return kFarSettled;
-  }
-  for (int k = 0; k < split.nearCount; ++k)
-    if (windingSheetMeetsBox(t.edges[split.near[k]], lo, hi)) return kFarSheet;
-  double c[3], reach2 = 0;
-  for (int a = 0; a < 3; ++a) {
-    c[a] = 0.5 * (lo[a] + hi[a]);
-    reach2 = reach2 + 0.25 * (hi[a] - lo[a]) * (hi[a] - lo[a]);
-  }
-  const double nearGradient = windingPartGradientBound(t, split, true, lo, hi);
-  const double spread = sqrt(reach2) * (1 + 1e-12) * nearGradient + farStray;
-  double nearK = 0, nearError = 0;
-  int T = 0;
-  if (spread < 2.0 * kWindingPi && windingPartStripSum(t, split, true, c, nearK, nearError)) {
-    const double K = nearK + farK;
-    const double error = nearError + 4.0 * kWindingUlp * (fabs(nearK) + fabs(farK));
-    if (windingThresholdFrom(t, K, error, spread, T)) {
-      settleLeafBox(leafWords, L, b, N, T);
-      return kFarSettled;
-    }
-  }
-  return kFarUnsure;
-}
-
-// The box's halves into the next level (false: the queue is full; the leaf
-// is the host's then).
-__device__ bool queueHalves(const LeafBox& q, bool sheet, double gradient, uint32_t anchor, uint8_t* fits,
-                            LeafBox* out, uint32_t* outCount, uint32_t capacity) {
-  VoxelBox halves[8];
-  double known[8];
-  int n = 0;
-  windingPushHalves(q.box, sheet, halves, known, n, gradient);
-  const uint32_t at = atomicAdd(outCount, uint32_t(n));
-  if (at + uint32_t(n) > capacity) {
-    fits[q.leaf] = 0;
-    for (uint32_t k = at; k < capacity && k < at + uint32_t(n); ++k) out[k].leaf = kNoJob;
-    return false;
-  }
-  for (int k = 0; k < n; ++k) out[at + uint32_t(k)] = LeafBox{halves[k], q.leaf, anchor, known[k]};
-  return true;
-}
-
-__device__ void listHardVoxel(HardVoxels hard, uint8_t* fits, uint32_t leaf, uint32_t v) {
-  const uint32_t at = atomicAdd(hard.count, 1u);
-  if (at < hard.capacity) {
-    hard.items[at] = make_uint2(leaf, v);
-  } else {
-    fits[leaf] = 0; // the host's whole leaf
-  }
-}
-
 __global__ void leafBoxesKernel(WindingTreeView t, const LeafOrigin* origins, int L, const int16_t* counts,
                                 uint8_t* fits, uint32_t* words, const LeafBox* in, uint32_t count, LeafBox* out,
-                                uint32_t* outCount, uint32_t capacity, HardVoxels hard, bool allHard,
-                                const LeafFar* far, const uint32_t* slotOf, AnchorPool anchors) {
+                                uint32_t* outCount, uint32_t capacity, HardVoxels hard, bool allHard) {
   const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i >= count) return;
   const LeafBox q = in[i];
@@ -605,22 +456,18 @@ __global__ void leafBoxesKernel(WindingTreeView t, const LeafOrigin* origins, in
   if (!w.open(b)) return;
   double lo[3], hi[3];
   windingBoxCentres(origins[q.leaf].o, b, lo, hi);
-  // Inside an anchor's expansion: the near edges and the expansion; a box
-  // they leave unsure is halved (a single voxel takes every edge below).
-  if (q.anchor < kAnchorFailed) {
-    const LeafFar& f = far[slotOf[q.leaf]];
-    const int step = anchoredBoxStep(t, f.split, anchors.items[q.anchor], leafWords, uint32_t(L), N, b, lo, hi);
-    if (step == kFarSettled) return;
-    if (!b.single()) {
-      queueHalves(q, step == kFarSheet, INFINITY, q.anchor, fits, out, outCount, capacity);
-      return;
-    }
-  }
   if (b.single()) {
     const uint32_t v = w.index(b.lo[0], b.lo[1], b.lo[2]);
     const int verdict = allHard ? int(kWindingUnsure) : countedVerdict(t, lo, int(N[v]));
     if (verdict == kWindingInside) atomicOr(leafWords + v / kVoxelsPerWord, 1u << (2 * (v % kVoxelsPerWord)));
-    if (verdict == kWindingUnsure) listHardVoxel(hard, fits, q.leaf, v);
+    if (verdict == kWindingUnsure) {
+      const uint32_t at = atomicAdd(hard.count, 1u);
+      if (at < hard.capacity) {
+        hard.items[at] = make_uint2(q.leaf, v);
+      } else {
+        fits[q.leaf] = 0; // the host's whole leaf
+      }
+    }
     return;
   }
   const bool sheet = windingSheetsMeetBox(t, lo, hi);
@@ -630,23 +477,17 @@ __global__ void leafBoxesKernel(WindingTreeView t, const LeafOrigin* origins, in
     settleLeafBox(leafWords, uint32_t(L), b, N, T);
     return;
   }
-  // Unsure with every edge: a box small enough becomes an anchor (once).
-  uint32_t anchor = q.anchor;
-  const int M = kWindingLinearAnchorBox;
-  if (anchor == kNoAnchor && far != nullptr && !allHard && b.size(0) <= M && b.size(1) <= M && b.size(2) <= M) {
-    anchor = kAnchorFailed;
-    const uint32_t slot = slotOf[q.leaf];
-    WindingFarExpansion x;
-    if (slot != kNoSlot && far[slot].ok && windingFarExpansion(t, far[slot].split, far[slot].far, lo, hi, x) &&
-        windingFarExpansionUseful(x, lo, hi)) {
-      const uint32_t at = atomicAdd(anchors.count, 1u);
-      if (at < anchors.capacity) {
-        anchors.items[at] = x;
-        anchor = at;
-      }
-    }
+  VoxelBox halves[8];
+  double known[8];
+  int n = 0;
+  windingPushHalves(b, sheet, halves, known, n, gradient);
+  const uint32_t at = atomicAdd(outCount, uint32_t(n));
+  if (at + uint32_t(n) > capacity) {
+    fits[q.leaf] = 0;
+    for (uint32_t k = at; k < capacity && k < at + uint32_t(n); ++k) out[k].leaf = kNoJob;
+    return;
   }
-  queueHalves(q, sheet, gradient, anchor, fits, out, outCount, capacity);
+  for (int k = 0; k < n; ++k) out[at + uint32_t(k)] = LeafBox{halves[k], q.leaf, known[k]};
 }
 
 void checkLaunch(const char* name) {
@@ -890,47 +731,13 @@ uint64_t decideLeavesBreadthFirst(const WindingTreeView& t, const LeafOrigin* or
     checkLaunch("firstLeafBoxesKernel");
     firstCount.download(&first);
   }
-  // The queued leaves' near/far splits and a pool of anchors' expansions
-  // (none when the device has no memory for them, or HDT_WINDING_NO_FAR is
-  // set: every box then takes every edge).
-  std::unique_ptr<Array<LeafFar>> far;
-  std::unique_ptr<Array<uint32_t>> slotOf;
-  std::unique_ptr<Array<WindingFarExpansion>> anchorItems;
-  Array<uint32_t> anchorCount(1);
-  anchorCount.zero();
-  static const bool noFar = std::getenv("HDT_WINDING_NO_FAR") != nullptr;
-  if (first > 0 && !noFar && t.edgeCount > uint32_t(kWindingNearEdges)) {
-    try {
-      far = std::make_unique<Array<LeafFar>>(first);
-      slotOf = std::make_unique<Array<uint32_t>>(leaves);
-      anchorItems = std::make_unique<Array<WindingFarExpansion>>(std::min<uint32_t>(capacity, kAnchorPool));
-      HDT_CUDA_CHECK(cudaMemset(slotOf->data(), 0xFF, size_t(leaves) * sizeof(uint32_t)));
-      leafFarKernel<<<(first + kBoxBlock - 1) / kBoxBlock, kBoxBlock>>>(t, origins, L, in, first, far->data(),
-                                                                          slotOf->data());
-      checkLaunch("leafFarKernel");
-    } catch (const std::bad_alloc&) {
-      far.reset();
-      slotOf.reset();
-      anchorItems.reset();
-    }
-  }
-  const AnchorPool anchors{anchorItems ? anchorItems->data() : nullptr, anchorCount.data(),
-                           anchorItems ? uint32_t(anchorItems->size()) : 0u};
-  const LeafFar* farData = far ? far->data() : nullptr;
-  const uint32_t* slotData = slotOf ? slotOf->data() : nullptr;
   const HardVoxels hardVoxels{hardItems.data(), hardCount.data(), kHardVoxels};
   const uint64_t total =
       runQueueLevels("leaves", first, capacity, in, out, [&](LeafBox* from, uint32_t n, LeafBox* to, uint32_t* toCount) {
         leafBoxesKernel<<<(n + kBoxBlock - 1) / kBoxBlock, kBoxBlock>>>(t, origins, L, counts, fits, words, from, n, to,
-                                                                         toCount, capacity, hardVoxels, allHard, farData,
-                                                                         slotData, anchors);
+                                                                         toCount, capacity, hardVoxels, allHard);
         checkLaunch("leafBoxesKernel");
       });
-  if (traceLevels() && far) {
-    uint32_t made = 0;
-    anchorCount.download(&made);
-    std::fprintf(stderr, "winding trace leaves: %u anchors' far expansions (pool %u)\n", made, anchors.capacity);
-  }
   uint32_t n = 0;
   hardCount.download(&n);
   hard.resize(std::min(n, kHardVoxels));
