@@ -274,10 +274,8 @@ template <class Entry> struct BucketTally {
     b.forEachPart(bucket, [&](const Entry* f, const Entry* l) {
       for (; f != l; ++f) c += (*f & none) != none;
     });
-    size_t size = 16;
-    while (size < 2 * c) size *= 2;
-    const size_t mask = size - 1;
-    cornerTable.assign(size, Entry(0));
+    const size_t mask = numberTableSize(c) - 1; // the same load as the numbering's tables
+    cornerTable.assign(mask + 1, Entry(0));
     b.forEachPart(bucket, [&](const Entry* f, const Entry* l) {
       for (; f != l; ++f) {
         const Entry e = *f;

@@ -33,11 +33,12 @@ constexpr uint32_t kLeafTriangles = 4;
 
 // HDT_WINDING_TRACE set: the host's phases of the inside test on stderr (the
 // device passes print theirs, cuda/src/winding_device.cu).
-void traceWinding(const char* phase, std::chrono::steady_clock::time_point since) {
+void traceWindingMs(const char* phase, double ms) {
   static const bool on = std::getenv("HDT_WINDING_TRACE") != nullptr;
-  if (!on) return;
-  const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - since).count();
-  std::fprintf(stderr, "winding host: %s %.2f ms\n", phase, ms);
+  if (on) std::fprintf(stderr, "winding host: %s %.2f ms\n", phase, ms);
+}
+void traceWinding(const char* phase, std::chrono::steady_clock::time_point since) {
+  traceWindingMs(phase, std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - since).count());
 }
 
 WindingTriangle windingTriangle(const LatticeTriangle& t) {
@@ -609,11 +610,10 @@ using LaidLevel = std::vector<LaidElement, HugePageScratchAllocator<LaidElement>
 
 // Counts carried along a level by scanInChunks.
 struct LaySums {
-  uint64_t a = 0, b = 0, c = 0;
+  uint64_t a = 0, b = 0;
   LaySums& operator+=(const LaySums& o) {
     a += o.a;
     b += o.b;
-    c += o.c;
     return *this;
   }
 };
@@ -643,6 +643,11 @@ LaySums scanInChunks(size_t n, const Step& step, const Sized& sized) {
   return before[chunks];
 }
 
+// Element payloads (branch places, leaf indices) hold 30 bits.
+[[noreturn]] void throwRefinementTooLarge() {
+  throw Error(ErrorKind::OutOfResources, "refining the winding number's w = 1/2 surface exceeds 2^30 elements");
+}
+
 // The elements of the refined layout from its levels (LaidElement, level
 // order), each level in parallel: Branch payloads and leaf indices are prefix
 // sums. Returns the number of leaves (old and fresh).
@@ -650,9 +655,7 @@ uint64_t layOutRefined(const Volume& v, const std::vector<LaidLevel>& levels, st
                        std::vector<ElementWord>& elements) {
   const int height = v.grid.height;
   for (int k = 0; k <= height; ++k) levelStart[size_t(k) + 1] = levelStart[size_t(k)] + levels[size_t(k)].size();
-  if (levelStart.back() - 1 > kMaxElementPayload) {
-    throw Error(ErrorKind::OutOfResources, "refining the winding number's w = 1/2 surface exceeds 2^30 elements");
-  }
+  if (levelStart.back() - 1 > kMaxElementPayload) throwRefinementTooLarge();
   elements.resize(levelStart.back());
   uint64_t leaves = 0;
   for (int k = 0; k <= height; ++k) {
@@ -679,10 +682,7 @@ uint64_t layOutRefined(const Volume& v, const std::vector<LaidLevel>& levels, st
                     }
                   },
                   [&](const LaySums& sums) {
-                    if (leafBase + sums.b > kMaxElementPayload) {
-                      throw Error(ErrorKind::OutOfResources,
-                                  "refining the winding number's w = 1/2 surface exceeds 2^30 elements");
-                    }
+                    if (leafBase + sums.b > kMaxElementPayload) throwRefinementTooLarge();
                   })
                   .b;
   }
@@ -781,7 +781,7 @@ uint64_t refineSplitElements(const WindingTree& tree, Volume& v, const std::vect
   }
   for (const LaidElement& e : levels[size_t(height)]) refined += e.split;
   traceWinding("re-lay: levels (fresh children's passes included)", t0);
-  if (std::getenv("HDT_WINDING_TRACE")) std::fprintf(stderr, "winding host: re-lay: fresh children's passes %.2f ms\n", passMs);
+  traceWindingMs("re-lay: fresh children's passes", passMs);
   t0 = std::chrono::steady_clock::now();
 
   // The fresh leaves: the split elements of the last level, in level order,
