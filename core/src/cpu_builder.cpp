@@ -11,6 +11,7 @@
 #include "hdt/build_steps.hpp"
 #include "hdt/error.hpp"
 #include "hdt/host_memory.hpp"
+#include "hdt/progress.hpp"
 #include "hdt/root_ranges.hpp"
 #include "hdt/winding_tree.hpp"
 
@@ -53,6 +54,15 @@ std::vector<Pair> gatherSorted(tbb::combinable<std::vector<Pair>>& local) {
   return all;
 }
 
+// Under the winding number the phases below report into [0, this] and the
+// inside test (applyInsideTest) into the rest: on the CPU it takes two to
+// four times as long as they do (bench/results/winding.md).
+constexpr double kBuildShareBeforeWinding = 0.3;
+
+bool windingFollows(const PreparedMesh& mesh) {
+  return !mesh.surfaceOnly && mesh.insideTest == InsideTest::WindingNumber;
+}
+
 } // namespace
 
 // One range of root cells [first, end) (the whole grid for buildCpu). Element
@@ -60,32 +70,33 @@ std::vector<Pair> gatherSorted(tbb::combinable<std::vector<Pair>>& local) {
 struct CpuRangeBuild::Impl {
   Impl(const PreparedMesh& mesh, const BuildOptions& options, RootRange cells)
       : mesh_(mesh), options_(options), g_(mesh.grid), L_(mesh.grid.leafSize), rowWords_(rowWordsFor(L_)),
-        axes_(classifiedAxes(mesh.closed)), cells_(cells) {}
+        axes_(classifiedAxes(mesh.closed)), cells_(cells),
+        progress_(options.progress, 0.0, windingFollows(mesh) ? kBuildShareBeforeWinding : 1.0) {}
 
   const RangeBoundary& buildTree() {
-    report(0.0, "mapping");
+    progress_.report(0.0, "mapping");
     auto t = Clock::now();
     std::vector<Pair> pairs = mapTrianglesToRootCells();
     times_.mapping = msSince(t);
 
-    report(0.1, "branching");
+    progress_.report(0.1, "branching");
     t = Clock::now();
     leafPairs_ = branch(std::move(pairs));
     times_.branching = msSince(t);
 
-    report(0.4, "leaf processing");
+    progress_.report(0.4, "leaf processing");
     t = Clock::now();
     processLeaves();
     times_.leaf = msSince(t);
 
-    report(0.7, "classification");
+    progress_.report(0.7, "classification");
     t = Clock::now();
     // Under the winding number the parities would be discarded (finish()
     // skips classify, applyInsideTest rewrites every inside plane).
-    if (!mesh_.surfaceOnly && mesh_.insideTest != InsideTest::WindingNumber) {
+    if (!mesh_.surfaceOnly && !windingFollows(mesh_)) {
       for (int a = 0; a < axes_; ++a) {
         axisParity(a, &boundary_.axis[a]);
-        report(0.7 + 0.1 * (a + 1) / axes_, "classification");
+        progress_.report(0.7 + 0.1 * (a + 1) / axes_, "classification");
       }
     }
     times_.classify = msSince(t);
@@ -95,10 +106,10 @@ struct CpuRangeBuild::Impl {
   RangeTree finish(const RangeBoundary* beyond) {
     const auto t = Clock::now();
     // The winding number classifies the joined volume instead (applyInsideTest).
-    if (!mesh_.surfaceOnly && mesh_.insideTest != InsideTest::WindingNumber) classify(beyond);
+    if (!mesh_.surfaceOnly && !windingFollows(mesh_)) classify(beyond);
     times_.classify += msSince(t);
     times_.total = times_.mapping + times_.branching + times_.leaf + times_.classify;
-    report(1.0, "done");
+    progress_.report(1.0, windingFollows(mesh_) ? "classification" : "done");
     RangeTree out;
     out.cells = cells_;
     out.levels = std::move(levels_);
@@ -110,38 +121,13 @@ struct CpuRangeBuild::Impl {
   PhaseTimes times_;
 
 private:
-  void report(double fraction, const char* phase) {
-    if (stop_.load(std::memory_order_relaxed)) { // asked inside the phase that just ended
-      throw Error(ErrorKind::Aborted, std::string("build aborted during ") + phase_);
-    }
-    fraction_ = fraction;
-    phase_ = phase;
-    if (options_.progress && !options_.progress(fraction, phase)) {
-      throw Error(ErrorKind::Aborted, std::string("build aborted during ") + phase);
-    }
-  }
-
-  // Inside long parallel loops: true once the user asked to stop (the loop
-  // body then returns at once and the next report() throws Aborted). The
-  // progress callback is asked only from the thread that made this build,
-  // which works in the arena too, at most every 50 ms.
-  bool abortRequested() {
-    if (stop_.load(std::memory_order_relaxed)) return true;
-    if (!options_.progress || std::this_thread::get_id() != caller_) return false;
-    const auto now = Clock::now();
-    if (now - lastPoll_ < std::chrono::milliseconds(50)) return false;
-    lastPoll_ = now;
-    if (!options_.progress(fraction_, phase_)) stop_.store(true, std::memory_order_relaxed);
-    return stop_.load(std::memory_order_relaxed);
-  }
-
   // ---- T1: triangles -> root cells ------------------------------------------
   std::vector<Pair> mapTrianglesToRootCells() {
     const int64_t cellSize = int64_t(g_.rootCellVoxels()) * kLatticePerVoxel;
     tbb::combinable<std::vector<Pair>> local;
     tbb::parallel_for(tbb::blocked_range<size_t>(0, mesh_.triangles.size(), 1024),
                       [&](const tbb::blocked_range<size_t>& r) {
-                        if (abortRequested()) return;
+                        if (progress_.abortRequested()) return;
                         std::vector<Pair>& out = local.local();
                         for (size_t ti = r.begin(); ti != r.end(); ++ti)
                           forEachRootCell(mesh_.triangles[ti], cellSize, g_.rootGrid, cells_.first, cells_.end,
@@ -185,7 +171,7 @@ private:
       const int64_t childSize = int64_t(g_.elementVoxels(level + 1)) * kLatticePerVoxel;
       tbb::combinable<std::vector<Pair>> local;
       tbb::parallel_for(tbb::blocked_range<size_t>(0, pairs.size(), 256), [&](const tbb::blocked_range<size_t>& r) {
-        if (abortRequested()) return;
+        if (progress_.abortRequested()) return;
         std::vector<Pair>& out = local.local();
         for (size_t i = r.begin(); i != r.end(); ++i) {
           const uint32_t tri = pairTriangle(pairs[i]);
@@ -198,7 +184,7 @@ private:
       });
       pairs = gatherSorted(local);
       coords.swap(childCoords);
-      report(0.1 + 0.3 * double(level + 1) / double(g_.height + 1), "branching");
+      progress_.report(0.1 + 0.3 * double(level + 1) / double(g_.height + 1), "branching");
     }
   }
 
@@ -219,14 +205,14 @@ private:
     // Unwritten here (LeafWordVector's resize does not zero): each leaf zeroes
     // its own words in the parallel loop below, so the one serial stretch of a
     // build that could not be aborted is gone. An aborted build leaves words
-    // unwritten, but it throws at the next report() and never reads them.
+    // unwritten, but it throws at the next progress_.report() and never reads them.
     leafWords_.resize(leaves * leafWordCount(L_));
     leafPairStart_.assign(leaves + 1, 0);
     for (Pair p : leafPairs_) ++leafPairStart_[pairElement(p) + 1];
     for (size_t i = 0; i < leaves; ++i) leafPairStart_[i + 1] += leafPairStart_[i];
 
     tbb::parallel_for(size_t(0), leaves, [&](size_t leaf) {
-      if (abortRequested()) return;
+      if (progress_.abortRequested()) return;
       int64_t v0[3];
       leafOrigin(leaf, v0);
       uint32_t rows[32 * 32] = {};
@@ -287,7 +273,7 @@ private:
     std::vector<uint32_t>& parity = exit_[axis];
     parity.assign(leaves * rowWords_, 0u);
     tbb::parallel_for(size_t(0), leaves, [&](size_t leaf) {
-      if (abortRequested()) return;
+      if (progress_.abortRequested()) return;
       uint32_t* bits = parity.data() + leaf * rowWords_;
       if (axis != 0) {
         forEachCrossing(leaf, axis, [&](int row, int) { bits[row >> 5] ^= 1u << (row & 31); });
@@ -332,7 +318,7 @@ private:
     if (beyond)
       for (int a = 0; a < axes_; ++a) stitchLineParity(lines_[a], beyond->axis[a], exit_[a].data(), rowWords_);
     tbb::parallel_for(size_t(0), leafCoords_.size(), [&](size_t leaf) {
-      if (abortRequested()) return;
+      if (progress_.abortRequested()) return;
       uint32_t* words = leafWordsAt(leafWords_.data(), leaf, L_);
       if (axes_ == 1) { // closed: the +x rows are the leaf's own rows
         insideWords(leaf, nullptr, nullptr, words);
@@ -375,12 +361,8 @@ private:
   std::vector<uint32_t> exit_[3]; // per axis, leaves * rowWords: pass 1's parity, then the exit parity
   RangeLines lines_[3];
   RangeBoundary boundary_;
-  // Abort polling inside phases (abortRequested).
-  std::atomic<bool> stop_{false};
-  const std::thread::id caller_ = std::this_thread::get_id();
-  Clock::time_point lastPoll_ = Clock::now();
-  double fraction_ = 0;
-  const char* phase_ = "mapping";
+  // Reports between phases, abort polling inside them.
+  ProgressPoll progress_;
 };
 
 CpuRangeBuild::CpuRangeBuild(const PreparedMesh& mesh, const BuildOptions& options, RootRange cells)
@@ -392,10 +374,13 @@ const PhaseTimes& CpuRangeBuild::times() const { return impl_->times_; }
 
 namespace {
 
-Volume finishVolume(const PreparedMesh& mesh, Volume v, PhaseTimes times) {
+Volume finishVolume(const PreparedMesh& mesh, const BuildOptions& options, Volume v, PhaseTimes times) {
   v.surfaceOnly = mesh.surfaceOnly;
   v.closedMesh = mesh.closed;
-  const double windingMs = applyInsideTest(mesh, v);
+  ProgressPoll progress(options.progress, kBuildShareBeforeWinding, 1.0); // the winding pass's share
+  const double windingMs = applyInsideTest(mesh, v, WindingLeafPass(), WindingUniformPass(), WindingFreshLeafPass(),
+                                           nullptr, &progress);
+  if (windingFollows(mesh)) progress.report(1.0, "done");
   times.classify += windingMs;
   times.total += windingMs;
   computeStructureStatistics(v);
@@ -418,7 +403,7 @@ Volume buildWholeGrid(const PreparedMesh& mesh, const BuildOptions& options) {
   Volume v = joinRanges(mesh.grid, std::move(pieces));
   PhaseTimes times = build.times();
   times.total = msSince(t0);
-  return finishVolume(mesh, std::move(v), times);
+  return finishVolume(mesh, options, std::move(v), times);
 }
 
 void validateThreads(int threads) {
@@ -493,7 +478,7 @@ Volume buildCpuRanges(const PreparedMesh& mesh, const BuildOptions& options, con
     }
     Volume v = joinRanges(mesh.grid, std::move(pieces));
     times.total = msSince(t0);
-    return finishVolume(mesh, std::move(v), times);
+    return finishVolume(mesh, options, std::move(v), times);
   });
 }
 

@@ -6,6 +6,7 @@
 #include "hdt/error.hpp"
 #include "hdt/huge_pages.hpp"
 #include "hdt/mesh.hpp"
+#include "hdt/progress.hpp"
 #include "hdt/volume.hpp"
 #include "hdt/volume_walk.hpp"
 #include "hdt/winding_far.hpp"
@@ -30,6 +31,16 @@ namespace hdt {
 namespace {
 
 constexpr uint32_t kLeafTriangles = 4;
+
+// The phase the inside test reports (BuildOptions::progress), and a report
+// of `fraction` of it when the build has a poll: it throws Error(Aborted)
+// when the caller asked to stop, also inside the loops since the last one
+// (they poll with abortRequested and return early, leaving work undone that
+// nothing reads after the throw).
+constexpr const char* kWindingPhase = "inside test: winding number";
+void reportWinding(ProgressPoll* progress, double fraction) {
+  if (progress) progress->report(fraction, kWindingPhase);
+}
 
 // HDT_WINDING_TRACE set: the host's phases of the inside test on stderr (the
 // device passes print theirs, cuda/src/winding_device.cu).
@@ -502,7 +513,7 @@ struct CoarseThresholds {
 // The blocks holding the voxels `origins`, each clipped to the volume's
 // `resolution` voxels a side.
 CoarseThresholds coarseThresholds(const WindingTreeView& t, const std::vector<std::array<int, 3>>& origins, int L,
-                                  int resolution) {
+                                  int resolution, ProgressPoll* progress) {
   const int blockEdge = kCoarseLeaves * L;
   CoarseThresholds c;
   c.blockEdge = blockEdge;
@@ -519,6 +530,7 @@ CoarseThresholds coarseThresholds(const WindingTreeView& t, const std::vector<st
     for (int a = 0; a < 3; ++a) corner[i][size_t(a)] = o[size_t(a)] / blockEdge * blockEdge;
   }
   tbb::parallel_for(size_t(0), c.keys.size(), [&](size_t i) {
+    if (abortRequested(progress)) return;
     double lo[3], hi[3];
     for (int a = 0; a < 3; ++a) {
       lo[a] = corner[i][size_t(a)] + 0.5;
@@ -573,7 +585,7 @@ bool uniformByBlock(const WindingTreeView& t, const WindingUniformJob& job, cons
 // runs (verdict bit 0 inside, bit 1 split), here otherwise (by their block's
 // threshold where `coarse` has one, else classifyUniform).
 std::vector<UniformVerdict> decideUniformJobs(const WindingTree& tree, const std::vector<WindingUniformJob>& jobs,
-                                              const WindingUniformPass& pass,
+                                              const WindingUniformPass& pass, ProgressPoll* progress,
                                               const CoarseThresholds* coarse = nullptr) {
   std::vector<UniformVerdict> out(jobs.size());
   std::vector<uint8_t> verdicts;
@@ -583,6 +595,7 @@ std::vector<UniformVerdict> decideUniformJobs(const WindingTree& tree, const std
   }
   const WindingTreeView t = tree.view();
   tbb::parallel_for(size_t(0), jobs.size(), [&](size_t i) {
+    if (abortRequested(progress)) return;
     if (!uniformByBlock(t, jobs[i], coarse, out[i])) out[i] = classifyUniform(t, jobs[i].origin, jobs[i].edge);
   });
   return out;
@@ -716,7 +729,8 @@ void copyOldLeaves(const uint32_t* from, uint64_t oldLeaves, const std::vector<u
 // Each level is laid out in parallel (scanInChunks: the places of children,
 // branches and leaves are prefix sums). Returns the number of elements refined.
 uint64_t refineSplitElements(const WindingTree& tree, Volume& v, const std::vector<uint8_t>& split,
-                             const WindingUniformPass& uniformPass, const WindingFreshLeafPass& freshPass) {
+                             const WindingUniformPass& uniformPass, const WindingFreshLeafPass& freshPass,
+                             ProgressPoll* progress) {
   auto t0 = std::chrono::steady_clock::now();
   const WindingTreeView t = tree.view();
   const GridSpec& g = v.grid;
@@ -772,7 +786,8 @@ uint64_t refineSplitElements(const WindingTree& tree, Volume& v, const std::vect
     refined += total.b;
     if (jobs.empty()) continue; // no pass to run (nor a device call to make)
     const auto passStart = std::chrono::steady_clock::now();
-    const std::vector<UniformVerdict> verdicts = decideUniformJobs(tree, jobs, uniformPass);
+    const std::vector<UniformVerdict> verdicts = decideUniformJobs(tree, jobs, uniformPass, progress);
+    reportWinding(progress, 0.85 + 0.05 * double(k + 1) / double(height));
     passMs += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - passStart).count();
     tbb::parallel_for(size_t(0), jobs.size(), [&](size_t j) {
       next[at[j]].inside = verdicts[j].inside;
@@ -854,6 +869,7 @@ uint64_t refineSplitElements(const WindingTree& tree, Volume& v, const std::vect
   traceWinding("re-lay: elements and old leaves (beside the fresh leaves' pass)", t0);
   t0 = std::chrono::steady_clock::now();
   tbb::parallel_for(size_t(0), freshLeaves.size(), [&](size_t f) {
+    if (abortRequested(progress)) return;
     uint32_t* to = words.data() + (cuts[f] + f) * wc;
     if (freshDone[f]) {
       std::copy_n(freshWords.data() + f * wc, wc, to);
@@ -931,7 +947,8 @@ void settleLeafByThreshold(uint32_t* words, int L, const int32_t* exit, const Le
 // crossings the count at each voxel centre. A leaf whose counts do not fit
 // 16 bits takes the pieces-and-seeds decision (classifyLeaf).
 void classifyLeavesByCrossings(const WindingTree& tree, Volume& volume,
-                               const std::vector<std::array<int, 3>>& origins, const CoarseThresholds& coarse) {
+                               const std::vector<std::array<int, 3>>& origins, const CoarseThresholds& coarse,
+                               ProgressPoll* progress) {
   const WindingTreeView t = tree.view();
   const int L = volume.grid.leafSize;
   const size_t rows = size_t(L) * size_t(L), leaves = origins.size();
@@ -943,6 +960,7 @@ void classifyLeavesByCrossings(const WindingTree& tree, Volume& volume,
   tbb::enumerable_thread_specific<LeafCrossingPool> pools;
   std::vector<LeafCrossingSpan> crossings(leaves);
   tbb::parallel_for(size_t(0), leaves, [&](size_t leaf) {
+    if (abortRequested(progress)) return;
     int32_t* total = exits.data() + leaf * rows;
     std::fill_n(total, rows, 0);
     LeafCrossingPool& pool = pools.local();
@@ -953,6 +971,7 @@ void classifyLeavesByCrossings(const WindingTree& tree, Volume& volume,
     });
     crossings[leaf] = LeafCrossingSpan{&pool, first, pool.size() - first};
   });
+  reportWinding(progress, 0.45); // before anything reads the crossings (an aborted loop left some unwritten)
   // Lines of leaves (same y, z), each walked from its +x end.
   std::vector<uint32_t> order(leaves);
   std::iota(order.begin(), order.end(), 0u);
@@ -979,6 +998,7 @@ void classifyLeavesByCrossings(const WindingTree& tree, Volume& volume,
     }
   });
   tbb::parallel_for(size_t(0), leaves, [&](size_t leaf) {
+    if (abortRequested(progress)) return;
     thread_local std::vector<int32_t> wide;
     thread_local std::vector<int16_t> counts;
     const size_t n = rows * size_t(L);
@@ -1061,7 +1081,8 @@ WindingOutcome classifyByWindingNumber(const WindingTree& tree, Volume& volume) 
 }
 
 WindingOutcome classifyByWindingNumber(const WindingTree& tree, Volume& volume, const WindingLeafPass& leafPass,
-                                       const WindingUniformPass& uniformPass, const WindingFreshLeafPass& freshPass) {
+                                       const WindingUniformPass& uniformPass, const WindingFreshLeafPass& freshPass,
+                                       ProgressPoll* progress) {
   const WindingTreeView t = tree.view();
   const int L = volume.grid.leafSize;
   std::vector<uint8_t> split(volume.elements.size(), 0);
@@ -1071,6 +1092,7 @@ WindingOutcome classifyByWindingNumber(const WindingTree& tree, Volume& volume, 
   std::vector<std::array<int, 3>> leafOrigins(leafCount);
   std::vector<WindingUniformJob> jobs; // the uniform elements, in walk order
   walkForWinding(volume, deepest, leafOrigins, jobs);
+  reportWinding(progress, 0.1);
   // The blocks of the leaves and of the uniform elements that fit in one,
   // for the host's passes.
   CoarseThresholds coarse;
@@ -1078,9 +1100,11 @@ WindingOutcome classifyByWindingNumber(const WindingTree& tree, Volume& volume, 
     std::vector<std::array<int, 3>> inBlocks = leafOrigins;
     for (const WindingUniformJob& j : jobs)
       if (j.edge <= kCoarseLeaves * L) inBlocks.push_back(j.origin);
-    coarse = coarseThresholds(t, inBlocks, L, volume.grid.resolution);
+    coarse = coarseThresholds(t, inBlocks, L, volume.grid.resolution, progress);
+    reportWinding(progress, 0.15);
   }
-  const std::vector<UniformVerdict> verdicts = decideUniformJobs(tree, jobs, uniformPass, &coarse);
+  const std::vector<UniformVerdict> verdicts = decideUniformJobs(tree, jobs, uniformPass, progress, &coarse);
+  reportWinding(progress, 0.3);
   for (size_t i = 0; i < jobs.size(); ++i) {
     volume.elements[jobs[i].index] = makeElement(verdicts[i].inside ? ElementState::Full : ElementState::Empty, 0);
     if (verdicts[i].split) {
@@ -1091,15 +1115,18 @@ WindingOutcome classifyByWindingNumber(const WindingTree& tree, Volume& volume, 
   std::vector<uint32_t> left;
   if (leafPass && leafPass(tree, volume, leafOrigins, left)) {
     tbb::parallel_for(size_t(0), left.size(), [&](size_t i) {
+      if (abortRequested(progress)) return;
       const uint32_t leaf = left[i];
       classifyLeaf(t, volume.leafWords.data() + leafWordOffset(leaf, L), L, leafOrigins[leaf]);
     });
   } else {
-    if (coarse.keys.empty() && !leafOrigins.empty()) coarse = coarseThresholds(t, leafOrigins, L, volume.grid.resolution);
-    classifyLeavesByCrossings(tree, volume, leafOrigins, coarse);
+    if (coarse.keys.empty() && !leafOrigins.empty())
+      coarse = coarseThresholds(t, leafOrigins, L, volume.grid.resolution, progress);
+    classifyLeavesByCrossings(tree, volume, leafOrigins, coarse, progress);
   }
+  reportWinding(progress, 0.85);
   WindingOutcome out;
-  if (anySplit) out.refinedElements = refineSplitElements(tree, volume, split, uniformPass, freshPass);
+  if (anySplit) out.refinedElements = refineSplitElements(tree, volume, split, uniformPass, freshPass, progress);
   return out;
 }
 
@@ -1109,14 +1136,16 @@ double applyInsideTest(const PreparedMesh& mesh, Volume& volume) {
 
 double applyInsideTest(const PreparedMesh& mesh, Volume& volume, const WindingLeafPass& leafPass,
                        const WindingUniformPass& uniformPass, const WindingFreshLeafPass& freshPass,
-                       WindingTreeInBackground* early) {
+                       WindingTreeInBackground* early, ProgressPoll* progress) {
   volume.insideTest = mesh.surfaceOnly ? InsideTest::Parity : mesh.insideTest;
   if (mesh.surfaceOnly || mesh.insideTest != InsideTest::WindingNumber) return 0;
   const auto t0 = std::chrono::steady_clock::now();
+  reportWinding(progress, 0.0);
   WindingTree local;
   const WindingTree& tree = early && early->started() ? early->get() : (local = buildWindingTree(mesh.triangles));
   traceWinding("tree (built or waited for)", t0);
-  volume.stats.windingRefinedElements = classifyByWindingNumber(tree, volume, leafPass, uniformPass, freshPass).refinedElements;
+  volume.stats.windingRefinedElements =
+      classifyByWindingNumber(tree, volume, leafPass, uniformPass, freshPass, progress).refinedElements;
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }
 

@@ -108,7 +108,9 @@ double applyInsideTestOnDevice(cuda::Session& s, const PreparedMesh& mesh, Volum
     }
     return ran;
   };
-  const double windingMs = applyInsideTest(mesh, v, leafPass, uniformPass, freshPass, &tree);
+  // The pass's share of the build's progress: after the device phases (up to 0.8, pipeline.cpp).
+  ProgressPoll progress(options.progress, 0.8, 1.0);
+  const double windingMs = applyInsideTest(mesh, v, leafPass, uniformPass, freshPass, &tree, &progress);
   if (options.log && windingMs > 0)
     options.log("CUDA driver: winding pass " + std::to_string(msSince(windingStart)) + " ms, of which host tree (the rest of its build, started with the build) + walk " +
                 std::to_string(beforeDeviceMs) + " ms, uniform passes " + std::to_string(uniformWallMs) +

@@ -8,6 +8,7 @@
 #include "hdt/huge_pages.hpp"
 #include "hdt/lattice.hpp"
 #include "hdt/mesh.hpp" // LatticeTriangles
+#include "hdt/progress.hpp"
 #include "hdt/winding.hpp"
 
 #include <array>
@@ -99,9 +100,13 @@ using WindingUniformPass = std::function<bool(const WindingTree& tree, const std
 using WindingFreshLeafPass = std::function<bool(const WindingTree& tree, int L,
                                                 const std::vector<std::array<int, 3>>& origins, uint32_t* words,
                                                 std::vector<uint32_t>& leftLeaves)>;
+// progress: the build's poll, or null. The pass reports its share of the
+// build through it (phase "inside test: winding number"), polls it inside its
+// loops and throws Error(Aborted) when the caller asked to stop.
 WindingOutcome classifyByWindingNumber(const WindingTree& tree, Volume& volume, const WindingLeafPass& leafPass,
                                        const WindingUniformPass& uniformPass = WindingUniformPass(),
-                                       const WindingFreshLeafPass& freshPass = WindingFreshLeafPass());
+                                       const WindingFreshLeafPass& freshPass = WindingFreshLeafPass(),
+                                       ProgressPoll* progress = nullptr);
 
 // The drivers' last step of a solid build: when the mesh's test is
 // WindingNumber, builds the tree and classifies the volume by it (the parity
@@ -116,7 +121,7 @@ double applyInsideTest(const PreparedMesh& mesh, Volume& volume);
 double applyInsideTest(const PreparedMesh& mesh, Volume& volume, const WindingLeafPass& leafPass,
                         const WindingUniformPass& uniformPass = WindingUniformPass(),
                         const WindingFreshLeafPass& freshPass = WindingFreshLeafPass(),
-                        WindingTreeInBackground* early = nullptr);
+                        WindingTreeInBackground* early = nullptr, ProgressPoll* progress = nullptr);
 
 // The winding tree of a mesh whose inside test is WindingNumber (solid),
 // built on a host thread from construction on, so that it overlaps a
