@@ -440,6 +440,38 @@ TEST(VoxelizerPipeline, AbortGivesEmptyOutputWithoutError)
   EXPECT_FALSE(h.Filter->GetVolume());
 }
 
+// An open mesh under Auto takes the winding number after the build's phases:
+// the filter shows that pass as its own progress text, and an abort there
+// ends quietly too.
+class AbortInWindingPass : public vtkCommand
+{
+public:
+  static AbortInWindingPass* New() { return new AbortInWindingPass; }
+  void Execute(vtkObject* caller, unsigned long, void*) override
+  {
+    auto* filter = static_cast<vtkAlgorithm*>(caller);
+    const std::string text = filter->GetProgressText() ? filter->GetProgressText() : "";
+    if (text == "inside test: winding number")
+    {
+      this->Seen = true;
+      filter->SetAbortExecute(1);
+    }
+  }
+  bool Seen = false;
+};
+
+TEST(VoxelizerPipeline, AbortInTheWindingPassGivesEmptyOutput)
+{
+  Harness h;
+  vtkNew<AbortInWindingPass> abort;
+  h.Filter->AddObserver(vtkCommand::ProgressEvent, abort);
+  vtkHyperTreeGrid* out = h.Run(openSphere());
+  EXPECT_TRUE(abort->Seen);
+  EXPECT_TRUE(h.Log->Errors.empty()) << joined(h.Log->Errors);
+  EXPECT_EQ(out->GetNumberOfCells(), 0);
+  EXPECT_FALSE(h.Filter->GetVolume());
+}
+
 // The aborted run's empty outputs stand until the filter changes: the next
 // requests (ParaView updates each output port in turn, then renders) must not
 // start the build again; a changed property builds again once the flag is
