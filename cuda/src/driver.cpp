@@ -45,7 +45,8 @@ uint64_t mib(uint64_t bytes) { return (bytes + (uint64_t(1) << 20) - 1) >> 20; }
 // result comes back); they are released after it, before refinement. When the
 // pass cannot run they are copied back for the host pass.
 double applyInsideTestOnDevice(cuda::Session& s, const PreparedMesh& mesh, Volume& v, const BuildOptions& options,
-                               WindingTreeInBackground& tree, cuda::DeviceBuffer<uint32_t>& keptWords) {
+                               WindingTreeInBackground& tree, cuda::DeviceBuffer<uint32_t>& keptWords,
+                               ProgressPoll& progress) {
   cuda::WindingDevicePass device;
   double uniformMs = 0;
   // Host time around the device passes: tree + walk before, then the rest.
@@ -108,8 +109,6 @@ double applyInsideTestOnDevice(cuda::Session& s, const PreparedMesh& mesh, Volum
     }
     return ran;
   };
-  // The pass's share of the build's progress: after the device phases (up to 0.8, pipeline.cpp).
-  ProgressPoll progress(options.progress, 0.8, 1.0);
   const double windingMs = applyInsideTest(mesh, v, leafPass, uniformPass, freshPass, &tree, &progress);
   if (options.log && windingMs > 0)
     options.log("CUDA driver: winding pass " + std::to_string(msSince(windingStart)) + " ms, of which host tree (the rest of its build, started with the build) + walk " +
@@ -134,6 +133,12 @@ Volume build(const PreparedMesh& mesh, const BuildOptions& options, CudaBuildRep
   if (keepResult) windingTree.emplace(mesh);
 
   Session s(mesh, options);
+  // Under the winding number the device phases report into the first part
+  // of the progress and the pass, many times as long, into the rest.
+  constexpr double kDevicePhasesShareBeforeWinding = 0.2;
+  const bool windingFollows = keepResult && !mesh.surfaceOnly && mesh.insideTest == InsideTest::WindingNumber;
+  if (windingFollows) s.progressShare = kDevicePhasesShareBeforeWinding;
+  ProgressPoll windingProgress(options.progress, s.progressShare, 1.0);
   report.device = s.device;
   report.deviceName = s.deviceName;
   report.budgetBytes = s.memory.budget();
@@ -178,7 +183,7 @@ Volume build(const PreparedMesh& mesh, const BuildOptions& options, CudaBuildRep
   }
 
   const auto host0 = Clock::now();
-  const double windingMs = keepResult ? applyInsideTestOnDevice(s, mesh, v, options, *windingTree, keptWords) : 0.0;
+  const double windingMs = keepResult ? applyInsideTestOnDevice(s, mesh, v, options, *windingTree, keptWords, windingProgress) : 0.0;
   // A whole build counted its voxels on the device (buildWhole) unless the
   // winding-number pass rewrote them on the host.
   if (!whole || (keepResult && mesh.insideTest == InsideTest::WindingNumber)) computeStructureStatistics(v);
@@ -197,7 +202,11 @@ Volume build(const PreparedMesh& mesh, const BuildOptions& options, CudaBuildRep
   report.uploadMs = s.ms[kUpload];
   report.downloadMs = s.copyBackMs;
   report.downloadBytes = s.copyBackBytes;
-  s.progress(1.0, "done");
+  if (windingFollows) {
+    windingProgress.report(1.0, "done");
+  } else {
+    s.progress(1.0, "done");
+  }
   report.hostMs = std::chrono::duration<double, std::milli>(Clock::now() - host0).count();
   report.wallMs = std::chrono::duration<double, std::milli>(Clock::now() - wall0).count();
   return v;

@@ -130,7 +130,7 @@ void uploadTriangles(Session& s) {
 }
 
 void Session::progress(double fraction, const char* phase) const {
-  if (options.progress && !options.progress(fraction, phase)) {
+  if (options.progress && !options.progress(fraction * progressShare, phase)) {
     throw Error(ErrorKind::Aborted, std::string("build aborted during ") + phase);
   }
 }

@@ -66,7 +66,8 @@ private:
 struct Session {
   Session(const PreparedMesh& mesh, const BuildOptions& options);
 
-  void progress(double fraction, const char* phase) const; // throws Error(Aborted)
+  // Reports fraction * progressShare of the whole build; throws Error(Aborted).
+  void progress(double fraction, const char* phase) const;
   void sync() const { HDT_CUDA_CHECK(cudaStreamSynchronize(stream.get())); }
 
   const PreparedMesh& mesh;
@@ -82,6 +83,9 @@ struct Session {
   DeviceBuffer<LatticeTriangle> triangles;
   DeviceMesh deviceMesh;
   double ms[kPhaseCount] = {};
+  // The part of the build's progress the device phases report into: all of
+  // it, or under the winding number the part before its pass (driver.cpp).
+  double progressShare = 1.0;
   double copyBackMs = 0;      // host wall time of the copies back (pipeline.cpp's download)
   uint64_t copyBackBytes = 0;
 };

@@ -15,6 +15,7 @@
 #include <gtest/gtest.h>
 
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace hdt {
@@ -215,6 +216,42 @@ TEST(CudaDriver, ProgressCanAbort) {
   EXPECT_EQ(fractions.front(), 0.0);
   EXPECT_EQ(fractions.back(), 1.0);
   EXPECT_TRUE(sameVolume(v, build(mesh, cpuOptions())));
+}
+
+// An open mesh under Auto: the device phases take the first part of the
+// progress and the winding-number pass (host loops, device passes) the rest,
+// one rising fraction; an abort at the pass leaves the driver usable.
+TEST(CudaDriver, WindingPassReportsAndAborts) {
+  HDT_REQUIRE_CUDA();
+  const PreparedMesh mesh = prepared("open_hemisphere", 256, 16, 16, false);
+  ASSERT_EQ(mesh.insideTest, InsideTest::WindingNumber);
+  const std::string windingPhase = "inside test: winding number";
+  BuildOptions o = cudaOptions();
+  std::vector<std::pair<double, std::string>> calls;
+  o.progress = [&](double f, const char* phase) {
+    calls.emplace_back(f, phase);
+    return true;
+  };
+  const Volume v = build(mesh, o);
+  ASSERT_FALSE(calls.empty());
+  size_t winding = 0;
+  for (size_t i = 0; i < calls.size(); ++i) {
+    if (i > 0) EXPECT_GE(calls[i].first, calls[i - 1].first) << calls[i].second;
+    if (calls[i].second == windingPhase) ++winding;
+  }
+  EXPECT_GE(winding, 3u);
+  EXPECT_EQ(calls.back().second, "done");
+  EXPECT_EQ(calls.back().first, 1.0);
+  EXPECT_TRUE(sameVolume(v, build(mesh, cpuOptions())));
+
+  o.progress = [&](double, const char* phase) { return phase != windingPhase; };
+  try {
+    build(mesh, o);
+    FAIL() << "expected Error(Aborted) in the winding pass";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.kind(), ErrorKind::Aborted) << e.what();
+  }
+  EXPECT_TRUE(sameVolume(v, build(mesh, cudaOptions())));
 }
 
 TEST(CudaDriver, BadDeviceIsInvalidArgument) {
