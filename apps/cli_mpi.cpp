@@ -8,6 +8,7 @@
 #if defined(HDT_WITH_MPI)
 #include "hdt/host_memory.hpp"
 #include "hdt/range_exchange.hpp"
+#include "hdt/winding_tree.hpp"
 
 #include <mpi.h>
 #include <tbb/task_arena.h>
@@ -177,7 +178,6 @@ void MpiSession::abort(int code) const {
 
 Volume buildAcrossRanks(const MpiSession& session, const PreparedMesh& mesh, const BuildOptions& options,
                         std::vector<RankReport>* ranksOut) {
-  requireDistributable(mesh);
   // One rank: nothing to exchange, and the CUDA driver's one-piece path
   // (classification on the device) beats its range build.
   if (session.size() == 1) return build(mesh, options);
@@ -246,6 +246,17 @@ Volume buildAcrossRanks(const MpiSession& session, const PreparedMesh& mesh, con
   Volume v = gather->join();
   gather.reset();
   figures.sendMs = msSince(s0);
+  // Under the winding number the ranks built the surface only (their drivers
+  // skip the parity passes) and the joined volume is classified here, the
+  // serial build's last step on the same surface: the same bytes.
+  double windingMs = 0;
+  arena.execute([&] {
+    ProgressPoll progress(options.progress, kCpuPhasesShareBeforeWinding, 1.0);
+    windingMs = applyInsideTest(mesh, v, WindingLeafPass(), WindingUniformPass(), WindingFreshLeafPass(), nullptr,
+                                &progress);
+  });
+  figures.phases.classify += windingMs;
+  figures.phases.total += windingMs;
   figures.peakHostBytes = peakResidentBytes(); // rank 0 holds the joined volume now
   std::vector<RankReport> all = gatherFigures(figures, &ranges, K);
   v.surfaceOnly = mesh.surfaceOnly;

@@ -264,7 +264,6 @@ int run(int argc, const char* const* argv, const MpiSession& session, Clock::tim
   report.io.read = msSince(t);
   hostWarmUp.join(); // long done: the read takes longer
   PreparedMesh prepared = about(options.mesh, [&] { return prepareMesh(mesh, options.config); });
-  if (session.size() > 1) fallBackToParityAcrossRanks(prepared); // the report's warnings say so
   const bool labelled = options.labels.kind != MeshLabelSource::Kind::None;
   // A labelled mesh of one part in one process: its plain build, labelled
   // afterwards (labelAsOnePart; `prepared` is on the grid voxelizeLabelled places).

@@ -5,7 +5,9 @@
 #include "hdt/error.hpp"
 #include "hdt/mesh.hpp"
 #include "hdt/range_exchange.hpp"
+#include "hdt/progress.hpp"
 #include "hdt/volume.hpp"
+#include "hdt/winding_tree.hpp"
 
 #include "vtkCommunicator.h"
 #include "vtkDoubleArray.h"
@@ -35,6 +37,7 @@ double msSince(Clock::time_point t0)
 
 constexpr int kHaloTag = 914001;
 constexpr int kGatherTag = 914002;
+constexpr int kScatterTag = 914003;
 // MPI counts are int: large buffers travel in pieces.
 constexpr vtkIdType kPiece = vtkIdType(1) << 30;
 
@@ -239,6 +242,92 @@ void reduceStatistics(vtkMultiProcessController* c, const hdt::GridSpec& g, cons
   }
 }
 
+// Every rank's range tree joined into one volume on rank `root` (collective;
+// other ranks get null). Each rank's leaf-word count first: the root places
+// each rank's words where the joined volume keeps them, as they arrive (no
+// pass over them afterwards).
+std::unique_ptr<hdt::Volume> gatherTrees(
+  vtkMultiProcessController* c, const hdt::GridSpec& g, hdt::RangeTree&& own, int root)
+{
+  const int K = c->GetNumberOfProcesses(), me = c->GetLocalProcessId();
+  const unsigned long long mine = own.leafWords.size();
+  std::vector<unsigned long long> counts(static_cast<size_t>(K));
+  c->Gather(&mine, counts.data(), 1, root);
+  std::unique_ptr<hdt::PlacedGather> gather;
+  collectively(c, [&] {
+    if (me == root)
+    {
+      gather = std::make_unique<hdt::PlacedGather>(g, std::vector<uint64_t>(counts.begin(), counts.end()));
+      gather->addOwn(size_t(me), std::move(own));
+    }
+  });
+  if (me != root)
+  {
+    sendBytes(c, hdt::packRangeLevels(own), root, kGatherTag);
+    sendWords(c, own.leafWords.data(), own.leafWords.size(), root, kGatherTag);
+    return nullptr;
+  }
+  for (int r = 0; r < K; ++r)
+  {
+    if (r == me)
+    {
+      continue;
+    }
+    const std::vector<uint8_t> levels = receiveBytes(c, r, kGatherTag);
+    gather->addLevels(size_t(r), hdt::unpackRangeLevels(levels.data(), levels.size(), g));
+    receiveWords(c, gather->wordsOf(size_t(r)), gather->wordCountOf(size_t(r)), r, kGatherTag);
+  }
+  return std::make_unique<hdt::Volume>(gather->join());
+}
+
+// Under the winding number the ranks build the surface only (their drivers
+// skip the parity passes): the trees go to rank 0, which classifies the
+// joined volume as the serial build classifies its own (the same function of
+// the mesh and the surface, so the same bytes), and each rank gets its own
+// range's classified trees back. Returns them; `windingMs` the pass's time
+// on rank 0 (0 elsewhere).
+hdt::RangeTree classifiedByWindingOnRoot(vtkMultiProcessController* c, const hdt::PreparedMesh& mesh,
+  const hdt::BuildOptions& options, tbb::task_arena& arena, const std::vector<hdt::RootRange>& ranges,
+  hdt::RangeTree&& own, double& windingMs)
+{
+  const hdt::GridSpec& g = mesh.grid;
+  const int K = c->GetNumberOfProcesses(), me = c->GetLocalProcessId();
+  windingMs = 0;
+  std::unique_ptr<hdt::Volume> whole = gatherTrees(c, g, std::move(own), 0);
+  hdt::RangeTree mine;
+  collectively(c, [&] {
+    if (me != 0)
+    {
+      return;
+    }
+    arena.execute([&] {
+      hdt::ProgressPoll progress(options.progress, hdt::kCpuPhasesShareBeforeWinding, 1.0);
+      windingMs = hdt::applyInsideTest(mesh, *whole, hdt::WindingLeafPass(), hdt::WindingUniformPass(),
+        hdt::WindingFreshLeafPass(), nullptr, &progress);
+    });
+    mine = hdt::sliceVolume(*whole, ranges[0]);
+  });
+  std::vector<uint8_t> bytes;
+  if (me == 0)
+  {
+    for (int r = 1; r < K; ++r)
+    {
+      sendBytes(c, hdt::packRangeTree(hdt::sliceVolume(*whole, ranges[size_t(r)])), r, kScatterTag);
+    }
+  }
+  else
+  {
+    bytes = receiveBytes(c, 0, kScatterTag);
+  }
+  collectively(c, [&] { // every rank: no rank may leave a collective the others are in
+    if (me != 0)
+    {
+      mine = hdt::unpackRangeTree(bytes.data(), bytes.size(), g);
+    }
+  });
+  return mine;
+}
+
 // What ran over the ranks, from every rank's device (-1: the CPU).
 std::string backendOf(const std::vector<int>& rankDevices)
 {
@@ -325,7 +414,6 @@ void vtkHDTDistributed::GatherMesh(vtkMultiProcessController* c, hdt::TriangleMe
 vtkHDTDistributedPiece vtkHDTDistributed::Build(
   vtkMultiProcessController* c, const hdt::PreparedMesh& mesh, const hdt::BuildOptions& options)
 {
-  hdt::requireDistributable(mesh);
   const auto t0 = Clock::now();
   const hdt::GridSpec& g = mesh.grid;
   const int K = c->GetNumberOfProcesses(), me = c->GetLocalProcessId();
@@ -379,6 +467,12 @@ vtkHDTDistributedPiece vtkHDTDistributed::Build(
     piece.Device = build->device(); // after finish: Auto may have fallen back in it
     build.reset();                  // the device's memory goes back now
   });
+  if (!mesh.surfaceOnly && mesh.insideTest == hdt::InsideTest::WindingNumber)
+  {
+    double windingMs = 0;
+    own = classifiedByWindingOnRoot(c, mesh, options, arena, piece.Ranges, std::move(own), windingMs);
+    times.classify += windingMs;
+  }
   times.total = msSince(t0);
   piece.RankDevices.assign(static_cast<size_t>(K), -1);
   c->AllGather(&piece.Device, piece.RankDevices.data(), 1);
@@ -509,36 +603,12 @@ std::shared_ptr<hdt::Volume> vtkHDTDistributed::Gather(vtkMultiProcessController
     }
     own = hdt::sliceVolume(pieceVolume, ranges[size_t(me)]);
   });
-  // Every rank's leaf-word count: the root places each rank's words where the
-  // joined volume keeps them, as they arrive (no pass over them afterwards).
-  const unsigned long long mine = own.leafWords.size();
-  std::vector<unsigned long long> counts(static_cast<size_t>(K));
-  c->Gather(&mine, counts.data(), 1, root);
-  std::unique_ptr<hdt::PlacedGather> gather;
-  collectively(c, [&] {
-    if (me == root)
-    {
-      gather = std::make_unique<hdt::PlacedGather>(g, std::vector<uint64_t>(counts.begin(), counts.end()));
-      gather->addOwn(size_t(me), std::move(own));
-    }
-  });
-  if (me != root)
+  std::unique_ptr<hdt::Volume> joined = gatherTrees(c, g, std::move(own), root);
+  if (!joined)
   {
-    sendBytes(c, hdt::packRangeLevels(own), root, kGatherTag);
-    sendWords(c, own.leafWords.data(), own.leafWords.size(), root, kGatherTag);
     return nullptr;
   }
-  for (int r = 0; r < K; ++r)
-  {
-    if (r == me)
-    {
-      continue;
-    }
-    const std::vector<uint8_t> levels = receiveBytes(c, r, kGatherTag);
-    gather->addLevels(size_t(r), hdt::unpackRangeLevels(levels.data(), levels.size(), g));
-    receiveWords(c, gather->wordsOf(size_t(r)), gather->wordCountOf(size_t(r)), r, kGatherTag);
-  }
-  auto whole = std::make_shared<hdt::Volume>(gather->join());
+  std::shared_ptr<hdt::Volume> whole = std::move(joined);
   whole->surfaceOnly = pieceVolume.surfaceOnly;
   whole->closedMesh = pieceVolume.closedMesh;
   whole->insideTest = pieceVolume.insideTest;

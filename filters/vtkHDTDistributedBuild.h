@@ -14,6 +14,10 @@
 //   4. neighbouring ranks send each other the trees of the root cells next to
 //      their range (the halo: R^2 cells each side), so the voxel surface of a
 //      rank's cells sees its true neighbours.
+// Under the winding number (hdt::applyInsideTest) the ranks build their
+// ranges' surfaces only; rank 0 gathers the trees, classifies the joined
+// volume (the serial build's last step: the same bytes) and sends each rank
+// its range's classified trees back before step 4.
 // Each rank keeps a "piece volume": the whole root grid with its own trees and
 // the halo's, other cells Empty. Only its own trees go to the hyper tree grid
 // (vtkHDTConversionOptions::FirstTree/EndTree) and only its own cells' faces to

@@ -571,10 +571,6 @@ int vtkHDTVoxelizer::RequestData(
       this->SetProgressText("preparing mesh");
       this->UpdateProgress(0.0);
       hdt::PreparedMesh prepared = hdt::prepareMesh(mesh, config);
-      if (ranks)
-      {
-        hdt::fallBackToParityAcrossRanks(prepared); // the warnings below say so
-      }
       const bool transfers = this->Internal->Transfers();
       if (this->LabelBy == LABEL_NONE && !transfers)
       {

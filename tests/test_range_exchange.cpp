@@ -2,7 +2,9 @@
 // one process: every range built on its own, boundaries and trees passed as
 // byte buffers, and the pieces each process keeps. The joined trees must be
 // the one-piece build's bytes; the piece volumes, their statistics and their
-// surfaces must add up to the whole volume's.
+// surfaces must add up to the whole volume's. Under the winding number the
+// ranges are built as surfaces and the joined volume classified once, by the
+// joining process.
 #include "hdt/builder.hpp"
 #include "hdt/error.hpp"
 #include "hdt/mesh.hpp"
@@ -10,6 +12,7 @@
 #include "hdt/winding_tree.hpp"
 #include "hdt/voxel_surface.hpp"
 #include "support/shapes.hpp"
+#include "support/winding_reference.hpp"
 
 #include <gtest/gtest.h>
 
@@ -197,45 +200,47 @@ TEST(RangeExchange, PlacedGatherRefusesMismatchedCounts) {
 } // namespace test
 } // namespace hdt
 
-// Winding-number builds refine trees after the join, so they are refused
-// across processes (all alike); parity and surface-only builds are not.
-TEST(RangeExchange, WindingNumberBuildsAreNotDistributed) {
-  hdt::PreparedMesh mesh;
-  mesh.insideTest = hdt::InsideTest::Parity;
-  EXPECT_NO_THROW(hdt::requireDistributable(mesh));
-  mesh.insideTest = hdt::InsideTest::WindingNumber;
-  try {
-    hdt::requireDistributable(mesh);
-    FAIL() << "a winding-number build was accepted across ranks";
-  } catch (const hdt::Error& e) {
-    EXPECT_EQ(e.kind(), hdt::ErrorKind::InvalidArgument);
-    EXPECT_NE(std::string(e.what()).find("winding-number"), std::string::npos);
+namespace hdt {
+namespace test {
+namespace {
+
+// The distributed winding-number build (apps/cli_mpi.cpp,
+// filters/vtkHDTDistributedBuild.cxx): the ranges' surface trees joined,
+// classified by applyInsideTest in the joining process, each range's trees
+// sliced out again for its process. Equal to the serial build's, whole and
+// range by range, for every open, overlapping and nested test shape.
+TEST(RangeExchange, WindingNumberAcrossProcessesGivesTheSerialVolume) {
+  BuildConfig config;
+  config.resolution = 64;
+  config.rootGrid = 4;
+  config.leafSize = 8;
+  config.insideTest = InsideTest::WindingNumber;
+  BuildOptions options;
+  options.backend = Backend::Cpu;
+  for (const WindingShape& shape : windingShapes()) {
+    SCOPED_TRACE(shape.name);
+    const PreparedMesh mesh = prepareMesh(shape.mesh, config);
+    const Volume serial = buildCpu(mesh, options);
+    const uint64_t R = uint64_t(config.rootGrid);
+    for (int k : {2, 3}) {
+      SCOPED_TRACE("ranks " + std::to_string(k));
+      const std::vector<RootRange> ranges = planRootRanges(cellLoads(mesh), R * R * R, k, R);
+      Volume joined = joinRanges(mesh.grid, buildAsProcesses(mesh, ranges));
+      applyInsideTest(mesh, joined);
+      computeStructureStatistics(joined);
+      EXPECT_EQ(joined.insideTest, InsideTest::WindingNumber);
+      EXPECT_EQ(joined.levelStart, serial.levelStart);
+      EXPECT_TRUE(joined.elements == serial.elements);
+      EXPECT_TRUE(joined.leafWords == serial.leafWords);
+      EXPECT_EQ(joined.stats.insideVoxels, serial.stats.insideVoxels);
+      for (const RootRange& r : ranges) {
+        const std::vector<uint8_t> bytes = packRangeTree(sliceVolume(joined, r));
+        EXPECT_TRUE(sameTree(unpackRangeTree(bytes.data(), bytes.size(), mesh.grid), sliceVolume(serial, r)));
+      }
+    }
   }
-  mesh.requestedInsideTest = hdt::InsideTest::Auto; // the default on an open mesh: the error says why
-  try {
-    hdt::requireDistributable(mesh);
-    FAIL() << "an Auto build of an open mesh was accepted across ranks";
-  } catch (const hdt::Error& e) {
-    EXPECT_NE(std::string(e.what()).find("Auto inside test picked the winding number"), std::string::npos) << e.what();
-  }
-  mesh.surfaceOnly = true; // no inside test runs
-  EXPECT_NO_THROW(hdt::requireDistributable(mesh));
 }
 
-// Auto's winding number on an open mesh falls back to parity across
-// processes (and says why); an explicit Winding request still fails.
-TEST(RangeExchange, AutoOnAnOpenMeshTakesParityAcrossRanks) {
-  hdt::PreparedMesh mesh;
-  mesh.requestedInsideTest = hdt::InsideTest::Auto;
-  mesh.insideTest = hdt::InsideTest::WindingNumber;
-  EXPECT_TRUE(hdt::fallBackToParityAcrossRanks(mesh));
-  EXPECT_EQ(mesh.insideTest, hdt::InsideTest::Parity);
-  EXPECT_NO_THROW(hdt::requireDistributable(mesh));
-  EXPECT_NE(hdt::insideTestReason(hdt::InsideTest::Auto, hdt::InsideTest::Parity, false).find("MPI ranks"),
-            std::string::npos);
-  EXPECT_FALSE(hdt::fallBackToParityAcrossRanks(mesh)); // already parity
-  mesh.requestedInsideTest = hdt::InsideTest::WindingNumber;
-  mesh.insideTest = hdt::InsideTest::WindingNumber;
-  EXPECT_FALSE(hdt::fallBackToParityAcrossRanks(mesh));
-  EXPECT_THROW(hdt::requireDistributable(mesh), hdt::Error);
-}
+} // namespace
+} // namespace test
+} // namespace hdt

@@ -54,11 +54,6 @@ std::vector<Pair> gatherSorted(tbb::combinable<std::vector<Pair>>& local) {
   return all;
 }
 
-// Under the winding number the phases below report into [0, this] and the
-// inside test (applyInsideTest) into the rest: on the CPU it takes two to
-// four times as long as they do (bench/results/winding.md).
-constexpr double kBuildShareBeforeWinding = 0.3;
-
 bool windingFollows(const PreparedMesh& mesh) {
   return !mesh.surfaceOnly && mesh.insideTest == InsideTest::WindingNumber;
 }
@@ -71,7 +66,7 @@ struct CpuRangeBuild::Impl {
   Impl(const PreparedMesh& mesh, const BuildOptions& options, RootRange cells)
       : mesh_(mesh), options_(options), g_(mesh.grid), L_(mesh.grid.leafSize), rowWords_(rowWordsFor(L_)),
         axes_(classifiedAxes(mesh.closed)), cells_(cells),
-        progress_(options.progress, 0.0, windingFollows(mesh) ? kBuildShareBeforeWinding : 1.0) {}
+        progress_(options.progress, 0.0, windingFollows(mesh) ? kCpuPhasesShareBeforeWinding : 1.0) {}
 
   const RangeBoundary& buildTree() {
     progress_.report(0.0, "mapping");
@@ -377,7 +372,7 @@ namespace {
 Volume finishVolume(const PreparedMesh& mesh, const BuildOptions& options, Volume v, PhaseTimes times) {
   v.surfaceOnly = mesh.surfaceOnly;
   v.closedMesh = mesh.closed;
-  ProgressPoll progress(options.progress, kBuildShareBeforeWinding, 1.0); // the winding pass's share
+  ProgressPoll progress(options.progress, kCpuPhasesShareBeforeWinding, 1.0); // the winding pass's share
   const double windingMs = applyInsideTest(mesh, v, WindingLeafPass(), WindingUniformPass(), WindingFreshLeafPass(),
                                            nullptr, &progress);
   if (windingFollows(mesh)) progress.report(1.0, "done");

@@ -177,12 +177,7 @@ std::vector<std::string> buildWarnings(const PreparedMesh& mesh, const Volume& v
                   " triangles repeat another triangle's corners (duplicated faces cancel in the "
                   "inside/outside parity)");
   }
-  if (!volume.closedMesh && !volume.surfaceOnly && volume.insideTest == InsideTest::Parity &&
-      mesh.requestedInsideTest == InsideTest::Auto) { // fallBackToParityAcrossRanks
-    out.push_back("the mesh is open, but the winding-number test that Auto picks for open meshes does not "
-                  "run across MPI ranks yet: ray parity ran (the majority of the +x, +y, +z ray parities, a "
-                  "heuristic; holes leak); build in one process for the winding number");
-  } else if (!volume.closedMesh && !volume.surfaceOnly && volume.insideTest == InsideTest::Parity) {
+  if (!volume.closedMesh && !volume.surfaceOnly && volume.insideTest == InsideTest::Parity) {
     out.push_back("the mesh is open and the Parity inside test was asked for: its inside is a heuristic "
                   "(the majority of the +x, +y, +z ray parities; holes leak); the winding-number test "
                   "(Auto or Winding) decides open meshes exactly");

@@ -136,23 +136,6 @@ RangeTree placeholder(const GridSpec& g, RootRange cells) {
 
 } // namespace
 
-void requireDistributable(const PreparedMesh& mesh) {
-  if (mesh.surfaceOnly || mesh.insideTest != InsideTest::WindingNumber) return;
-  const std::string why = mesh.requestedInsideTest == InsideTest::Auto
-                              ? "the mesh is open, so the Auto inside test picked the winding number, which"
-                              : "the winding-number inside test";
-  throw Error(ErrorKind::InvalidArgument,
-              why + " does not run across MPI ranks yet: choose Parity (a heuristic on open meshes), "
-                    "or build in one process");
-}
-
-bool fallBackToParityAcrossRanks(PreparedMesh& mesh) {
-  if (mesh.surfaceOnly || mesh.requestedInsideTest != InsideTest::Auto || mesh.insideTest != InsideTest::WindingNumber)
-    return false;
-  mesh.insideTest = InsideTest::Parity;
-  return true;
-}
-
 std::vector<uint8_t> packBoundary(const RangeBoundary& b, int rowWords) {
   Writer w;
   w.value(kBoundaryTag);

@@ -335,10 +335,7 @@ const char* insideTestName(InsideTest test) {
 std::string insideTestReason(InsideTest requested, InsideTest ran, bool closedMesh) {
   const std::string mesh = closedMesh ? "the mesh is closed" : "the mesh is open";
   if (requested == InsideTest::Auto) {
-    if (ran == InsideTest::WindingNumber) return "Auto: " + mesh + ", winding number";
-    return "Auto: " + mesh + (closedMesh ? ", exact ray parity"
-                                         : ", but the winding number does not run across MPI ranks yet: "
-                                           "ray parity (majority of 3 axes, a heuristic)");
+    return "Auto: " + mesh + (ran == InsideTest::WindingNumber ? ", winding number" : ", exact ray parity");
   }
   return std::string(ran == InsideTest::Parity ? "Parity" : "Winding number") + " as requested; " + mesh;
 }

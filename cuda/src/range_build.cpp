@@ -7,6 +7,7 @@
 #include "session.hpp"
 
 #include "hdt/error.hpp"
+#include "hdt/progress.hpp"
 #include "hdt/root_ranges.hpp"
 
 #include <chrono>
@@ -23,7 +24,12 @@ double msSince(Clock::time_point t0) { return std::chrono::duration<double, std:
 class CudaRangeBuild final : public RootRangeBuild {
 public:
   CudaRangeBuild(const PreparedMesh& mesh, const BuildOptions& options, RootRange cells)
-      : options_(options), session_(mesh, options_), range_(session_, cells) {}
+      : options_(options), session_(mesh, options_), range_(session_, cells) {
+    // Under the winding number the joining process classifies the joined
+    // volume afterwards and reports the rest of the progress.
+    if (!mesh.surfaceOnly && mesh.insideTest == InsideTest::WindingNumber)
+      session_.progressShare = kCpuPhasesShareBeforeWinding;
+  }
 
   const RangeBoundary& buildTree() override {
     return translated([&]() -> const RangeBoundary& {
@@ -40,7 +46,7 @@ public:
       const auto t0 = Clock::now();
       RangeTree out = joinRangeTrees(std::move(chunks), std::move(leafWords));
       joinMs_ = msSince(t0);
-      session_.progress(1.0, "done");
+      session_.progress(1.0, session_.progressShare < 1.0 ? "classification" : "done");
       return out;
     });
   }

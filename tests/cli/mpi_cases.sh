@@ -2,9 +2,9 @@
 # mpi_cases.sh HDT_VOXELIZE HDT_VOXELIZE_MPI WORK: mpiexec -n K hdt-voxelize-mpi
 # (K = 1..4, oversubscribed: CI has 2 cores) writes the same volume as the
 # serial hdt-voxelize, for a closed mesh, a knot, an open mesh (Parity asked
-# for: 3-axis classification, parities cross ranks; Auto's winding number does
-# not run across ranks yet), a surface-only build and a grid with
-# one row of root cells (more ranks than rows). compare_hdt.py compares every
+# for: 3-axis classification, parities cross ranks; Auto: the winding number,
+# which rank 0 runs on the joined surface), a surface-only build and a grid
+# with one row of root cells (more ranks than rows). compare_hdt.py compares every
 # section but the run's own measurements (times, memory, threads).
 set -euo pipefail
 serial=$1 mpi=$2 work=$3
@@ -47,19 +47,19 @@ run_case knot builtin:knot --resolution 128 --root-grid 8 --leaf-size 8
 run_case cap cap.obj --resolution 128 --root-grid 4 --leaf-size 8 --inside-test parity
 run_case surface builtin:torus --resolution 128 --root-grid 4 --leaf-size 8 --surface-only
 run_case onerow builtin:sphere --resolution 64 --root-grid 1 --leaf-size 16
-# Auto (the default) on the open cap: the winding number it picks does not
-# run across ranks yet, so a distributed build takes parity and says so.
+# Auto (the default) on the open cap: the winding number, across ranks too.
+run_case capwinding cap.obj --resolution 128 --root-grid 4 --leaf-size 8
 mpiexec --oversubscribe -n 2 "$mpi" cap.obj --resolution 128 --root-grid 4 --leaf-size 8 --backend cpu --quiet \
-  --json -o cap-auto-2.hdt > cap-auto.json
-python3 "$here/compare_hdt.py" cap-serial.hdt cap-auto-2.hdt > /dev/null
+  --json > cap-auto.json
 python3 - cap-auto.json <<'PY'
 import json, sys
 r = json.load(open(sys.argv[1]))
-assert r["inside_test"] == "parity" and r["inside_test_requested"] == "auto", r["inside_test"]
-assert "MPI ranks" in r["inside_test_reason"], r["inside_test_reason"]
-assert any("does not run across MPI ranks" in w for w in r["warnings"]), r["warnings"]
+assert r["inside_test"] == "winding" and r["inside_test_requested"] == "auto", r["inside_test"]
+assert r["inside_test_reason"] == "Auto: the mesh is open, winding number", r["inside_test_reason"]
+assert not r["warnings"], r["warnings"]
+assert r["inside_voxels"] > 0, r["inside_voxels"]
 PY
-echo "mpi_cases: Auto on an open mesh across ranks: parity, with a warning"
+echo "mpi_cases: Auto on an open mesh across ranks: the winding number"
 # The per-rank report: one row a rank, whose ranges cover the root grid and
 # whose leaf grids add up to the volume's.
 mpiexec --oversubscribe -n 3 "$mpi" builtin:knot --resolution 128 --root-grid 8 --leaf-size 8 --backend cpu \

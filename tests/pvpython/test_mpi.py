@@ -10,11 +10,11 @@ union of the ranks' digests against the serial run's (`--reference`).
 Cases:
   sphere     a closed mesh that ParaView's Sphere source splits over the ranks
              (Backend Auto: per rank the GPU or, without one, the CPU)
-  open       an open cap under the default inside test (Auto): serially Auto
-             would take the winding number, which does not run across ranks,
-             so the serial reference asks for Parity and the ranks must fall
-             back to it by themselves, saying so (3-axis classification,
-             cross-rank parities)
+  open       an open cap under the default inside test (Auto): the winding
+             number, serially and across ranks (there rank 0 classifies the
+             joined surface and hands each rank its trees back)
+  parity     the same cap under Parity (3-axis classification, cross-rank
+             parities)
   blocks     a multiblock whose blocks lie on different ranks (rank i holds
              block i only; ranks past the block count hold nothing)
   onecolumn  RootGridSize 1: one row of root cells, so K > 1 ranks have more
@@ -64,7 +64,7 @@ for b, (x, r) in enumerate([(-1.0, 0.6), (0.2, 0.5), (1.2, 0.4)]):
 def make_input(case):
     if case == "sphere" or case == "onecolumn":
         return simple.Sphere(ThetaResolution=48, PhiResolution=32)
-    if case == "open":
+    if case in ("open", "parity"):
         return simple.Sphere(ThetaResolution=48, PhiResolution=32, EndPhi=120.0)
     src = simple.ProgrammableSource()
     src.OutputDataSetType = "vtkMultiblockDataSet"
@@ -182,13 +182,13 @@ def main():
     print("ranks: %d" % ranks)
 
     result = {}
-    for case in ("sphere", "open", "blocks", "onecolumn"):
+    for case in ("sphere", "open", "parity", "blocks", "onecolumn"):
         src = make_input(case)
         # The sphere with Backend Auto: each rank picks its own driver (with no
         # GPU: the CPU on every rank, as the serial run does).
         vox = HDTVoxelizer(Input=src, Resolution=64, RootGridSize=1 if case == "onecolumn" else 4,
                            LeafGridSize=8, Backend="Auto" if case == "sphere" else "CPU", MaxDepth=-1)
-        if case == "open" and ranks == 1:  # the reference: what Auto falls back to across ranks
+        if case == "parity":
             vox.InsideTest = "Parity"
         pieces = {"htg": digest(vox, 0, os.path.join(tmp, case + "-htg-%d.json"), ranks),
                   "surface": digest(vox, 1, os.path.join(tmp, case + "-surface-%d.json"), ranks)}
@@ -224,11 +224,10 @@ def main():
         t.check_equal(got["file"], want["file"], "%s: the .hdt (every section but the statistics)" % case)
         t.check(got["read_trees"] == want["trees"], "%s: the reader's shares are the serial trees" % case)
         t.check(got["read_quads"] == want["quads"], "%s: the reader's surfaces are the serial surface" % case)
-        if case == "open" and ranks > 1:
+        if case == "open":
             for r, (test, reason) in enumerate(got["inside"]):
-                t.check_equal(test, "parity", "open: rank %d ran parity under Auto" % r)
-                t.check("does not run across MPI ranks" in (reason or ""),
-                        "open: rank %d says why Auto took parity (%r)" % (r, reason))
+                t.check_equal(test, "winding", "open: rank %d ran the winding number under Auto" % r)
+                t.check_equal(reason, "Auto: the mesh is open, winding number", "open: rank %d says why" % r)
     if t._failures:
         t.finish()  # prints them and exits non-zero
     # On success the script returns: pvbatch then finalizes MPI (sys.exit

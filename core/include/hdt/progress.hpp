@@ -42,6 +42,12 @@ private:
   const char* phase_ = "";
 };
 
+// The share of a build's progress that the CPU driver's phases report into
+// when the winding-number pass follows (hdt::applyInsideTest, after the join:
+// on the CPU it takes two to four times as long as they do,
+// bench/results/winding.md); the pass reports the rest.
+constexpr double kCpuPhasesShareBeforeWinding = 0.3;
+
 // abortRequested() of an optional poll (null: never).
 inline bool abortRequested(ProgressPoll* poll) { return poll && poll->abortRequested(); }
 

@@ -23,19 +23,6 @@ namespace hdt {
 
 struct PreparedMesh;
 
-// Throws Error(InvalidArgument) when a build of `mesh` cannot yet be spread
-// over processes: the winding-number inside test refines trees after the
-// whole volume is joined (core/src/winding.cpp), which range builds do not do.
-// Every process prepared the same mesh, so all of them throw alike.
-void requireDistributable(const PreparedMesh& mesh);
-
-// Auto on an open mesh picks the winding number, which does not run across
-// processes yet: a distributed build takes ray parity instead (the open-mesh
-// majority vote, a heuristic; buildWarnings and insideTestReason say so).
-// True when it changed the mesh's test. Every process prepared the same
-// mesh, so all of them change alike. Call it before requireDistributable.
-bool fallBackToParityAcrossRanks(PreparedMesh& mesh);
-
 // Byte buffers between processes of one job (same machine byte order). The
 // unpackers check sizes and throw Error(BadInput) on a damaged buffer.
 std::vector<uint8_t> packBoundary(const RangeBoundary& boundary, int rowWords);
