@@ -115,14 +115,14 @@ TEST_P(CudaWinding, DeviceCountsEqualRayCrossings) {
 // The crossings step spreads each leaf's (candidate, ray line) items over a
 // block (winding_device.cu, leafCrossingSumsKernel): leaves with hundreds of
 // candidates (more items than the block's threads, a thread taking several)
-// and rows with dozens of crossings summed by many threads at once. Twelve
-// nested icospheres, every other one inward, and each of them doubled: the
-// surfaces lie a voxel or two apart at 64^3, N climbs and falls through them.
+// and rows with a dozen crossings summed by many threads at once. Six nested
+// icospheres, every other one inward, each of them doubled: the surfaces lie
+// about two voxels apart at 64^3, N climbs and falls through them.
 TEST(CudaWindingCrossings, ManyCandidatesPerLeaf) {
   HDT_REQUIRE_CUDA();
   TriangleMesh m;
-  for (int k = 0; k < 12; ++k) {
-    TriangleMesh shell = icosphere(3, 1.0 - 0.04 * k, {0.01 * k, -0.007 * k, 0.003 * k});
+  for (int k = 0; k < 6; ++k) {
+    TriangleMesh shell = icosphere(3, 1.0 - 0.07 * k, {0.01 * k, -0.007 * k, 0.003 * k});
     if (k % 2) flipOrientation(shell);
     append(m, shell);
     append(m, shell);
