@@ -147,7 +147,7 @@ const RangeBoundary& ChunkedRange::buildTree() {
   chunks_ = int(done_.size());
   for (size_t c = 0; c < done_.size(); ++c) pieces_.push_back(rangeTreeOf(done_[c], trees_[c]));
   checkJoinedElementLimit(g, pieces_);
-  if (s_.mesh.surfaceOnly) return boundary_;
+  if (!s_.parityClassification()) return boundary_;
   // The host half of classification (root_ranges.hpp), first part: per
   // chunk the lines and their exit parity within the chunk (in place in
   // trees_[c].parity), and the chunks' boundary parities.
@@ -169,7 +169,7 @@ const RangeBoundary& ChunkedRange::buildTree() {
 
 std::vector<RangeTree> ChunkedRange::finish(const RangeBoundary* beyond, LeafWordVector& leafWords) {
   const GridSpec& g = s_.grid;
-  const bool solid = !s_.mesh.surfaceOnly;
+  const bool solid = s_.parityClassification();
   const int axes = classifiedAxes(s_.mesh.closed);
   const size_t rowWords = size_t(rowWordsFor(g.leafSize));
   const uint32_t wordsPerLeaf = leafWordCount(g.leafSize);

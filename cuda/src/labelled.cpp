@@ -243,7 +243,7 @@ PartOnDevice foldPart(Session& s, UnionState& u, const std::vector<PreparedMesh>
   }
   const DeviceMesh mesh{tris.data(), uint32_t(count)};
   RootMapping root = mapTrianglesToRootCells(s.memory, s.scalars, mesh, g, 0, cells, false);
-  DeviceVolume pv = buildOnDevice(s, mesh, closed, parts[b.parts[0]].surfaceOnly, std::move(root));
+  DeviceVolume pv = buildOnDevice(s, mesh, closed, !parts[b.parts[0]].surfaceOnly, std::move(root));
   const std::vector<uint64_t> start = levelStarts(pv.tree);
   const size_t h = size_t(g.height);
   if (pv.tree.levels.size() != h + 1 || pv.tree.levels[0].count != u.tree.tree.levels[0].count)
@@ -525,7 +525,7 @@ Volume buildLabelled(const PreparedMesh& whole, const std::vector<PreparedMesh>&
   UnionState u;
   {
     RootMapping root = mapTrianglesToRootCells(s.memory, s.scalars, s.deviceMesh, g, 0, cells, false);
-    u.tree = buildOnDevice(s, s.deviceMesh, true, true, std::move(root));
+    u.tree = buildOnDevice(s, s.deviceMesh, true, false, std::move(root));
   }
   s.triangles = DeviceBuffer<LatticeTriangle>();
   if (partsReady) partsReady(); // the parts, prepared on the host meanwhile

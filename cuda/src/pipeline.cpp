@@ -81,7 +81,7 @@ void classifyWhole(Session& s, const DeviceMesh& mesh, int axes, Tree& tree, Axi
 
 } // namespace
 
-DeviceVolume buildOnDevice(Session& s, const DeviceMesh& mesh, bool closed, bool surfaceOnly, RootMapping root) {
+DeviceVolume buildOnDevice(Session& s, const DeviceMesh& mesh, bool closed, bool classify, RootMapping root) {
   const GridSpec& g = s.grid;
   const uint64_t cells = uint64_t(g.rootGrid) * g.rootGrid * g.rootGrid;
   s.clock.mark(kMapping);
@@ -94,20 +94,20 @@ DeviceVolume buildOnDevice(Session& s, const DeviceMesh& mesh, bool closed, bool
   const size_t wordCount = size_t(d.tree.leaves.count) * leafWordCount(g.leafSize);
   d.words = DeviceBuffer<uint32_t>(s.memory, wordCount);
   const int axes = closed ? 1 : 3;
-  AxisBuffers parity = parityBuffers(s, d.tree.leaves.count, surfaceOnly ? 0 : axes);
-  // Solid builds: T3 runs pass 1 along x too (its time counts as T3).
-  writeLeafSurfaces(s.memory, s.scalars, mesh, g, d.tree.leaves, d.words.data(), !surfaceOnly, parity.ptr[0]);
+  AxisBuffers parity = parityBuffers(s, d.tree.leaves.count, classify ? axes : 0);
+  // Classified builds: T3 runs pass 1 along x too (its time counts as T3).
+  writeLeafSurfaces(s.memory, s.scalars, mesh, g, d.tree.leaves, d.words.data(), classify, parity.ptr[0]);
   s.clock.mark(kLeaf);
 
   s.progress(0.7, "classification");
-  if (!surfaceOnly) classifyWhole(s, mesh, axes, d.tree, parity, d.words.data());
+  if (classify) classifyWhole(s, mesh, axes, d.tree, parity, d.words.data());
   s.clock.mark(kClassify);
   return d;
 }
 
 Volume buildWhole(Session& s, RootMapping root, bool keepResult, DeviceBuffer<uint32_t>* deviceLeafWords) {
   const GridSpec& g = s.grid;
-  DeviceVolume d = buildOnDevice(s, s.deviceMesh, s.mesh.closed, s.mesh.surfaceOnly, std::move(root));
+  DeviceVolume d = buildOnDevice(s, s.deviceMesh, s.mesh.closed, s.parityClassification(), std::move(root));
   const Tree& tree = d.tree;
   const DeviceBuffer<uint32_t>& words = d.words;
   const size_t wordCount = words.size();
@@ -196,10 +196,10 @@ ChunkTree buildChunkTree(Session& s, uint64_t firstCell, uint64_t endCell) {
   ChunkTree out;
   const uint32_t leaves = tree.leaves.count;
   const size_t wordCount = size_t(leaves) * leafWordCount(g.leafSize);
-  if (s.mesh.surfaceOnly) {
+  if (!s.parityClassification()) {
     // Phase B writes the leaf grids straight into the volume (one host
     // copy, no chunk-sized staging on the host); their room is reserved here
-    // as for solid builds.
+    // as for classified builds.
     Reservation room(s.memory, wordCount * sizeof(uint32_t));
   } else {
     // Phase B allocates the leaf grids and the open-mesh masks for real.
@@ -260,11 +260,11 @@ void buildChunkLeaves(Session& s, uint64_t firstCell, uint64_t endCell, uint32_t
   }
   const size_t wordCount = size_t(leafCount) * leafWordCount(g.leafSize);
   DeviceBuffer<uint32_t> words(s.memory, wordCount);
-  // Solid builds: pass 1 along x with T3 (the parities came from phase A).
-  const bool solid = !s.mesh.surfaceOnly;
-  writeLeafSurfaces(s.memory, s.scalars, s.deviceMesh, g, tree.leaves, words.data(), solid, nullptr);
+  // Classified builds: pass 1 along x with T3 (the parities came from phase A).
+  const bool classify = s.parityClassification();
+  writeLeafSurfaces(s.memory, s.scalars, s.deviceMesh, g, tree.leaves, words.data(), classify, nullptr);
   s.clock.mark(kLeaf);
-  if (solid) classifyChunkLeaves(s, tree, exitParity, words.data());
+  if (classify) classifyChunkLeaves(s, tree, exitParity, words.data());
   download(s, leafWords, words, wordCount);
   s.clock.mark(kDownload);
   s.sync();

@@ -21,7 +21,7 @@ struct DeviceVolume {
   Tree tree;
   DeviceBuffer<uint32_t> words; // leaf words, leaves.count * leafWordCount(L)
 };
-DeviceVolume buildOnDevice(Session& s, const DeviceMesh& mesh, bool closed, bool surfaceOnly, RootMapping root);
+DeviceVolume buildOnDevice(Session& s, const DeviceMesh& mesh, bool closed, bool classify, RootMapping root);
 
 // T2..classification and the download for the whole grid, continuing from
 // the root pairs of T1. Throws DeviceMemoryExhausted when it does not fit.

@@ -69,6 +69,11 @@ struct Session {
   // Reports fraction * progressShare of the whole build; throws Error(Aborted).
   void progress(double fraction, const char* phase) const;
   void sync() const { HDT_CUDA_CHECK(cudaStreamSynchronize(stream.get())); }
+  // The parity classification runs: a solid build under the parity test.
+  // Under the winding number its verdicts would be discarded (the winding
+  // pass rewrites every uniform element and every leaf's inside plane), so
+  // it is skipped, as the CPU driver does: the device builds the surface only.
+  bool parityClassification() const { return !mesh.surfaceOnly && mesh.insideTest != InsideTest::WindingNumber; }
 
   const PreparedMesh& mesh;
   const BuildOptions& options;

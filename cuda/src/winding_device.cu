@@ -1,9 +1,10 @@
 // The winding-number leaf pass on the device (winding_device.hpp), the
 // host pass of core/src/winding.cpp (classifyLeavesByCrossings) step by step:
 //
-//   crossings  one thread per leaf: the tree's triangles whose node boxes
-//              meet the leaf's closed box, each one's crossings with the
-//              leaf's +x rays (forEachPairCrossing, the parity pass's exact
+//   crossings  each leaf's candidates (the tree's triangles whose node
+//              boxes meet the leaf's closed box) listed, one thread per leaf;
+//              then one block per leaf, one thread per (candidate, ray line):
+//              the crossings with the leaf's +x rays (the parity pass's exact
 //              steps), signed by the normal's x component: a row total, a
 //              row hit count and a per-voxel delta at the last voxel centre
 //              before the crossing (all integer sums: order cannot show);
@@ -32,6 +33,7 @@
 #include "hdt/winding_leaf.hpp"
 
 #include <cub/device/device_radix_sort.cuh>
+#include <cub/device/device_scan.cuh>
 #include <cub/device/device_select.cuh>
 #include <tbb/parallel_for.h>
 
@@ -119,7 +121,91 @@ struct LeafOrigin {
 };
 
 // ---- crossings ------------------------------------------------------------------
+//
+// Spread over (leaf, candidate triangle, ray line) items: each leaf's
+// candidates (windingForEachLeafCandidate, the host's tree walk) are counted
+// and then listed at their exclusive sum, one thread a leaf; a block a leaf
+// then takes its candidates' lines, one item a thread
+// (windingForEachPairLineCrossing, the host's crossings line by line), and
+// sums the signed crossings into the leaf's row totals, row hits and voxel
+// deltas in shared memory with integer atomics (exact and order-free: the
+// same sums as one thread adding them in walk order), written out whole (so
+// the arrays need no zeroing). One thread a leaf, walking and crossing
+// serially, left most lanes idle behind the leaves with the most crossings.
+// Leaves larger than kSharedLeaf (32: the deltas would not fit shared
+// memory) keep the serial kernel.
+constexpr int kSharedLeaf = 16;
+constexpr unsigned kCrossingBlock = 128;
 
+// Whether candidate i has rays in the leaf at all (pairRayRange): the list
+// keeps only those.
+__device__ bool candidateHasRays(const WindingTreeView& t, uint32_t i, const LeafOrigin& o, int L) {
+  const int64_t v0[3] = {o.o[0], o.o[1], o.o[2]};
+  int64_t u0, u1, w0, w1;
+  return pairRayRange(t.lattice[i], 0, v0, L, u0, u1, w0, w1);
+}
+
+// counts[leaf]: the leaf's candidates with rays in it.
+__global__ void candidateCountKernel(WindingTreeView t, const LeafOrigin* origins, uint32_t leafCount, int L,
+                                     uint64_t* counts) {
+  const uint32_t leaf = blockIdx.x * blockDim.x + threadIdx.x;
+  if (leaf >= leafCount) return;
+  const LeafOrigin o = origins[leaf];
+  uint64_t n = 0;
+  windingForEachLeafCandidate(t, o.o, L, [&](uint32_t i) { n += candidateHasRays(t, i, o, L); });
+  counts[leaf] = n;
+}
+
+// The same candidates listed from offsets[leaf] on.
+__global__ void candidateListKernel(WindingTreeView t, const LeafOrigin* origins, uint32_t leafCount, int L,
+                                    const uint64_t* offsets, uint32_t* candidates) {
+  const uint32_t leaf = blockIdx.x * blockDim.x + threadIdx.x;
+  if (leaf >= leafCount) return;
+  const LeafOrigin o = origins[leaf];
+  uint32_t* out = candidates + offsets[leaf];
+  windingForEachLeafCandidate(t, o.o, L, [&](uint32_t i) {
+    if (candidateHasRays(t, i, o, L)) *out++ = i;
+  });
+}
+
+// One block a leaf (L <= kSharedLeaf): its candidates' lines, one item a
+// thread; the sums written whole, the deltas as int16 (the sum modulo 2^16,
+// as the serial kernel's int16 additions wrap).
+__global__ void __launch_bounds__(kCrossingBlock)
+    leafCrossingSumsKernel(WindingTreeView t, const LeafOrigin* origins, int L, const uint64_t* offsets,
+                           const uint32_t* candidates, int32_t* rowTotals, int32_t* rowHits, int16_t* deltas) {
+  __shared__ int32_t total[kSharedLeaf * kSharedLeaf], hits[kSharedLeaf * kSharedLeaf];
+  __shared__ int32_t delta[kSharedLeaf * kSharedLeaf * kSharedLeaf];
+  const uint32_t leaf = blockIdx.x;
+  const uint32_t rows = uint32_t(L * L), voxels = rows * uint32_t(L);
+  for (uint32_t k = threadIdx.x; k < rows; k += blockDim.x) total[k] = hits[k] = 0;
+  for (uint32_t k = threadIdx.x; k < voxels; k += blockDim.x) delta[k] = 0;
+  __syncthreads();
+  const uint64_t first = offsets[leaf], items = (offsets[leaf + 1] - first) * uint64_t(L);
+  const LeafOrigin o = origins[leaf];
+  for (uint64_t k = threadIdx.x; k < items; k += blockDim.x) {
+    const uint32_t i = candidates[first + k / uint64_t(L)];
+    const int sign = windingCrossingSign(t.lattice[i]);
+    windingForEachPairLineCrossing(t, i, o.o, L, int(k % uint64_t(L)), [&](int row, int before) {
+      atomicAdd(total + row, sign);
+      atomicAdd(hits + row, 1);
+      if (before > 0) atomicAdd(delta + row * L + before - 1, sign);
+    });
+  }
+  __syncthreads();
+  const size_t rowBase = size_t(leaf) * rows;
+  for (uint32_t k = threadIdx.x; k < rows; k += blockDim.x) {
+    rowTotals[rowBase + k] = total[k];
+    rowHits[rowBase + k] = hits[k];
+  }
+  // Two deltas a 32-bit store (voxels is even; the leaf's deltas start
+  // 4-byte aligned).
+  uint32_t* pairs = reinterpret_cast<uint32_t*>(deltas + size_t(leaf) * voxels);
+  for (uint32_t k = threadIdx.x; k < voxels / 2; k += blockDim.x)
+    pairs[k] = uint32_t(uint16_t(int16_t(delta[2 * k]))) | (uint32_t(uint16_t(int16_t(delta[2 * k + 1]))) << 16);
+}
+
+// L > kSharedLeaf: one thread a leaf, serially (the arrays zeroed before).
 __global__ void signedCrossingsKernel(WindingTreeView t, const LeafOrigin* origins, uint32_t leafCount, int L,
                                       int32_t* rowTotals, int32_t* rowHits, int16_t* deltas) {
   const uint32_t leaf = blockIdx.x * blockDim.x + threadIdx.x;
@@ -774,19 +860,50 @@ void uploadOrigins(const std::vector<std::array<int, 3>>& origins, CountsOnDevic
   d.origins.upload(host.data());
 }
 
+// The crossings step for L <= kSharedLeaf: the candidates counted, summed
+// (CUB), listed, then leafCrossingSumsKernel writes d.totals, d.hits and the
+// deltas in d.counts whole.
+void leafCrossingSums(const WindingTreeView& t, CountsOnDevice& d, uint32_t leaves, int L) {
+  Array<uint64_t> counts(size_t(leaves) + 1), offsets(size_t(leaves) + 1);
+  HDT_CUDA_CHECK(cudaMemset(counts.data() + leaves, 0, sizeof(uint64_t))); // the scan's last input
+  candidateCountKernel<<<blocks(leaves), kBlock>>>(t, d.origins.data(), leaves, L, counts.data());
+  checkLaunch("candidateCountKernel");
+  size_t bytes = 0;
+  HDT_CUDA_CHECK(cub::DeviceScan::ExclusiveSum(nullptr, bytes, counts.data(), offsets.data(), int(leaves) + 1));
+  Array<uint8_t> temp(std::max<size_t>(bytes, 16));
+  HDT_CUDA_CHECK(cub::DeviceScan::ExclusiveSum(temp.data(), bytes, counts.data(), offsets.data(), int(leaves) + 1));
+  uint64_t pairs = 0;
+  HDT_CUDA_CHECK(cudaMemcpy(&pairs, offsets.data() + leaves, sizeof(uint64_t), cudaMemcpyDeviceToHost));
+  Array<uint32_t> candidates(std::max<uint64_t>(pairs, 1));
+  candidateListKernel<<<blocks(leaves), kBlock>>>(t, d.origins.data(), leaves, L, offsets.data(), candidates.data());
+  checkLaunch("candidateListKernel");
+  leafCrossingSumsKernel<<<leaves, kCrossingBlock>>>(t, d.origins.data(), L, offsets.data(), candidates.data(),
+                                                     d.totals.data(), d.hits.data(), d.counts.data());
+  checkLaunch("leafCrossingSumsKernel");
+  HDT_CUDA_CHECK(cudaStreamSynchronize(0)); // before the temporaries go (not the words' upload)
+  if (traceLevels())
+    std::fprintf(stderr, "winding trace crossings: %u leaves, %llu (leaf, candidate) pairs\n", leaves,
+                 (unsigned long long)pairs);
+}
+
 // leafT, insideBits: countsKernel's (null: every leaf's counts kept).
 // d.origins uploaded already (uploadOrigins).
 void computeCounts(const WindingTreeView& t, const std::vector<std::array<int, 3>>& origins, int L,
                    CountsOnDevice& d, Events& ev, const int* leafT = nullptr, uint16_t* insideBits = nullptr) {
   const uint32_t leaves = uint32_t(origins.size());
   const uint32_t rows = uint32_t(L * L);
-  d.totals.zero();
-  d.hits.zero();
-  d.counts.zero();
-  ev.mark(1);
-  signedCrossingsKernel<<<blocks(leaves), kBlock>>>(t, d.origins.data(), leaves, L, d.totals.data(), d.hits.data(),
-                                                    d.counts.data());
-  checkLaunch("signedCrossingsKernel");
+  if (L <= kSharedLeaf) {
+    ev.mark(1);
+    leafCrossingSums(t, d, leaves, L);
+  } else {
+    d.totals.zero();
+    d.hits.zero();
+    d.counts.zero();
+    ev.mark(1);
+    signedCrossingsKernel<<<blocks(leaves), kBlock>>>(t, d.origins.data(), leaves, L, d.totals.data(), d.hits.data(),
+                                                      d.counts.data());
+    checkLaunch("signedCrossingsKernel");
+  }
   ev.mark(2);
   {
     Array<uint64_t> keys(leaves), sortedKeys(leaves);

@@ -12,6 +12,7 @@
 #include "hdt/winding_tree.hpp"
 #include "winding_device.hpp"
 #include "support/mesh_files.hpp"
+#include "support/shapes.hpp"
 #include "support/winding_reference.hpp"
 
 #include <gtest/gtest.h>
@@ -109,6 +110,28 @@ TEST_P(CudaWinding, DeviceCountsEqualRayCrossings) {
   const WindingShape s = windingShapes()[size_t(GetParam())];
   for (int l : {8, 16}) EXPECT_TRUE(deviceCountsMatch(prepareMesh(s.mesh, config(64, 4, l, InsideTest::Parity))))
       << s.name << " L " << l;
+}
+
+// The crossings step spreads each leaf's (candidate, ray line) items over a
+// block (winding_device.cu, leafCrossingSumsKernel): leaves with hundreds of
+// candidates (more items than the block's threads, a thread taking several)
+// and rows with a dozen crossings summed by many threads at once. Six nested
+// icospheres, every other one inward, each of them doubled: the surfaces lie
+// about two voxels apart at 64^3, N climbs and falls through them.
+TEST(CudaWindingCrossings, ManyCandidatesPerLeaf) {
+  HDT_REQUIRE_CUDA();
+  TriangleMesh m;
+  for (int k = 0; k < 6; ++k) {
+    TriangleMesh shell = icosphere(3, 1.0 - 0.07 * k, {0.01 * k, -0.007 * k, 0.003 * k});
+    if (k % 2) flipOrientation(shell);
+    append(m, shell);
+    append(m, shell);
+  }
+  for (int l : {8, 16}) {
+    EXPECT_TRUE(deviceCountsMatch(prepareMesh(m, config(64, 4, l, InsideTest::Parity)))) << "L " << l;
+    const PreparedMesh mesh = prepareMesh(m, config(128, 4, l, InsideTest::WindingNumber));
+    EXPECT_TRUE(sameVolume(build(mesh, cudaOptions()), build(mesh, cpuOptions()))) << "L " << l;
+  }
 }
 
 class CudaWindingShared : public ::testing::TestWithParam<const char*> {};

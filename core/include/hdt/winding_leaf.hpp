@@ -301,16 +301,19 @@ HDT_HD bool windingPartStripSum(const WindingTreeView& t, const WindingLeafSplit
 
 // ---- a leaf's signed crossings --------------------------------------------------
 
-// fn(row, before, sign) for every crossing of a +x ray of the leaf at
-// `origin` (voxels) with a triangle inside the leaf's half-open x extent (the
-// parity pass's exact crossings, forEachPairCrossing; row = y + L z, before =
-// the row's voxel centres strictly before it), sign = that of the triangle's
-// normal x component. The candidates: the tree's triangles whose node boxes
-// meet the leaf's closed box (a crossing in the leaf lies in it). Both
-// drivers sum these into the counts N that windingDecideLeaf reads.
+// The sign a crossing of a +x ray with the triangle adds to N: that of the
+// normal's x component (0: parallel to x, no ray crosses it).
+HDT_HD int windingCrossingSign(const LatticeTriangle& tri) {
+  int64_t normal[3];
+  triangleNormal(tri, normal);
+  return normal[0] > 0 ? 1 : (normal[0] < 0 ? -1 : 0);
+}
+
+// fn(i) for every candidate triangle of the leaf at `origin` (voxels; i
+// indexes t.lattice): the tree's triangles whose node boxes meet the leaf's
+// closed box (a crossing in the leaf lies in it), but those parallel to x.
 template <class Fn>
-HDT_HD void windingForEachLeafCrossing(const WindingTreeView& t, const int* origin, int L, Fn&& fn) {
-  const int64_t v0[3] = {origin[0], origin[1], origin[2]};
+HDT_HD void windingForEachLeafCandidate(const WindingTreeView& t, const int* origin, int L, Fn&& fn) {
   double lo[3], hi[3];
   for (int a = 0; a < 3; ++a) {
     lo[a] = origin[a];
@@ -329,15 +332,72 @@ HDT_HD void windingForEachLeafCrossing(const WindingTreeView& t, const int* orig
       stack[top++] = n.first;
       continue;
     }
-    for (uint32_t i = n.first; i < n.first + n.count; ++i) {
-      const LatticeTriangle& tri = t.lattice[i];
-      int64_t normal[3];
-      triangleNormal(tri, normal);
-      if (normal[0] == 0) continue; // parallel to x: no ray crosses it
-      const int sign = normal[0] > 0 ? 1 : -1;
-      forEachPairCrossing(tri, 0, v0, L, [&](int row, int before) { fn(row, before, sign); });
-    }
+    for (uint32_t i = n.first; i < n.first + n.count; ++i)
+      if (windingCrossingSign(t.lattice[i]) != 0) fn(i);
   }
+}
+
+// fn(row, before) for the crossings of a triangle with the leaf's +x rays of
+// ray line w (voxel z; row = y + L z leaf-relative): forEachPairCrossing's
+// steps 2 and 3 for one line (u0, u1 from pairRayRange, step 1). `crossings`
+// is set up on the first hit (made: whether it is already), so the lines of
+// one pair may share it.
+template <class Fn>
+HDT_HD void windingForEachLineCrossing(const LatticeTriangle& tri, const int64_t (&v0)[3], int L, int64_t w, int64_t u0,
+                                       int64_t u1, LeafCrossings& crossings, bool& made, Fn&& fn) {
+  int64_t uf = u0, ul = u1;
+  raySpanAtW(tri, 0, w, uf, ul);
+  if (uf > ul) return;
+  if (!made) {
+    makeLeafCrossings(tri, 0, v0, L, crossings);
+    made = true;
+  }
+  int f, l;
+  leafLineRays(crossings, v0, 0, w, uf, ul, f, l);
+  const int dw = int(w - v0[2]);
+  for (int du = f; du <= l; ++du) {
+    int before;
+    if (crossingInLeaf(crossings, du, dw, L, before)) fn(du + L * dw, before);
+  }
+}
+
+// fn(row, before) for the crossings of candidate i with the leaf's rays of
+// leaf-relative line dw alone: one line of a pair, for a driver that spreads
+// a pair's lines over threads (the CUDA driver's crossings step).
+template <class Fn>
+HDT_HD void windingForEachPairLineCrossing(const WindingTreeView& t, uint32_t i, const int* origin, int L, int dw,
+                                           Fn&& fn) {
+  const LatticeTriangle& tri = t.lattice[i];
+  const int64_t v0[3] = {origin[0], origin[1], origin[2]};
+  int64_t u0, u1, w0, w1;
+  const int64_t w = v0[2] + dw;
+  if (!pairRayRange(tri, 0, v0, L, u0, u1, w0, w1) || w < w0 || w > w1) return;
+  LeafCrossings crossings{};
+  bool made = false;
+  windingForEachLineCrossing(tri, v0, L, w, u0, u1, crossings, made, fn);
+}
+
+// fn(row, before, sign) for every crossing of a +x ray of the leaf at
+// `origin` (voxels) with a triangle inside the leaf's half-open x extent (the
+// parity pass's exact crossings, forEachPairCrossing's steps; row = y + L z,
+// before = the row's voxel centres strictly before it), sign =
+// windingCrossingSign, over the leaf's candidates. Both drivers sum these
+// into the counts N that windingDecideLeaf reads (the CUDA driver a pair's
+// line at a time, windingForEachPairLineCrossing: the same crossings).
+template <class Fn>
+HDT_HD void windingForEachLeafCrossing(const WindingTreeView& t, const int* origin, int L, Fn&& fn) {
+  const int64_t v0[3] = {origin[0], origin[1], origin[2]};
+  windingForEachLeafCandidate(t, origin, L, [&](uint32_t i) {
+    const LatticeTriangle& tri = t.lattice[i];
+    const int sign = windingCrossingSign(tri);
+    int64_t u0, u1, w0, w1;
+    if (!pairRayRange(tri, 0, v0, L, u0, u1, w0, w1)) return;
+    LeafCrossings crossings{};
+    bool made = false; // set up on the first hit: many pairs have none
+    for (int64_t w = w0; w <= w1; ++w)
+      windingForEachLineCrossing(tri, v0, L, w, u0, u1, crossings, made,
+                                 [&](int row, int before) { fn(row, before, sign); });
+  });
 }
 
 // ---- the leaf ------------------------------------------------------------------
