@@ -53,7 +53,9 @@ void traceWinding(const char* phase, std::chrono::steady_clock::time_point since
   traceWindingMs(phase, std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - since).count());
 }
 
-WindingTriangle windingTriangle(const LatticeTriangle& t) {
+// The corners, box, area, centroid and half cross product of a triangle:
+// what the tree's sums read (windingTriangle adds the rest).
+WindingTriangle windingTriangleBasics(const LatticeTriangle& t) {
   WindingTriangle w;
   for (int j = 0; j < 3; ++j)
     for (int a = 0; a < 3; ++a) w.v[3 * j + a] = double(t.v[j][a]) / double(kLatticePerVoxel);
@@ -65,11 +67,16 @@ WindingTriangle windingTriangle(const LatticeTriangle& t) {
   const double fx = w.v[6] - w.v[0], fy = w.v[7] - w.v[1], fz = w.v[8] - w.v[2];
   const double cx = ey * fz - ez * fy, cy = ez * fx - ex * fz, cz = ex * fy - ey * fx;
   w.area = 0.5 * std::sqrt(cx * cx + cy * cy + cz * cz);
-  double r2 = 0;
   for (int a = 0; a < 3; ++a) {
     w.centroid[a] = (w.v[a] + w.v[3 + a] + w.v[6 + a]) / 3.0;
     w.halfCross[a] = 0.5 * (a == 0 ? cx : a == 1 ? cy : cz);
   }
+  return w;
+}
+
+WindingTriangle windingTriangle(const LatticeTriangle& t) {
+  WindingTriangle w = windingTriangleBasics(t);
+  double r2 = 0;
   for (int j = 0; j < 3; ++j) {
     double d2 = 0;
     for (int a = 0; a < 3; ++a) d2 += (w.v[3 * j + a] - w.centroid[a]) * (w.v[3 * j + a] - w.centroid[a]);
@@ -109,19 +116,20 @@ struct TreeKey {
 };
 
 // What a node's sums read of one triangle (as windingTriangle computes them),
-// those summed in order first.
+// those summed in order first; the box on the lattice (windingTriangle's box
+// is it / 256, exactly: the conversion and the division keep the order).
 struct TreeSums {
   double halfCross[3];
   double centroid[3];
   double area;
-  double lo[3], hi[3];
+  int32_t lo[3], hi[3];
 };
 
-// The boxes of a node's triangles and of their keys: minima and maxima, the
-// same in any order (no NaN, no -0: lattice coordinates / 256), so they are
-// reduced in parallel. The box gives the node's centre, the keys' its axis.
+// The boxes of a node's triangles (on the lattice) and of their keys:
+// minima and maxima of integers, the same in any order, so they are reduced
+// in parallel. The box gives the node's centre, the keys' its axis.
 struct NodeBox {
-  double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+  int32_t lo[3] = {INT32_MAX, INT32_MAX, INT32_MAX}, hi[3] = {INT32_MIN, INT32_MIN, INT32_MIN};
   int64_t klo[3] = {INT64_MAX, INT64_MAX, INT64_MAX}, khi[3] = {INT64_MIN, INT64_MIN, INT64_MIN};
   void add(const TreeSums& s, const TreeKey& k) {
     for (int a = 0; a < 3; ++a) {
@@ -190,8 +198,8 @@ struct TreeBuilder {
     WindingNode n{};
     double r2 = 0;
     for (int a = 0; a < 3; ++a) {
-      n.lo[a] = box.lo[a];
-      n.hi[a] = box.hi[a];
+      n.lo[a] = double(box.lo[a]) / double(kLatticePerVoxel);
+      n.hi[a] = double(box.hi[a]) / double(kLatticePerVoxel);
       n.centre[a] = 0.5 * (n.lo[a] + n.hi[a]);
       const double h = 0.5 * (n.hi[a] - n.lo[a]);
       r2 += h * h;
@@ -257,13 +265,14 @@ WindingTree buildWindingTree(const LatticeTriangles& triangles) {
             tbb::blocked_range<size_t>(0, n, 2048), NodeBox(),
             [&](const tbb::blocked_range<size_t>& r, NodeBox box) {
               for (size_t t = r.begin(); t < r.end(); ++t) {
-                const WindingTriangle w = windingTriangle(triangles[t]);
+                const LatticeTriangle& l = triangles[t];
+                const WindingTriangle w = windingTriangleBasics(l);
                 TreeKey& k = b.keys[t];
                 TreeSums& s = b.sums[0][t];
                 for (int a = 0; a < 3; ++a) {
-                  k.key[size_t(a)] = int64_t(triangles[t].v[0][a]) + triangles[t].v[1][a] + triangles[t].v[2][a];
-                  s.lo[a] = w.lo[a];
-                  s.hi[a] = w.hi[a];
+                  k.key[size_t(a)] = int64_t(l.v[0][a]) + l.v[1][a] + l.v[2][a];
+                  s.lo[a] = std::min({l.v[0][a], l.v[1][a], l.v[2][a]});
+                  s.hi[a] = std::max({l.v[0][a], l.v[1][a], l.v[2][a]});
                   s.halfCross[a] = w.halfCross[a];
                   s.centroid[a] = w.centroid[a];
                 }
