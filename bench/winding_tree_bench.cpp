@@ -4,8 +4,11 @@
 //
 //   hdt_winding_tree_bench [--res N] [--runs K] [--threads T] [--label L] mesh.ply...
 //
-// One JSON line per mesh and run on stdout: the tree's total, the edges alone,
-// the hash. Compiled against two core libraries it is an A/B of two trees
+// One JSON line per mesh and run on stdout: buildWindingTree's wall and
+// process CPU time (the edges built beside the nodes), then a second call of
+// buildWindingEdges alone, and the hash. With --runs 1 a process times one
+// cold build (fresh memory, as one hdt-voxelize run); later runs of a process
+// may reuse memory that malloc kept. Compiled against two core libraries it is an A/B of two trees
 // (bench/results/winding.md, "The winding tree's host build").
 #include "hdt/mesh.hpp"
 #include "hdt/mesh_io.hpp"

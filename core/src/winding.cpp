@@ -19,6 +19,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <future>
+#include <new>
 #include <numeric>
 #include <stdexcept>
 
@@ -163,18 +164,21 @@ struct NodeBox {
 // [first, first + count) in order), in parallel for large nodes, with the
 // children's boxes reduced on the way: the serial work of the top levels is
 // the selection and one streaming pass.
+//
+// The keys and both buffers live in the tree's triangle array, sized first
+// and written only after the fill (TreeScratch): fresh pages are faulted in
+// once, and on a VM that costs about as much as the fill itself.
 struct TreeBuilder {
   static constexpr uint32_t kParallelTriangles = 4096;
-  template <class T> using Scratch = std::vector<T, HugePageScratchAllocator<T>>;
-  Scratch<TreeKey> keys;     // permuted in place; written before read
-  Scratch<TreeSums> sums[2]; // by depth parity; written before read
+  TreeKey* keys;     // permuted in place; written before read
+  TreeSums* sums[2]; // by depth parity; written before read
   WindingTree& tree;
 
   // Moves the records of [first, last) into the next depth's buffer in the
   // keys' order; returns their box.
   NodeBox follow(uint32_t first, uint32_t last, int depth) {
-    const TreeSums* const in = sums[depth & 1].data();
-    TreeSums* const out = sums[(depth + 1) & 1].data();
+    const TreeSums* const in = sums[depth & 1];
+    TreeSums* const out = sums[(depth + 1) & 1];
     const auto move = [&](uint32_t from, uint32_t to, NodeBox b) {
       for (uint32_t i = from; i < to; ++i) {
         TreeKey& k = keys[i];
@@ -206,14 +210,14 @@ struct TreeBuilder {
     }
     n.radius = std::sqrt(r2) * (1 + 1e-12); // covers the rounding of the half diagonal
     // The quadrupole moment: integral of n (x - centre)^T = area n (centroid - centre)^T.
-    const TreeSums* const in = sums[depth & 1].data();
+    const TreeSums* const in = sums[depth & 1];
     for (const TreeSums *it = in + first, *end = it + count; it != end; ++it) {
       for (int a = 0; a < 3; ++a) n.dipole[a] += it->halfCross[a];
       n.area += it->area;
       for (int r = 0; r < 3; ++r)
         for (int c = 0; c < 3; ++c) n.quad[3 * r + c] += it->halfCross[r] * (it->centroid[c] - n.centre[c]);
     }
-    const auto at = [this](uint32_t i) { return keys.begin() + std::ptrdiff_t(i); };
+    const auto at = [this](uint32_t i) { return keys + i; };
     if (count <= kLeafTriangles) {
       std::sort(at(first), at(first + count), [](const TreeKey& x, const TreeKey& y) { return x.triangle < y.triangle; });
       n.first = first;
@@ -249,14 +253,30 @@ struct TreeBuilder {
   }
 };
 
+
+// The builder's arrays in the storage of tree.triangles (n WindingTriangles,
+// unwritten): records of depth parity 0, then 1, then the keys. Each is
+// created there (trivial types: no write) and is dead before the triangles
+// are created over them.
+static_assert(2 * sizeof(TreeSums) + sizeof(TreeKey) <= sizeof(WindingTriangle), "the builder's arrays fit");
+static_assert(sizeof(TreeSums) % alignof(TreeKey) == 0 && alignof(WindingTriangle) >= alignof(TreeKey), "aligned");
+TreeBuilder builderInTriangles(WindingTree& tree, size_t n) {
+  unsigned char* const base = reinterpret_cast<unsigned char*>(tree.triangles.data());
+  TreeSums* const even = new (base) TreeSums[n];
+  TreeSums* const odd = new (base + n * sizeof(TreeSums)) TreeSums[n];
+  TreeKey* const keys = new (base + 2 * n * sizeof(TreeSums)) TreeKey[n];
+  return TreeBuilder{keys, {even, odd}, tree};
+}
+
 } // namespace
 
 WindingTree buildWindingTree(const LatticeTriangles& triangles) {
   WindingTree tree;
   if (triangles.empty()) return tree;
   const size_t n = triangles.size();
-  TreeBuilder b{TreeBuilder::Scratch<TreeKey>(n), {TreeBuilder::Scratch<TreeSums>(n), TreeBuilder::Scratch<TreeSums>(n)},
-                tree};
+  tree.triangles.resize(n);
+  tree.lattice.resize(n);
+  TreeBuilder b = builderInTriangles(tree, n);
   // The nodes and the boundary edges write different members of the tree:
   // side by side (the top of the node recursion is mostly serial).
   tbb::parallel_invoke(
@@ -289,14 +309,12 @@ WindingTree buildWindingTree(const LatticeTriangles& triangles) {
             });
         tree.nodes.resize(1 + size_t(nodesBelow(uint32_t(n))));
         b.fill(0, 0, uint32_t(n), 1, root, 0);
-        tree.triangles.resize(n);
-        tree.lattice.resize(n);
-        // Each shape computed again in tree order rather than kept from above: an
-        // array of them in input order would only be copied, its pages faulted in.
-        tbb::parallel_for(size_t(0), n, [&](size_t i) {
-          tree.triangles[i] = windingTriangle(triangles[b.keys[i].triangle]);
-          tree.lattice[i] = triangles[b.keys[i].triangle];
-        });
+        // The keys' order read out before the triangles overwrite them; each shape
+        // computed again in tree order rather than kept from above: an array of
+        // them in input order would only be copied, its pages faulted in.
+        tbb::parallel_for(size_t(0), n, [&](size_t i) { tree.lattice[i] = triangles[b.keys[i].triangle]; });
+        tbb::parallel_for(size_t(0), n,
+                          [&](size_t i) { new (&tree.triangles[i]) WindingTriangle(windingTriangle(tree.lattice[i])); });
       },
       [&] { buildWindingEdges(triangles, tree); });
   return tree;
