@@ -19,9 +19,11 @@
 #include <cstdio>
 #include <cstdlib>
 #include <future>
+#include <memory>
 #include <new>
 #include <numeric>
 #include <stdexcept>
+#include <type_traits>
 
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
@@ -262,9 +264,16 @@ static_assert(2 * sizeof(TreeSums) + sizeof(TreeKey) <= sizeof(WindingTriangle),
 static_assert(sizeof(TreeSums) % alignof(TreeKey) == 0 && alignof(WindingTriangle) >= alignof(TreeKey), "aligned");
 TreeBuilder builderInTriangles(WindingTree& tree, size_t n) {
   unsigned char* const base = reinterpret_cast<unsigned char*>(tree.triangles.data());
-  TreeSums* const even = new (base) TreeSums[n];
-  TreeSums* const odd = new (base + n * sizeof(TreeSums)) TreeSums[n];
-  TreeKey* const keys = new (base + 2 * n * sizeof(TreeSums)) TreeKey[n];
+  // Element by element (an array new may ask for more room than n elements).
+  const auto createdAt = [n](unsigned char* at, auto* type) {
+    using T = std::remove_pointer_t<decltype(type)>;
+    T* const first = reinterpret_cast<T*>(at);
+    std::uninitialized_default_construct_n(first, n); // trivial: writes nothing
+    return first;
+  };
+  TreeSums* const even = createdAt(base, static_cast<TreeSums*>(nullptr));
+  TreeSums* const odd = createdAt(base + n * sizeof(TreeSums), static_cast<TreeSums*>(nullptr));
+  TreeKey* const keys = createdAt(base + 2 * n * sizeof(TreeSums), static_cast<TreeKey*>(nullptr));
   return TreeBuilder{keys, {even, odd}, tree};
 }
 
