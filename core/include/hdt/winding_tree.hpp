@@ -28,10 +28,11 @@ struct PreparedMesh;
 // integer centroid keys with the triangle index as tie-break, triangles of
 // a leaf in input order.
 struct WindingTree {
-  // Per-triangle arrays are sized, then written in parallel (first touch
-  // there, on huge pages: fewer page faults).
+  // The large arrays are sized, then written in parallel (first touch
+  // there, on huge pages: fewer page faults), the nodes by the subtrees'
+  // fills, each once, instead of zeroed by one thread before.
   template <class T> using PerTriangle = std::vector<T, HugePageScratchAllocator<T>>;
-  std::vector<WindingNode> nodes;
+  PerTriangle<WindingNode> nodes;
   PerTriangle<WindingTriangle> triangles;
   std::vector<WindingEdge> edges;           // the boundary 1-chain, in groups
   std::vector<WindingEdgeGroup> edgeGroups; // of kWindingEdgeGroup consecutive edges
