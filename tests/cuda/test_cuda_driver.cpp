@@ -218,13 +218,15 @@ TEST(CudaDriver, ProgressCanAbort) {
   EXPECT_TRUE(sameVolume(v, build(mesh, cpuOptions())));
 }
 
-// An open mesh under Auto: the device phases take the first part of the
-// progress and the winding-number pass (host loops, device passes) the rest,
-// one rising fraction; an abort at the pass leaves the driver usable.
+// An open mesh under the winding number: the device phases take the first
+// part of the progress and the pass (host loops, device passes) the rest, one
+// rising fraction; an abort at the pass leaves the driver usable.
 TEST(CudaDriver, WindingPassReportsAndAborts) {
   HDT_REQUIRE_CUDA();
-  const PreparedMesh mesh = prepared("open_hemisphere", 256, 16, 16, false);
-  ASSERT_EQ(mesh.insideTest, InsideTest::WindingNumber);
+  const Shape shape = makeShape("open_hemisphere", 256);
+  BuildConfig config = shape.config(256, 16, 16, false);
+  config.insideTest = InsideTest::WindingNumber;
+  const PreparedMesh mesh = prepareMesh(shape.mesh, config);
   const std::string windingPhase = "inside test: winding number";
   BuildOptions o = cudaOptions();
   std::vector<std::pair<double, std::string>> calls;
