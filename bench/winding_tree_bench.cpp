@@ -28,22 +28,6 @@
 
 namespace {
 
-uint64_t fnv1a(uint64_t h, const void* data, size_t bytes) {
-  const unsigned char* p = static_cast<const unsigned char*>(data);
-  for (size_t i = 0; i < bytes; ++i) h = (h ^ p[i]) * 1099511628211ull;
-  return h;
-}
-
-uint64_t treeHash(const hdt::WindingTree& t) {
-  uint64_t h = 14695981039346656037ull;
-  h = fnv1a(h, t.nodes.data(), t.nodes.size() * sizeof(t.nodes[0]));
-  h = fnv1a(h, t.triangles.data(), t.triangles.size() * sizeof(t.triangles[0]));
-  h = fnv1a(h, t.lattice.data(), t.lattice.size() * sizeof(t.lattice[0]));
-  h = fnv1a(h, t.edges.data(), t.edges.size() * sizeof(t.edges[0]));
-  h = fnv1a(h, t.edgeGroups.data(), t.edgeGroups.size() * sizeof(t.edgeGroups[0]));
-  return h;
-}
-
 double msSince(std::chrono::steady_clock::time_point t) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t).count();
 }
@@ -93,7 +77,7 @@ int main(int argc, char** argv) {
       std::printf("{\"label\": \"%s\", \"mesh\": \"%s\", \"triangles\": %zu, \"res\": %d, \"threads\": %d, \"run\": %d, "
                   "\"tree_ms\": %.3f, \"edges_ms\": %.3f, \"tree_cpu_ms\": %.3f, \"edges_cpu_ms\": %.3f, \"nodes\": %zu, \"edges\": %zu, \"hash\": \"%016llx\"}\n",
                   label.c_str(), name.c_str(), m.triangles.size(), res, threads, r, treeMs, edgesMs, treeCpu, edgesCpu, tree.nodes.size(),
-                  tree.edges.size(), static_cast<unsigned long long>(treeHash(tree)));
+                  tree.edges.size(), static_cast<unsigned long long>(hdt::windingTreeDigest(tree)));
       std::fflush(stdout);
     }
   }

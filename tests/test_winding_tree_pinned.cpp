@@ -23,23 +23,10 @@ namespace hdt {
 namespace test {
 namespace {
 
-uint64_t fnv1a(uint64_t h, const void* data, size_t bytes) {
-  const unsigned char* p = static_cast<const unsigned char*>(data);
-  for (size_t i = 0; i < bytes; ++i) h = (h ^ p[i]) * 1099511628211ull;
-  return h;
-}
-
-// Every byte the drivers read: nodes, triangles and lattice triangles in tree
-// order, edges, edge groups (the structs have no padding).
+// windingTreeDigest as 16 hex digits.
 std::string treeHash(const WindingTree& t) {
-  uint64_t h = 14695981039346656037ull;
-  h = fnv1a(h, t.nodes.data(), t.nodes.size() * sizeof(t.nodes[0]));
-  h = fnv1a(h, t.triangles.data(), t.triangles.size() * sizeof(t.triangles[0]));
-  h = fnv1a(h, t.lattice.data(), t.lattice.size() * sizeof(t.lattice[0]));
-  h = fnv1a(h, t.edges.data(), t.edges.size() * sizeof(t.edges[0]));
-  h = fnv1a(h, t.edgeGroups.data(), t.edgeGroups.size() * sizeof(t.edgeGroups[0]));
   char s[17];
-  std::snprintf(s, sizeof s, "%016llx", static_cast<unsigned long long>(h));
+  std::snprintf(s, sizeof s, "%016llx", static_cast<unsigned long long>(windingTreeDigest(t)));
   return s;
 }
 

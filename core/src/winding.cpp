@@ -457,6 +457,20 @@ std::vector<KeyedEdge> openEdges(const LatticeTriangles& triangles) {
 
 } // namespace
 
+uint64_t windingTreeDigest(const WindingTree& t) {
+  uint64_t h = 14695981039346656037ull;
+  const auto add = [&h](const void* data, size_t bytes) {
+    const unsigned char* p = static_cast<const unsigned char*>(data);
+    for (size_t i = 0; i < bytes; ++i) h = (h ^ p[i]) * 1099511628211ull;
+  };
+  add(t.nodes.data(), t.nodes.size() * sizeof(t.nodes[0]));
+  add(t.triangles.data(), t.triangles.size() * sizeof(t.triangles[0]));
+  add(t.lattice.data(), t.lattice.size() * sizeof(t.lattice[0]));
+  add(t.edges.data(), t.edges.size() * sizeof(t.edges[0]));
+  add(t.edgeGroups.data(), t.edgeGroups.size() * sizeof(t.edgeGroups[0]));
+  return h;
+}
+
 void buildWindingEdges(const LatticeTriangles& triangles, WindingTree& tree) {
   using Keyed = KeyedEdge;
   std::vector<Keyed> open = openEdges(triangles);

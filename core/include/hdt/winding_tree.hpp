@@ -45,6 +45,11 @@ struct WindingTree {
 
 WindingTree buildWindingTree(const LatticeTriangles& triangles);
 
+// FNV-1a over every byte the drivers read of a tree (nodes, triangles and
+// lattice triangles in tree order, edges, edge groups; the structs have no
+// padding): the tests and the benchmark pin the tree's build with it.
+uint64_t windingTreeDigest(const WindingTree& tree);
+
 constexpr uint32_t kWindingEdgeGroup = 16;
 
 // The boundary 1-chain of the triangles (WindingEdge), sorted by the Morton
