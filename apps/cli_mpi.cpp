@@ -250,11 +250,7 @@ Volume buildAcrossRanks(const MpiSession& session, const PreparedMesh& mesh, con
   // skip the parity passes) and the joined volume is classified here, the
   // serial build's last step on the same surface: the same bytes.
   double windingMs = 0;
-  arena.execute([&] {
-    ProgressPoll progress(options.progress, kCpuPhasesShareBeforeWinding, 1.0);
-    windingMs = applyInsideTest(mesh, v, WindingLeafPass(), WindingUniformPass(), WindingFreshLeafPass(), nullptr,
-                                &progress);
-  });
+  arena.execute([&] { windingMs = applyInsideTestAfterCpuPhases(mesh, v, options.progress); });
   figures.phases.classify += windingMs;
   figures.phases.total += windingMs;
   figures.peakHostBytes = peakResidentBytes(); // rank 0 holds the joined volume now

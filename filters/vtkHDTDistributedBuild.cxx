@@ -5,7 +5,6 @@
 #include "hdt/error.hpp"
 #include "hdt/mesh.hpp"
 #include "hdt/range_exchange.hpp"
-#include "hdt/progress.hpp"
 #include "hdt/volume.hpp"
 #include "hdt/winding_tree.hpp"
 
@@ -300,11 +299,7 @@ hdt::RangeTree classifiedByWindingOnRoot(vtkMultiProcessController* c, const hdt
     {
       return;
     }
-    arena.execute([&] {
-      hdt::ProgressPoll progress(options.progress, hdt::kCpuPhasesShareBeforeWinding, 1.0);
-      windingMs = hdt::applyInsideTest(mesh, *whole, hdt::WindingLeafPass(), hdt::WindingUniformPass(),
-        hdt::WindingFreshLeafPass(), nullptr, &progress);
-    });
+    arena.execute([&] { windingMs = hdt::applyInsideTestAfterCpuPhases(mesh, *whole, options.progress); });
     mine = hdt::sliceVolume(*whole, ranges[0]);
   });
   std::vector<uint8_t> bytes;
@@ -467,7 +462,7 @@ vtkHDTDistributedPiece vtkHDTDistributed::Build(
     piece.Device = build->device(); // after finish: Auto may have fallen back in it
     build.reset();                  // the device's memory goes back now
   });
-  if (!mesh.surfaceOnly && mesh.insideTest == hdt::InsideTest::WindingNumber)
+  if (hdt::windingPassFollows(mesh))
   {
     double windingMs = 0;
     own = classifiedByWindingOnRoot(c, mesh, options, arena, piece.Ranges, std::move(own), windingMs);

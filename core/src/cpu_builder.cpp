@@ -54,10 +54,6 @@ std::vector<Pair> gatherSorted(tbb::combinable<std::vector<Pair>>& local) {
   return all;
 }
 
-bool windingFollows(const PreparedMesh& mesh) {
-  return !mesh.surfaceOnly && mesh.insideTest == InsideTest::WindingNumber;
-}
-
 } // namespace
 
 // One range of root cells [first, end) (the whole grid for buildCpu). Element
@@ -66,7 +62,7 @@ struct CpuRangeBuild::Impl {
   Impl(const PreparedMesh& mesh, const BuildOptions& options, RootRange cells)
       : mesh_(mesh), options_(options), g_(mesh.grid), L_(mesh.grid.leafSize), rowWords_(rowWordsFor(L_)),
         axes_(classifiedAxes(mesh.closed)), cells_(cells),
-        progress_(options.progress, 0.0, windingFollows(mesh) ? kCpuPhasesShareBeforeWinding : 1.0) {}
+        progress_(options.progress, 0.0, windingPassFollows(mesh) ? kCpuPhasesShareBeforeWinding : 1.0) {}
 
   const RangeBoundary& buildTree() {
     progress_.report(0.0, "mapping");
@@ -88,7 +84,7 @@ struct CpuRangeBuild::Impl {
     t = Clock::now();
     // Under the winding number the parities would be discarded (finish()
     // skips classify, applyInsideTest rewrites every inside plane).
-    if (!mesh_.surfaceOnly && !windingFollows(mesh_)) {
+    if (!mesh_.surfaceOnly && !windingPassFollows(mesh_)) {
       for (int a = 0; a < axes_; ++a) {
         axisParity(a, &boundary_.axis[a]);
         progress_.report(0.7 + 0.1 * (a + 1) / axes_, "classification");
@@ -101,10 +97,10 @@ struct CpuRangeBuild::Impl {
   RangeTree finish(const RangeBoundary* beyond) {
     const auto t = Clock::now();
     // The winding number classifies the joined volume instead (applyInsideTest).
-    if (!mesh_.surfaceOnly && !windingFollows(mesh_)) classify(beyond);
+    if (!mesh_.surfaceOnly && !windingPassFollows(mesh_)) classify(beyond);
     times_.classify += msSince(t);
     times_.total = times_.mapping + times_.branching + times_.leaf + times_.classify;
-    progress_.report(1.0, windingFollows(mesh_) ? "classification" : "done");
+    progress_.report(1.0, windingPassFollows(mesh_) ? "classification" : "done");
     RangeTree out;
     out.cells = cells_;
     out.levels = std::move(levels_);
@@ -372,10 +368,7 @@ namespace {
 Volume finishVolume(const PreparedMesh& mesh, const BuildOptions& options, Volume v, PhaseTimes times) {
   v.surfaceOnly = mesh.surfaceOnly;
   v.closedMesh = mesh.closed;
-  ProgressPoll progress(options.progress, kCpuPhasesShareBeforeWinding, 1.0); // the winding pass's share
-  const double windingMs = applyInsideTest(mesh, v, WindingLeafPass(), WindingUniformPass(), WindingFreshLeafPass(),
-                                           nullptr, &progress);
-  if (windingFollows(mesh)) progress.report(1.0, "done");
+  const double windingMs = applyInsideTestAfterCpuPhases(mesh, v, options.progress);
   times.classify += windingMs;
   times.total += windingMs;
   computeStructureStatistics(v);

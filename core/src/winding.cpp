@@ -1335,7 +1335,7 @@ double applyInsideTest(const PreparedMesh& mesh, Volume& volume, const WindingLe
                        const WindingUniformPass& uniformPass, const WindingFreshLeafPass& freshPass,
                        WindingTreeInBackground* early, ProgressPoll* progress) {
   volume.insideTest = mesh.surfaceOnly ? InsideTest::Parity : mesh.insideTest;
-  if (mesh.surfaceOnly || mesh.insideTest != InsideTest::WindingNumber) return 0;
+  if (!windingPassFollows(mesh)) return 0;
   const auto t0 = std::chrono::steady_clock::now();
   reportWinding(progress, 0.0);
   WindingTree local;
@@ -1346,8 +1346,16 @@ double applyInsideTest(const PreparedMesh& mesh, Volume& volume, const WindingLe
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }
 
+double applyInsideTestAfterCpuPhases(const PreparedMesh& mesh, Volume& volume, const ProgressPoll::Callback& progress) {
+  ProgressPoll poll(progress, kCpuPhasesShareBeforeWinding, 1.0);
+  const double ms =
+      applyInsideTest(mesh, volume, WindingLeafPass(), WindingUniformPass(), WindingFreshLeafPass(), nullptr, &poll);
+  if (windingPassFollows(mesh)) poll.report(1.0, "done");
+  return ms;
+}
+
 WindingTreeInBackground::WindingTreeInBackground(const PreparedMesh& mesh) {
-  if (mesh.surfaceOnly || mesh.insideTest != InsideTest::WindingNumber || mesh.triangles.empty()) return;
+  if (!windingPassFollows(mesh) || mesh.triangles.empty()) return;
   future_ = std::async(std::launch::async, [&mesh] { return buildWindingTree(mesh.triangles); });
 }
 

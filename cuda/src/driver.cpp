@@ -136,7 +136,7 @@ Volume build(const PreparedMesh& mesh, const BuildOptions& options, CudaBuildRep
   // Under the winding number the device phases report into the first part
   // of the progress and the pass, many times as long, into the rest.
   constexpr double kDevicePhasesShareBeforeWinding = 0.2;
-  const bool windingFollows = keepResult && !mesh.surfaceOnly && mesh.insideTest == InsideTest::WindingNumber;
+  const bool windingFollows = keepResult && windingPassFollows(mesh);
   if (windingFollows) s.progressShare = kDevicePhasesShareBeforeWinding;
   ProgressPoll windingProgress(options.progress, s.progressShare, 1.0);
   report.device = s.device;
@@ -153,12 +153,11 @@ Volume build(const PreparedMesh& mesh, const BuildOptions& options, CudaBuildRep
   // (whole builds; chunked ones copy them back as they go). Holding them adds
   // nothing to that pass's peak: it would allocate as many for the upload.
   DeviceBuffer<uint32_t> keptWords;
-  const bool keepWords = keepResult && !mesh.surfaceOnly && mesh.insideTest == InsideTest::WindingNumber;
   try {
     RootMapping root = mapTrianglesToRootCells(s.memory, s.scalars, s.deviceMesh, g, 0, cells, true);
     report.estimatedBytes = fixedBytes(mesh) + estimateBytes(mesh, root.area, root.pairs.count, cells);
     if (report.estimatedBytes <= s.memory.budget()) {
-      v = buildWhole(s, std::move(root), keepResult, keepWords ? &keptWords : nullptr);
+      v = buildWhole(s, std::move(root), keepResult, windingFollows ? &keptWords : nullptr);
       whole = true;
     }
   } catch (const DeviceMemoryExhausted&) {

@@ -27,8 +27,7 @@ public:
       : options_(options), session_(mesh, options_), range_(session_, cells) {
     // Under the winding number the joining process classifies the joined
     // volume afterwards and reports the rest of the progress.
-    if (!mesh.surfaceOnly && mesh.insideTest == InsideTest::WindingNumber)
-      session_.progressShare = kCpuPhasesShareBeforeWinding;
+    if (windingPassFollows(mesh)) session_.progressShare = kCpuPhasesShareBeforeWinding;
   }
 
   const RangeBoundary& buildTree() override {
@@ -46,7 +45,7 @@ public:
       const auto t0 = Clock::now();
       RangeTree out = joinRangeTrees(std::move(chunks), std::move(leafWords));
       joinMs_ = msSince(t0);
-      session_.progress(1.0, session_.progressShare < 1.0 ? "classification" : "done");
+      session_.progress(1.0, windingPassFollows(session_.mesh) ? "classification" : "done");
       return out;
     });
   }

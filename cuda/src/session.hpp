@@ -73,7 +73,7 @@ struct Session {
   // Under the winding number its verdicts would be discarded (the winding
   // pass rewrites every uniform element and every leaf's inside plane), so
   // it is skipped, as the CPU driver does: the device builds the surface only.
-  bool parityClassification() const { return !mesh.surfaceOnly && mesh.insideTest != InsideTest::WindingNumber; }
+  bool parityClassification() const { return !mesh.surfaceOnly && !windingPassFollows(mesh); }
 
   const PreparedMesh& mesh;
   const BuildOptions& options;

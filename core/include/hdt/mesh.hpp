@@ -54,6 +54,13 @@ struct PreparedMesh {
   InsideTest insideTest = InsideTest::Parity;
 };
 
+// Whether a build of `mesh` ends with the winding-number pass (a solid build
+// under WindingNumber): its drivers then build the surface only (the parity
+// passes would be discarded) and leave the rest of the progress to the pass.
+inline bool windingPassFollows(const PreparedMesh& mesh) {
+  return !mesh.surfaceOnly && mesh.insideTest == InsideTest::WindingNumber;
+}
+
 // Coordinate `axis` of point x snapped to the lattice of grid g: the only
 // geometry the drivers see (prepareMesh), shared with the data transfer
 // (hdt/transfer.hpp), which must test the same lattice triangles. Points

@@ -129,6 +129,12 @@ double applyInsideTest(const PreparedMesh& mesh, Volume& volume, const WindingLe
                         const WindingFreshLeafPass& freshPass = WindingFreshLeafPass(),
                         WindingTreeInBackground* early = nullptr, ProgressPoll* progress = nullptr);
 
+// applyInsideTest on the host over a volume the CPU phases built (the CPU
+// driver, or a process that joined the ranks' surfaces), the pass reporting
+// to `progress` (BuildOptions::progress, may be empty) the part of the build
+// after those phases (kCpuPhasesShareBeforeWinding on) and then "done".
+double applyInsideTestAfterCpuPhases(const PreparedMesh& mesh, Volume& volume, const ProgressPoll::Callback& progress);
+
 // The winding tree of a mesh whose inside test is WindingNumber (solid),
 // built on a host thread from construction on, so that it overlaps a
 // driver's device work; nothing for other meshes. get() waits for it (and
