@@ -800,6 +800,29 @@ HDT_HD void leafLineRays(const LeafCrossings& c, const int64_t (&v0)[3], int axi
   narrowToLeafCrossings(c, int(w - v0[rayAxisW(axis)]), f, l);
 }
 
+// Steps 2 and 3 for one ray line w of a pair whose step 1 gave [u0, u1]:
+// fn(row, before) for every ray of the line that crosses the triangle in the
+// leaf (row = du + L dw). `crossings` is set up on the line's first hit
+// (`made`: whether it already is), so a pair's lines share it.
+template <class Fn>
+HDT_HD void forEachLineCrossing(const LatticeTriangle& t, int axis, const int64_t (&v0)[3], int L, int64_t w,
+                                int64_t u0, int64_t u1, LeafCrossings& crossings, bool& made, Fn&& fn) {
+  int64_t uf = u0, ul = u1;
+  raySpanAtW(t, axis, w, uf, ul);
+  if (uf > ul) return;
+  if (!made) {
+    makeLeafCrossings(t, axis, v0, L, crossings);
+    made = true;
+  }
+  int f, l;
+  leafLineRays(crossings, v0, axis, w, uf, ul, f, l);
+  const int dw = int(w - v0[rayAxisW(axis)]);
+  for (int du = f; du <= l; ++du) {
+    int before;
+    if (crossingInLeaf(crossings, du, dw, L, before)) fn(du + L * dw, before);
+  }
+}
+
 // All three steps for one pair, one ray at a time: fn(row, before) for every
 // ray of the leaf (row = du + L dw) that crosses the triangle inside it.
 template <class Fn>
@@ -808,22 +831,7 @@ HDT_HD void forEachPairCrossing(const LatticeTriangle& t, int axis, const int64_
   if (!pairRayRange(t, axis, v0, L, u0, u1, w0, w1)) return;
   LeafCrossings crossings{};
   bool made = false; // set up on the first hit: many pairs have none
-  for (int64_t w = w0; w <= w1; ++w) {
-    int64_t uf = u0, ul = u1;
-    raySpanAtW(t, axis, w, uf, ul);
-    if (uf > ul) continue;
-    if (!made) {
-      makeLeafCrossings(t, axis, v0, L, crossings);
-      made = true;
-    }
-    int f, l;
-    leafLineRays(crossings, v0, axis, w, uf, ul, f, l);
-    const int dw = int(w - v0[rayAxisW(axis)]);
-    for (int du = f; du <= l; ++du) {
-      int before;
-      if (crossingInLeaf(crossings, du, dw, L, before)) fn(du + L * dw, before);
-    }
-  }
+  for (int64_t w = w0; w <= w1; ++w) forEachLineCrossing(t, axis, v0, L, w, u0, u1, crossings, made, fn);
 }
 
 // Writes a row of L voxel bits (bit i = voxel i) into leaf words as the given

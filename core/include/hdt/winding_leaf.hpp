@@ -337,30 +337,6 @@ HDT_HD void windingForEachLeafCandidate(const WindingTreeView& t, const int* ori
   }
 }
 
-// fn(row, before) for the crossings of a triangle with the leaf's +x rays of
-// ray line w (voxel z; row = y + L z leaf-relative): forEachPairCrossing's
-// steps 2 and 3 for one line (u0, u1 from pairRayRange, step 1). `crossings`
-// is set up on the first hit (made: whether it is already), so the lines of
-// one pair may share it.
-template <class Fn>
-HDT_HD void windingForEachLineCrossing(const LatticeTriangle& tri, const int64_t (&v0)[3], int L, int64_t w, int64_t u0,
-                                       int64_t u1, LeafCrossings& crossings, bool& made, Fn&& fn) {
-  int64_t uf = u0, ul = u1;
-  raySpanAtW(tri, 0, w, uf, ul);
-  if (uf > ul) return;
-  if (!made) {
-    makeLeafCrossings(tri, 0, v0, L, crossings);
-    made = true;
-  }
-  int f, l;
-  leafLineRays(crossings, v0, 0, w, uf, ul, f, l);
-  const int dw = int(w - v0[2]);
-  for (int du = f; du <= l; ++du) {
-    int before;
-    if (crossingInLeaf(crossings, du, dw, L, before)) fn(du + L * dw, before);
-  }
-}
-
 // fn(row, before) for the crossings of candidate i with the leaf's rays of
 // leaf-relative line dw alone: one line of a pair, for a driver that spreads
 // a pair's lines over threads (the CUDA driver's crossings step).
@@ -374,7 +350,7 @@ HDT_HD void windingForEachPairLineCrossing(const WindingTreeView& t, uint32_t i,
   if (!pairRayRange(tri, 0, v0, L, u0, u1, w0, w1) || w < w0 || w > w1) return;
   LeafCrossings crossings{};
   bool made = false;
-  windingForEachLineCrossing(tri, v0, L, w, u0, u1, crossings, made, fn);
+  forEachLineCrossing(tri, 0, v0, L, w, u0, u1, crossings, made, fn);
 }
 
 // fn(row, before, sign) for every crossing of a +x ray of the leaf at
@@ -390,13 +366,7 @@ HDT_HD void windingForEachLeafCrossing(const WindingTreeView& t, const int* orig
   windingForEachLeafCandidate(t, origin, L, [&](uint32_t i) {
     const LatticeTriangle& tri = t.lattice[i];
     const int sign = windingCrossingSign(tri);
-    int64_t u0, u1, w0, w1;
-    if (!pairRayRange(tri, 0, v0, L, u0, u1, w0, w1)) return;
-    LeafCrossings crossings{};
-    bool made = false; // set up on the first hit: many pairs have none
-    for (int64_t w = w0; w <= w1; ++w)
-      windingForEachLineCrossing(tri, v0, L, w, u0, u1, crossings, made,
-                                 [&](int row, int before) { fn(row, before, sign); });
+    forEachPairCrossing(tri, 0, v0, L, [&](int row, int before) { fn(row, before, sign); });
   });
 }
 
