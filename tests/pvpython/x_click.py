@@ -27,13 +27,16 @@ for click in range(60):
     xtest.XTestFakeMotionEvent(display, -1, x, y, 0)
     xlib.XFlush(display)
     time.sleep(0.05)
+    if click == 0:
+        # The time the first click is sent, written before it: once it lands
+        # the update may return and the test stop this process at once (it did,
+        # between the release and a write after it: the test read no time).
+        with open(done, "w") as f:
+            f.write("%f\n" % time.time())
     xtest.XTestFakeButtonEvent(display, 1, True, 0)
     xlib.XFlush(display)
     time.sleep(0.05)
     xtest.XTestFakeButtonEvent(display, 1, False, 0)
     xlib.XFlush(display)
-    if click == 0:
-        with open(done, "w") as f:
-            f.write("%f\n" % time.time())
     time.sleep(0.5)
 xlib.XCloseDisplay(display)
