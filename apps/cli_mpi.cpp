@@ -248,9 +248,10 @@ Volume buildAcrossRanks(const MpiSession& session, const PreparedMesh& mesh, con
   figures.sendMs = msSince(s0);
   // Under the winding number the ranks built the surface only (their drivers
   // skip the parity passes) and the joined volume is classified here, the
-  // serial build's last step on the same surface: the same bytes.
+  // serial build's last step on the same surface: the same bytes. On this
+  // rank's GPU where its build ran on one, else on the host.
   double windingMs = 0;
-  arena.execute([&] { windingMs = applyInsideTestAfterCpuPhases(mesh, v, options.progress); });
+  arena.execute([&] { windingMs = applyInsideTestAfterPhases(mesh, v, insideTestOptionsAfterRangeBuild(rankOptions, device)); });
   figures.phases.classify += windingMs;
   figures.phases.total += windingMs;
   figures.peakHostBytes = peakResidentBytes(); // rank 0 holds the joined volume now

@@ -299,7 +299,7 @@ hdt::RangeTree classifiedByWindingOnRoot(vtkMultiProcessController* c, const hdt
     {
       return;
     }
-    arena.execute([&] { windingMs = hdt::applyInsideTestAfterCpuPhases(mesh, *whole, options.progress); });
+    arena.execute([&] { windingMs = hdt::applyInsideTestAfterPhases(mesh, *whole, options); });
     mine = hdt::sliceVolume(*whole, ranges[0]);
   });
   std::vector<uint8_t> bytes;
@@ -465,7 +465,9 @@ vtkHDTDistributedPiece vtkHDTDistributed::Build(
   if (hdt::windingPassFollows(mesh))
   {
     double windingMs = 0;
-    own = classifiedByWindingOnRoot(c, mesh, options, arena, piece.Ranges, std::move(own), windingMs);
+    // On rank 0's GPU where its range build ran on one, else on its host.
+    own = classifiedByWindingOnRoot(c, mesh, hdt::insideTestOptionsAfterRangeBuild(rankOptions, piece.Device),
+      arena, piece.Ranges, std::move(own), windingMs);
     times.classify += windingMs;
   }
   times.total = msSince(t0);

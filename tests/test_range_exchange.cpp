@@ -241,6 +241,43 @@ TEST(RangeExchange, WindingNumberAcrossProcessesGivesTheSerialVolume) {
   }
 }
 
+// The joining process's pass through the dispatcher (applyInsideTestAfterPhases):
+// on the host for Backend Cpu and for a joining process whose own range ran on
+// the CPU (insideTestOptionsAfterRangeBuild with device -1), whatever backend
+// was asked; the serial bytes. (With a device, tests/cuda/test_cuda_ranges.cpp.)
+TEST(RangeExchange, InsideTestAfterPhasesOnTheHostGivesTheSerialVolume) {
+  BuildConfig config;
+  config.resolution = 64;
+  config.rootGrid = 4;
+  config.leafSize = 8;
+  config.insideTest = InsideTest::WindingNumber;
+  BuildOptions cpu;
+  cpu.backend = Backend::Cpu;
+  BuildOptions cuda;
+  cuda.backend = Backend::Cuda;
+  cuda.device = 3;
+  for (const WindingShape& shape : windingShapes()) {
+    SCOPED_TRACE(shape.name);
+    const PreparedMesh mesh = prepareMesh(shape.mesh, config);
+    const Volume serial = buildCpu(mesh, cpu);
+    const std::vector<RootRange> ranges = planRootRanges(cellLoads(mesh), 64, 2, 4);
+    for (const BuildOptions& o : {cpu, insideTestOptionsAfterRangeBuild(cuda, -1)}) {
+      Volume joined = joinRanges(mesh.grid, buildAsProcesses(mesh, ranges));
+      applyInsideTestAfterPhases(mesh, joined, o);
+      computeStructureStatistics(joined);
+      EXPECT_EQ(joined.insideTest, InsideTest::WindingNumber);
+      EXPECT_TRUE(joined.elements == serial.elements);
+      EXPECT_TRUE(joined.leafWords == serial.leafWords);
+      EXPECT_EQ(joined.stats.insideVoxels, serial.stats.insideVoxels);
+    }
+  }
+  // A range that ran on a GPU keeps the backend asked and names its device.
+  const BuildOptions onGpu = insideTestOptionsAfterRangeBuild(cuda, 1);
+  EXPECT_EQ(onGpu.backend, Backend::Cuda);
+  EXPECT_EQ(onGpu.device, 1);
+  EXPECT_EQ(insideTestOptionsAfterRangeBuild(cuda, -1).backend, Backend::Cpu);
+}
+
 } // namespace
 } // namespace test
 } // namespace hdt

@@ -6,6 +6,7 @@
 #include "hdt/labels.hpp"
 #include "hdt/mesh.hpp"
 #include "hdt/root_ranges.hpp"
+#include "hdt/winding_tree.hpp"
 
 #include <memory>
 #include <utility>
@@ -33,7 +34,26 @@ std::unique_ptr<RootRangeBuild> makeCudaRangeBuild(const PreparedMesh&, const Bu
   throw Error(ErrorKind::InvalidArgument,
               "backend cuda requested but this build has no CUDA driver (HDT_ENABLE_CUDA=OFF)");
 }
+double applyInsideTestCuda(const PreparedMesh&, Volume&, const BuildOptions&) {
+  throw Error(ErrorKind::InvalidArgument,
+              "backend cuda requested but this build has no CUDA driver (HDT_ENABLE_CUDA=OFF)");
+}
 #endif
+
+double applyInsideTestAfterPhases(const PreparedMesh& mesh, Volume& volume, const BuildOptions& options) {
+  switch (options.backend) {
+  case Backend::Cpu: return applyInsideTestAfterCpuPhases(mesh, volume, options.progress);
+  case Backend::Cuda: return applyInsideTestCuda(mesh, volume, options);
+  case Backend::Auto: break;
+  }
+  // No fallback after the device pass has begun: it rewrites the volume in
+  // place, so a device failure there is an error, as it is for Backend Cuda.
+  std::string why;
+  if (windingPassFollows(mesh) && cudaAvailable(&why)) return applyInsideTestCuda(mesh, volume, options);
+  if (options.log && windingPassFollows(mesh))
+    options.log("backend auto: the winding-number pass runs on the host (" + why + ")");
+  return applyInsideTestAfterCpuPhases(mesh, volume, options.progress);
+}
 
 Volume build(const PreparedMesh& mesh, const BuildOptions& options) {
   switch (options.backend) {
@@ -123,6 +143,13 @@ std::unique_ptr<RootRangeBuild> makeRangeBuild(const PreparedMesh& mesh, const B
     return std::unique_ptr<RootRangeBuild>(new CpuRangeBuild(mesh, options, cells));
   }
   return std::unique_ptr<RootRangeBuild>(new FallbackRangeBuild(mesh, options, cells));
+}
+
+BuildOptions insideTestOptionsAfterRangeBuild(const BuildOptions& rangeOptions, int device) {
+  BuildOptions o = rangeOptions;
+  if (device < 0) o.backend = Backend::Cpu;
+  else o.device = device;
+  return o;
 }
 
 Volume voxelize(const TriangleMesh& mesh, const BuildConfig& config, const BuildOptions& options) {

@@ -252,6 +252,23 @@ Volume buildCuda(const PreparedMesh& mesh, const BuildOptions& options) {
   return buildCudaWithReport(mesh, options, nullptr, true);
 }
 
+double applyInsideTestCuda(const PreparedMesh& mesh, Volume& volume, const BuildOptions& options) {
+  if (!windingPassFollows(mesh)) return applyInsideTestAfterCpuPhases(mesh, volume, options.progress); // records the test
+  WindingTreeInBackground tree(mesh);
+  try {
+    cuda::Session s(mesh, options);
+    ProgressPoll progress(options.progress, kCpuPhasesShareBeforeWinding, 1.0);
+    cuda::DeviceBuffer<uint32_t> noKeptWords; // the words come from the host volume
+    const double ms = applyInsideTestOnDevice(s, mesh, volume, options, tree, noKeptWords, progress);
+    progress.report(1.0, "done");
+    return ms;
+  } catch (const cuda::DeviceMemoryExhausted& e) {
+    throw Error(ErrorKind::OutOfResources, "out of device memory in the winding-number pass (needed at least " +
+                                               std::to_string(mib(e.neededBytes())) + " MiB, " +
+                                               std::to_string(mib(e.availableBytes())) + " MiB available)");
+  }
+}
+
 namespace {
 
 // A tetrahedron, closed or with one face missing (open meshes take the

@@ -11,12 +11,16 @@
 #include "hdt/builder.hpp"
 #include "hdt/error.hpp"
 #include "hdt/mesh.hpp"
+#include "hdt/range_exchange.hpp"
 #include "hdt/root_ranges.hpp"
+#include "hdt/winding_tree.hpp"
 #include "support/range_splits.hpp"
 #include "support/shapes.hpp"
+#include "support/winding_reference.hpp"
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <memory>
 #include <string>
 #include <vector>
@@ -146,6 +150,46 @@ TEST(CudaRangeBuild, AutoFallsBackToTheCpuPerRange) {
   ASSERT_FALSE(log.empty());
   EXPECT_NE(log[0].find("CPU driver"), std::string::npos) << log[0];
   EXPECT_EQ(firstDifference(whole, joined(mesh, run.pieces)), "");
+}
+
+// Under the winding number the ranges are built as surfaces and the joining
+// process classifies the joined volume (applyInsideTestAfterPhases): on its
+// GPU, whichever driver built the ranges, the serial build's bytes; the
+// device passes ran (the driver's log says so) unless the options say the
+// joining process's own range ran on the CPU.
+TEST(CudaRangeBuild, WindingPassOnTheJoiningProcesssDeviceGivesTheSerialVolume) {
+  HDT_REQUIRE_CUDA();
+  BuildConfig config;
+  config.resolution = 64;
+  config.rootGrid = 4;
+  config.leafSize = 8;
+  config.insideTest = InsideTest::WindingNumber;
+  for (const WindingShape& shape : windingShapes()) {
+    SCOPED_TRACE(shape.name);
+    const PreparedMesh mesh = prepareMesh(shape.mesh, config);
+    const Volume serial = build(mesh, cpuOptions());
+    const std::vector<RootRange> ranges = planRootRanges(cellLoads(mesh), 64, 3, 4);
+    for (const BuildOptions& rangeOptions : {cudaOptions(), cpuOptions()}) {
+      for (const int rangeDevice : {0, -1}) {
+        SCOPED_TRACE("ranges on " + std::string(rangeOptions.backend == Backend::Cuda ? "cuda" : "cpu") +
+                     ", the joining range's device " + std::to_string(rangeDevice));
+        Volume v = joinRanges(mesh.grid, runRanges(mesh, {rangeOptions}, ranges).pieces);
+        std::vector<std::string> log;
+        BuildOptions automatic;
+        automatic.backend = Backend::Auto;
+        automatic.log = [&](const std::string& m) { log.push_back(m); };
+        applyInsideTestAfterPhases(mesh, v, insideTestOptionsAfterRangeBuild(automatic, rangeDevice));
+        computeStructureStatistics(v);
+        EXPECT_EQ(v.insideTest, InsideTest::WindingNumber);
+        EXPECT_EQ(firstDifference(serial, v), "");
+        EXPECT_EQ(v.stats.insideVoxels, serial.stats.insideVoxels);
+        const bool onDevice = std::any_of(log.begin(), log.end(), [](const std::string& m) {
+          return m.find("winding pass on the device") != std::string::npos;
+        });
+        EXPECT_EQ(onDevice, rangeDevice >= 0);
+      }
+    }
+  }
 }
 
 TEST(CudaRangeBuild, CellsOutsideTheRootGridAreRefused) {

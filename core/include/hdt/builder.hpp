@@ -107,6 +107,28 @@ void releaseCuda(const BuildOptions& options);
 // the CPU driver if the device fails.
 Volume build(const PreparedMesh& mesh, const BuildOptions& options);
 
+// The inside test of a volume whose driver phases ran without it: the ranks
+// of a distributed build under the winding number build surfaces only, and
+// the process that joins them classifies the whole (apps/cli_mpi.cpp,
+// filters/vtkHDTDistributedBuild.cxx). Backend Cuda runs the CUDA driver's
+// device passes on options.device (a pass the device has no room for runs on
+// the host, as in buildCuda); Auto does so where cudaAvailable() and runs the
+// host pass otherwise; Cpu runs the host pass. The same bytes either way.
+// Reports to options.progress from kCpuPhasesShareBeforeWinding on, then
+// "done". Returns the pass's milliseconds (0 when the mesh's test is not the
+// winding number: nothing to do).
+double applyInsideTestAfterPhases(const PreparedMesh& mesh, Volume& volume, const BuildOptions& options);
+
+// Options for applyInsideTestAfterPhases on the process that joined a
+// distributed build: the driver its own range build ended on (`device`:
+// RootRangeBuild::device(), -1 for the CPU driver), so a process whose device
+// failed in its build, or that had none, runs the pass on the host.
+BuildOptions insideTestOptionsAfterRangeBuild(const BuildOptions& rangeOptions, int device);
+
+// The CUDA part of applyInsideTestAfterPhases; throws Error like buildCuda
+// (no device, a device failure).
+double applyInsideTestCuda(const PreparedMesh& mesh, Volume& volume, const BuildOptions& options);
+
 // Convenience: prepare + build.
 Volume voxelize(const TriangleMesh& mesh, const BuildConfig& config, const BuildOptions& options);
 
