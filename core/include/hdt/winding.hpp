@@ -4,7 +4,7 @@
 // w(p) = sum over triangles of the signed solid angle / 4 pi; a voxel centre
 // is inside when w >= 1/2. Coordinates are voxel units (lattice / 256, exact
 // doubles). A tree over the triangles (WindingTree, built on the host in
-// winding.cpp, the same tree for both drivers) gives the sum over a box of
+// winding_tree_build.cpp, the same tree for both drivers) gives the sum over a box of
 // points as an estimate plus a rigorous error bound; a decision is taken from
 // the estimate only where the bound keeps w clear of 1/2, otherwise the box is
 // split, and a single point falls back to the exact sum over every triangle
@@ -38,7 +38,7 @@ HDT_HD double windingBoxDistance(const double* alo, const double* ahi, const dou
 // Bounds (exact real arithmetic; rounding is covered by windingMargin): a
 // node at positive distance from the box may count as the first two terms of
 // the Taylor expansion of the solid-angle kernel K(x) = n . (x - c) / |x - c|^3
-// about the node's centre (a dipole and a quadrupole term, winding.cpp). The
+// about the node's centre (a dipole and a quadrupole term, winding_tree_build.cpp). The
 // kernel's second derivatives are at most 6 / dist^4 (those of 1 / r: k! /
 // r^(k+1)), so that is off by at most 3 A r^2 / (d - r)^4 at c (r: the node's
 // radius, d: centre to c, A: its area); its gradient in c is at most 2 /
