@@ -66,4 +66,11 @@ uint32_t optionalSectionCrcSeed(uint32_t id, uint32_t encoding, uint64_t stored,
   return crc32Update(0, w.bytes().data(), w.bytes().size());
 }
 
+// An optional section's CRC: its header's first 24 bytes, then the payload
+// (whose own CRC-32 is payloadCrc).
+uint32_t optionalSectionCrc(Section id, Encoding encoding, uint64_t stored, uint64_t raw, uint32_t payloadCrc) {
+  const uint32_t seed = optionalSectionCrcSeed(uint32_t(id), uint32_t(encoding), stored, raw);
+  return static_cast<uint32_t>(crc32_combine(seed, payloadCrc, z_off_t(stored)));
+}
+
 } // namespace hdt::hdt_file_detail

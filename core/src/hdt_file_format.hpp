@@ -162,6 +162,9 @@ private:
 // The CRC-32 of an optional section's first 24 header bytes (id, encoding,
 // lengths), which its CRC covers before the payload.
 uint32_t optionalSectionCrcSeed(uint32_t id, uint32_t encoding, uint64_t stored, uint64_t raw);
+// An optional section's CRC: its header's first 24 bytes, then the payload
+// (whose own CRC-32 is payloadCrc).
+uint32_t optionalSectionCrc(Section id, Encoding encoding, uint64_t stored, uint64_t raw, uint32_t payloadCrc);
 
 // The matching decoder. Callers check section lengths before decoding, so
 // running past the end is a bug here, but still an error rather than a crash.
