@@ -1,4 +1,13 @@
-// The .hdt file format (docs/hdt-format.md): writer and validating reader.
+// The .hdt file format (docs/hdt-format.md): writer and validating reader,
+// the public entry points (hdt/hdt_file.hpp). The work is in the files of
+// namespace hdt_file_detail, one responsibility each:
+//   hdt_file_format.hpp/.cpp   the constants, section ids, byte encoding, CRC-32
+//   hdt_file_checks.hpp/.cpp   the format's rules on a volume (and validateVolume)
+//   hdt_file_zstd.hpp/.cpp     zstd frames and the leaf data's zstd blocks
+//   hdt_file_encode.hpp/.cpp   a volume's sections encoded, every header known
+//   hdt_file_write.hpp/.cpp    the encoded sections emitted, the checks beside
+//   hdt_file_read.hpp/.cpp     the file header and the required sections, read
+//   hdt_file_read_optional.cpp the optional sections (labels, arrays, unknown)
 //
 // The reader checks in file order, and every check that bounds a later
 // allocation comes before it: section lengths against the bytes left in the
@@ -13,48 +22,23 @@
 #include "hdt/hdt_file.hpp"
 
 #include "hdt/atomic_file.hpp"
-#include "hdt_file_checks.hpp"
+#include "hdt/error.hpp"
 #include "hdt_file_encode.hpp"
 #include "hdt_file_format.hpp"
 #include "hdt_file_read.hpp"
 #include "hdt_file_write.hpp"
-#include "hdt_file_zstd.hpp"
 #include "hdt_leaf_encoder.hpp"
-#include "zstd_blocks.hpp"
 
-#include "hdt/error.hpp"
-#include "hdt/labels.hpp"
-#include "hdt/lattice.hpp"
-#include "hdt/transfer.hpp"
-
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
-#include <tbb/parallel_reduce.h>
-#include <zlib.h>
-#if defined(HDT_HAVE_ZSTD)
-#include <zstd.h>
-#endif
-
-#include <fcntl.h>
 #include <sys/stat.h>
-#include <unistd.h>
 
-#include <algorithm>
 #include <cerrno>
-#include <cmath>
 #include <cstdio>
 #include <cstring>
-#include <exception>
 #include <memory>
 #include <new>
-#include <stdexcept>
-#include <thread>
 
 namespace hdt {
 using namespace hdt_file_detail;
-namespace {
-
-} // namespace
 
 namespace {
 

@@ -1,16 +1,7 @@
 // The .hdt format's constants, section ids and byte-level encoding
 // (docs/hdt-format.md), shared by the reader and the writer of hdt_file*.cpp.
 // Private to hdt_core: nothing here is part of the public API.
-//
-// The files, one responsibility each:
-//   hdt_file.cpp           the public entry points (hdt/hdt_file.hpp, validateVolume)
-//   hdt_file_format.cpp    CRC-32 and the section names
-//   hdt_file_checks.cpp    the format's rules on a volume, for the reader and the writer
-//   hdt_file_zstd.cpp      zstd frames and the leaf data's zstd blocks
-//   hdt_file_encode.cpp    a volume's sections encoded, every header known
-//   hdt_file_write.cpp     the encoded sections emitted to bytes or a file
-//   hdt_file_read.cpp      the file header and the required sections, read and checked
-//   hdt_file_read_optional.cpp  the optional sections (part labels, arrays, unknown ones)
+// (hdt_file.cpp lists the files of the format and what each does.)
 #pragma once
 
 #include <algorithm>
