@@ -93,157 +93,183 @@ template <class Words> void readWordSection(Source& in, const SectionHeader& h, 
   littleEndianToHost(words.data(), words.size());
 }
 
-} // namespace
+// The file header's fields (rules 1-3 checked).
+struct FileHeader {
+  uint32_t version = 0, flags = 0;
+};
 
-Volume readVolume(Source& in) {
-  Volume v;
-  GridSpec& g = v.grid;
-
-  // File header (rules 1-3).
+FileHeader readFileHeader(Source& in) {
   uint8_t header[kFileHeaderBytes];
   if (in.remaining() < kFileHeaderBytes)
     invalid("too short for an .hdt file (" + str(in.remaining()) + " bytes)");
   in.read(header, kFileHeaderBytes);
   if (std::memcmp(header, kMagic, 4) != 0) invalid("not an .hdt file (bad magic)");
   ByteReader hr(header + 4, kFileHeaderBytes - 4);
-  const uint32_t version = hr.u32(), flags = hr.u32();
-  if (version < kOldestVersion || version > kVersion) {
-    invalid("unsupported .hdt format version " + str(version) + " (this reader supports " +
+  FileHeader file;
+  file.version = hr.u32();
+  file.flags = hr.u32();
+  if (file.version < kOldestVersion || file.version > kVersion) {
+    invalid("unsupported .hdt format version " + str(file.version) + " (this reader supports " +
             str(kOldestVersion) + " to " + str(kVersion) + ")");
   }
-  if (flags & ~kFlagLeafZstd) invalid("unknown flags " + str(flags) + " in the file header");
+  if (file.flags & ~kFlagLeafZstd) invalid("unknown flags " + str(file.flags) + " in the file header");
 #if !defined(HDT_HAVE_ZSTD)
-  if (flags & kFlagLeafZstd) {
+  if (file.flags & kFlagLeafZstd) {
     invalid("the leaf data is zstd-compressed but this build of HDT has no zstd support "
             "(rebuild with libzstd, or write the file without compression)");
   }
 #endif
+  return file;
+}
 
-  // Grid (rules 8-10).
-  {
-    const SectionHeader h = readSectionHeader(in, Section::Grid);
-    expectRawBytes(h, version == 1 ? kGridBytesV1 : kGridBytes);
-    const std::vector<uint8_t> bytes = readSmallSection(in, h);
-    ByteReader r(bytes.data(), bytes.size());
-    const int64_t N = r.u32(), R = r.u32(), L = r.u32(), height = r.u32();
-    std::array<double, 3> origin;
-    for (double& o : origin) o = r.f64();
-    const double voxelSize = r.f64();
-    const uint32_t surfaceOnly = r.u32(), closedMesh = r.u32();
-    // Version 1 predates the choice: its volumes were classified by parity.
-    const uint32_t insideTest = version == 1 ? uint32_t(InsideTest::Parity) : r.u32();
-    checkGrid(N, R, L, height, origin, voxelSize);
-    if (surfaceOnly > 1 || closedMesh > 1) invalid("grid: a boolean flag is neither 0 nor 1");
-    checkInsideTest(insideTest);
-    v.insideTest = InsideTest(insideTest);
-    g.resolution = int(N);
-    g.rootGrid = int(R);
-    g.leafSize = int(L);
-    g.height = int(height);
-    g.origin = origin;
-    g.voxelSize = voxelSize;
-    v.surfaceOnly = surfaceOnly == 1;
-    v.closedMesh = closedMesh == 1;
+// Rules 8-10: the grid and the volume's flags.
+void readGrid(Source& in, uint32_t version, Volume& v) {
+  const SectionHeader h = readSectionHeader(in, Section::Grid);
+  expectRawBytes(h, version == 1 ? kGridBytesV1 : kGridBytes);
+  const std::vector<uint8_t> bytes = readSmallSection(in, h);
+  ByteReader r(bytes.data(), bytes.size());
+  const int64_t N = r.u32(), R = r.u32(), L = r.u32(), height = r.u32();
+  std::array<double, 3> origin;
+  for (double& o : origin) o = r.f64();
+  const double voxelSize = r.f64();
+  const uint32_t surfaceOnly = r.u32(), closedMesh = r.u32();
+  // Version 1 predates the choice: its volumes were classified by parity.
+  const uint32_t insideTest = version == 1 ? uint32_t(InsideTest::Parity) : r.u32();
+  checkGrid(N, R, L, height, origin, voxelSize);
+  if (surfaceOnly > 1 || closedMesh > 1) invalid("grid: a boolean flag is neither 0 nor 1");
+  checkInsideTest(insideTest);
+  v.insideTest = InsideTest(insideTest);
+  GridSpec& g = v.grid;
+  g.resolution = int(N);
+  g.rootGrid = int(R);
+  g.leafSize = int(L);
+  g.height = int(height);
+  g.origin = origin;
+  g.voxelSize = voxelSize;
+  v.surfaceOnly = surfaceOnly == 1;
+  v.closedMesh = closedMesh == 1;
+}
+
+// Rule 11; rule 12 once the contents are known (readVolume).
+void readStatistics(Source& in, Statistics& s) {
+  const SectionHeader h = readSectionHeader(in, Section::Statistics);
+  if (h.raw < kStatsFixedBytes || h.raw > kStatsFixedBytes + kMaxBackendLength) {
+    invalid("statistics section: " + str(h.raw) + " bytes, expected " + str(kStatsFixedBytes) + " to " +
+            str(kStatsFixedBytes + kMaxBackendLength));
   }
-
-  // Statistics (rule 11; rule 12 once the contents are known).
-  {
-    const SectionHeader h = readSectionHeader(in, Section::Statistics);
-    if (h.raw < kStatsFixedBytes || h.raw > kStatsFixedBytes + kMaxBackendLength) {
-      invalid("statistics section: " + str(h.raw) + " bytes, expected " + str(kStatsFixedBytes) + " to " +
-              str(kStatsFixedBytes + kMaxBackendLength));
-    }
-    const std::vector<uint8_t> bytes = readSmallSection(in, h);
-    ByteReader r(bytes.data(), bytes.size());
-    Statistics& s = v.stats;
-    for (uint64_t* x : {&s.triangles, &s.degenerateTriangles, &s.treeElements, &s.leafGrids, &s.leafVoxels,
-                        &s.activeVoxels, &s.insideVoxels})
-      *x = r.u64();
-    s.paperBitsPerActiveVoxel = r.f64();
-    s.topologyBytes = r.u64();
-    s.leafBytes = r.u64();
-    for (double* t : {&s.time.mapping, &s.time.branching, &s.time.leaf, &s.time.classify, &s.time.total})
-      *t = r.f64();
-    s.peakHostBytes = r.u64();
-    s.peakDeviceBytes = r.u64();
-    s.threads = r.i32();
-    const uint32_t length = r.u32();
-    if (length != bytes.size() - kStatsFixedBytes) {
-      invalid("statistics section: backend name of " + str(length) + " bytes in a section of " +
-              str(bytes.size()));
-    }
-    s.backend.assign(reinterpret_cast<const char*>(r.bytes(length)), length);
-    checkStatisticsFields(s);
+  const std::vector<uint8_t> bytes = readSmallSection(in, h);
+  ByteReader r(bytes.data(), bytes.size());
+  for (uint64_t* x : {&s.triangles, &s.degenerateTriangles, &s.treeElements, &s.leafGrids, &s.leafVoxels,
+                      &s.activeVoxels, &s.insideVoxels})
+    *x = r.u64();
+  s.paperBitsPerActiveVoxel = r.f64();
+  s.topologyBytes = r.u64();
+  s.leafBytes = r.u64();
+  for (double* t : {&s.time.mapping, &s.time.branching, &s.time.leaf, &s.time.classify, &s.time.total})
+    *t = r.f64();
+  s.peakHostBytes = r.u64();
+  s.peakDeviceBytes = r.u64();
+  s.threads = r.i32();
+  const uint32_t length = r.u32();
+  if (length != bytes.size() - kStatsFixedBytes) {
+    invalid("statistics section: backend name of " + str(length) + " bytes in a section of " +
+            str(bytes.size()));
   }
+  s.backend.assign(reinterpret_cast<const char*>(r.bytes(length)), length);
+  checkStatisticsFields(s);
+}
 
-  // Level table (rule 13).
-  {
-    const SectionHeader h = readSectionHeader(in, Section::LevelTable);
-    expectRawBytes(h, (uint64_t(g.height) + 2) * 8);
-    const std::vector<uint8_t> bytes = readSmallSection(in, h);
-    ByteReader r(bytes.data(), bytes.size());
-    v.levelStart.resize(size_t(g.height) + 2);
-    for (uint64_t& x : v.levelStart) x = r.u64();
-    checkLevelTable(v.levelStart, g);
-  }
+// Rule 13.
+void readLevelTable(Source& in, Volume& v) {
+  const SectionHeader h = readSectionHeader(in, Section::LevelTable);
+  expectRawBytes(h, (uint64_t(v.grid.height) + 2) * 8);
+  const std::vector<uint8_t> bytes = readSmallSection(in, h);
+  ByteReader r(bytes.data(), bytes.size());
+  v.levelStart.resize(size_t(v.grid.height) + 2);
+  for (uint64_t& x : v.levelStart) x = r.u64();
+  checkLevelTable(v.levelStart, v.grid);
+}
 
-  // Elements (rules 14-17). The count is at most 2^30 - 1 and the section is in the file.
-  TreeCounts tree;
-  {
-    const SectionHeader h = readSectionHeader(in, Section::Elements);
-    expectRawBytes(h, v.levelStart.back() * 4);
-    v.elements.resize(toSize(v.levelStart.back()));
-    readWordSection(in, h, v.elements);
-    tree = checkElements(v.elements, v.levelStart, g, v.surfaceOnly);
-  }
+// Rules 14-17. The count is at most 2^30 - 1 and the section is in the file.
+TreeCounts readElements(Source& in, Volume& v) {
+  const SectionHeader h = readSectionHeader(in, Section::Elements);
+  expectRawBytes(h, v.levelStart.back() * 4);
+  v.elements.resize(toSize(v.levelStart.back()));
+  readWordSection(in, h, v.elements);
+  return checkElements(v.elements, v.levelStart, v.grid, v.surfaceOnly);
+}
 
-  // Leaf data (rules 18-19). Its size follows from the Boundary elements just
-  // counted, at most 8 KiB for each 4-byte element read.
-  {
-    const SectionHeader h = readSectionHeader(
-        in, Section::LeafData, version >= kFirstBlocksVersion ? Encoding::ZstdBlocks : Encoding::Zstd);
-    if (version >= kFirstBlocksVersion && h.encoding != Encoding::ZstdBlocks) {
-      invalid("leaf data section: encoding " + str(uint32_t(h.encoding)) + " in a version-" + str(version) +
-              " file (version 3 stores the leaf data as zstd blocks, encoding 2)");
-    }
-    if (((flags & kFlagLeafZstd) != 0) != isCompressed(h.encoding)) {
-      invalid("the file header's compression flag disagrees with the leaf data section");
-    }
-    const uint64_t words = tree.leaves * leafWordCount(g.leafSize);
-    expectRawBytes(h, words * 4);
-    if (h.encoding == Encoding::Raw) {
-      v.leafWords.resize(toSize(words)); // the section is in the file: bounded by its size
-      readWordSection(in, h, v.leafWords);
-    } else {
 #if defined(HDT_HAVE_ZSTD)
-      // The stored bytes are in the file; the decoded size is allocated only
-      // after the checksum and the frame header agree with it.
-      std::vector<uint8_t> scratch;
-      const uint8_t* stored = in.view(size_t(h.stored), scratch);
-      checkCrc(h, crc32Of(stored, size_t(h.stored)));
-      uint8_t* leafBytes = nullptr;
-      if (h.encoding == Encoding::ZstdBlocks) {
-        const zstd_blocks::Layout layout = checkLeafBlocks(stored, size_t(h.stored), h.raw);
-        v.leafWords.resize(toSize(words));
-        leafBytes = reinterpret_cast<uint8_t*>(v.leafWords.data());
-        decompressLeafBlocks(stored, layout, leafBytes, size_t(h.raw));
-      } else {
-        checkLeafFrame(stored, size_t(h.stored), size_t(h.raw));
-        v.leafWords.resize(toSize(words));
-        leafBytes = reinterpret_cast<uint8_t*>(v.leafWords.data());
-        decompressLeaves(stored, size_t(h.stored), leafBytes, size_t(h.raw));
-      }
-      littleEndianToHost(v.leafWords.data(), v.leafWords.size());
-#endif
-    }
+// Compressed leaf data (encoding 1 or 2) into `v.leafWords` (`words` of them).
+// The stored bytes are in the file; the decoded size is allocated only after
+// the checksum and the frame headers agree with it.
+void decodeLeafData(Source& in, const SectionHeader& h, uint64_t words, Volume& v) {
+  std::vector<uint8_t> scratch;
+  const uint8_t* stored = in.view(size_t(h.stored), scratch);
+  checkCrc(h, crc32Of(stored, size_t(h.stored)));
+  uint8_t* leafBytes = nullptr;
+  if (h.encoding == Encoding::ZstdBlocks) {
+    const zstd_blocks::Layout layout = checkLeafBlocks(stored, size_t(h.stored), h.raw);
+    v.leafWords.resize(toSize(words));
+    leafBytes = reinterpret_cast<uint8_t*>(v.leafWords.data());
+    decompressLeafBlocks(stored, layout, leafBytes, size_t(h.raw));
+  } else {
+    checkLeafFrame(stored, size_t(h.stored), size_t(h.raw));
+    v.leafWords.resize(toSize(words));
+    leafBytes = reinterpret_cast<uint8_t*>(v.leafWords.data());
+    decompressLeaves(stored, size_t(h.stored), leafBytes, size_t(h.raw));
   }
+  littleEndianToHost(v.leafWords.data(), v.leafWords.size());
+}
+#endif
+
+// Rule 18 (rule 19 with the statistics, readVolume). Its size follows from
+// the Boundary elements counted, at most 8 KiB for each 4-byte element read.
+void readLeafData(Source& in, const FileHeader& file, uint64_t leaves, Volume& v) {
+  const bool blocksVersion = file.version >= kFirstBlocksVersion;
+  const SectionHeader h =
+      readSectionHeader(in, Section::LeafData, blocksVersion ? Encoding::ZstdBlocks : Encoding::Zstd);
+  if (blocksVersion && h.encoding != Encoding::ZstdBlocks) {
+    invalid("leaf data section: encoding " + str(uint32_t(h.encoding)) + " in a version-" + str(file.version) +
+            " file (version 3 stores the leaf data as zstd blocks, encoding 2)");
+  }
+  if (((file.flags & kFlagLeafZstd) != 0) != isCompressed(h.encoding)) {
+    invalid("the file header's compression flag disagrees with the leaf data section");
+  }
+  const uint64_t words = leaves * leafWordCount(v.grid.leafSize);
+  expectRawBytes(h, words * 4);
+  if (h.encoding == Encoding::Raw) {
+    v.leafWords.resize(toSize(words)); // the section is in the file: bounded by its size
+    readWordSection(in, h, v.leafWords);
+    return;
+  }
+#if defined(HDT_HAVE_ZSTD)
+  decodeLeafData(in, h, words, v);
+#endif
+}
+
+// What follows the leaf data: nothing in version 1; the optional sections
+// and the end section from version 2 on.
+void readAfterLeafData(Source& in, uint32_t version, Volume& v) {
   if (version == 1) {
     if (in.remaining() != 0) invalid(str(in.remaining()) + " bytes after the end of the leaf data section");
-  } else {
-    readOptionalSections(in, v);
+    return;
   }
+  readOptionalSections(in, v);
+}
 
-  checkStructure(v.stats, v, tree, checkLeaves(v.leafWords, g.leafSize, v.surfaceOnly));
+} // namespace
+
+Volume readVolume(Source& in) {
+  Volume v;
+  const FileHeader file = readFileHeader(in);
+  readGrid(in, file.version, v);
+  readStatistics(in, v.stats);
+  readLevelTable(in, v);
+  const TreeCounts tree = readElements(in, v);
+  readLeafData(in, file, tree.leaves, v);
+  readAfterLeafData(in, file.version, v);
+  checkStructure(v.stats, v, tree, checkLeaves(v.leafWords, v.grid.leafSize, v.surfaceOnly));
   return v;
 }
 
