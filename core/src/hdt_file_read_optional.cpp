@@ -128,51 +128,61 @@ void decodeCompactLabelVoxels(const uint8_t* bytes, size_t size, Volume& v, size
   littleEndianToHost(f.wideLabels.data(), wideLabels);
 }
 
+// Section 16; `mixed` receives the mixed leaves.
+void readLabelElements(Source& in, const SectionHeader& h, Volume& v, std::vector<uint64_t>& mixed) {
+  LabelField& f = v.labels;
+  expectRawBytes(h, uint64_t(v.elements.size()) * sizeof(Label));
+  readOptionalArray(in, h, f.elementLabels);
+  mixed = checkLabelElements(f.elementLabels, v.elements);
+}
+
+// Section 17, the 16-bit layout of older files: checked, then converted.
+void readSixteenBitLabelVoxels(Source& in, const SectionHeader& h, Volume& v, const std::vector<uint64_t>& mixed) {
+  const uint64_t V = v.grid.leafVoxels();
+  expectRawBytes(h, mixed.size() * V * sizeof(Label)); // at most 8x the leaf data
+  std::vector<Label> labels;
+  readOptionalArray(in, h, labels);
+  checkSixteenBitVoxelLabels(v, mixed, labels);
+  packVoxelLabels(v, labels.data());
+}
+
+// Section 21.
+void readCompactLabelVoxels(Source& in, const SectionHeader& h, Volume& v, const std::vector<uint64_t>& mixed) {
+  const uint64_t V = v.grid.leafVoxels();
+  // Bounded before decoding: the palettes, and at most 16 bits a voxel.
+  const uint64_t least = 4 + mixed.size() * sizeof(LeafPalette), most = least + mixed.size() * V * sizeof(Label);
+  if (h.raw < least || h.raw > most)
+    invalid("compact label voxels section: " + str(h.raw) + " bytes, expected " + str(least) + " to " + str(most));
+  std::vector<uint8_t> bytes;
+  readOptionalArray(in, h, bytes);
+  decodeCompactLabelVoxels(bytes.data(), bytes.size(), v, mixed.size());
+  bytes = {};
+  indexMixedLeaves(v);
+  checkLabelVoxels(v, mixed);
+}
+
+// Section 18.
+void readLabelNames(Source& in, const SectionHeader& h, Volume& v) {
+  // 65535 names of 255 bytes at most, each with a 4-byte head.
+  if (h.raw > 4 + 65535 * (4 + kMaxLabelNameLength)) invalid("label names section: too long");
+  std::vector<uint8_t> scratch;
+  const uint8_t* bytes = in.view(size_t(h.stored), scratch);
+  checkOptionalCrc(h, bytes);
+  v.labels.names = decodeLabelNames(bytes, size_t(h.stored));
+}
+
 // The part-label sections (16, 17, 18, 21); `mixed` receives the mixed leaves.
 void readLabelSection(Source& in, const RawSectionHeader& raw, Volume& v, std::vector<uint64_t>& mixed) {
   const Section id = Section(raw.id);
   const bool voxels = id == Section::LabelVoxels || id == Section::CompactLabelVoxels;
   const SectionHeader h = checkSectionHeader(raw, id, sectionName(id), voxels ? Encoding::Zstd : Encoding::Raw, in);
-  LabelField& f = v.labels;
-  if (id != Section::LabelElements && f.empty())
+  if (id != Section::LabelElements && v.labels.empty())
     invalid(std::string(sectionName(id)) + " section without the label elements section");
-  const uint64_t V = v.grid.leafVoxels();
   switch (id) {
-  case Section::LabelElements:
-    expectRawBytes(h, uint64_t(v.elements.size()) * sizeof(Label));
-    readOptionalArray(in, h, f.elementLabels);
-    mixed = checkLabelElements(f.elementLabels, v.elements);
-    break;
-  case Section::LabelVoxels: { // the 16-bit layout of older files: checked, then converted
-    expectRawBytes(h, mixed.size() * V * sizeof(Label)); // at most 8x the leaf data
-    std::vector<Label> labels;
-    readOptionalArray(in, h, labels);
-    checkSixteenBitVoxelLabels(v, mixed, labels);
-    packVoxelLabels(v, labels.data());
-    break;
-  }
-  case Section::CompactLabelVoxels: {
-    // Bounded before decoding: the palettes, and at most 16 bits a voxel.
-    const uint64_t least = 4 + mixed.size() * sizeof(LeafPalette), most = least + mixed.size() * V * sizeof(Label);
-    if (h.raw < least || h.raw > most)
-      invalid("compact label voxels section: " + str(h.raw) + " bytes, expected " + str(least) + " to " + str(most));
-    std::vector<uint8_t> bytes;
-    readOptionalArray(in, h, bytes);
-    decodeCompactLabelVoxels(bytes.data(), bytes.size(), v, mixed.size());
-    bytes = {};
-    indexMixedLeaves(v);
-    checkLabelVoxels(v, mixed);
-    break;
-  }
-  default: {
-    // 65535 names of 255 bytes at most, each with a 4-byte head.
-    if (h.raw > 4 + 65535 * (4 + kMaxLabelNameLength)) invalid("label names section: too long");
-    std::vector<uint8_t> scratch;
-    const uint8_t* bytes = in.view(size_t(h.stored), scratch);
-    checkOptionalCrc(h, bytes);
-    f.names = decodeLabelNames(bytes, size_t(h.stored));
-    break;
-  }
+  case Section::LabelElements: readLabelElements(in, h, v, mixed); break;
+  case Section::LabelVoxels: readSixteenBitLabelVoxels(in, h, v, mixed); break;
+  case Section::CompactLabelVoxels: readCompactLabelVoxels(in, h, v, mixed); break;
+  default: readLabelNames(in, h, v); break;
   }
 }
 
