@@ -87,6 +87,47 @@ EncodedVolume encodeRequired(const Volume& v, const HdtWriteOptions& options, Hd
   return e;
 }
 
+// Section 1.
+std::vector<uint8_t> encodeGrid(const Volume& v) {
+  const GridSpec& g = v.grid;
+  ByteWriter w;
+  w.u32(uint32_t(g.resolution));
+  w.u32(uint32_t(g.rootGrid));
+  w.u32(uint32_t(g.leafSize));
+  w.u32(uint32_t(g.height));
+  for (double o : g.origin) w.f64(o);
+  w.f64(g.voxelSize);
+  w.u32(v.surfaceOnly ? 1 : 0);
+  w.u32(v.closedMesh ? 1 : 0);
+  w.u32(uint32_t(v.insideTest));
+  return w.bytes();
+}
+
+// Section 2: all of Statistics, in declaration order.
+std::vector<uint8_t> encodeStatistics(const Statistics& s) {
+  ByteWriter w;
+  for (uint64_t x : {s.triangles, s.degenerateTriangles, s.treeElements, s.leafGrids, s.leafVoxels,
+                     s.activeVoxels, s.insideVoxels})
+    w.u64(x);
+  w.f64(s.paperBitsPerActiveVoxel);
+  w.u64(s.topologyBytes);
+  w.u64(s.leafBytes);
+  for (double t : {s.time.mapping, s.time.branching, s.time.leaf, s.time.classify, s.time.total}) w.f64(t);
+  w.u64(s.peakHostBytes);
+  w.u64(s.peakDeviceBytes);
+  w.i32(s.threads);
+  w.u32(uint32_t(s.backend.size()));
+  w.raw(s.backend.data(), s.backend.size());
+  return w.bytes();
+}
+
+// Section 3.
+std::vector<uint8_t> encodeLevelTable(const std::vector<uint64_t>& levelStart) {
+  ByteWriter w;
+  for (uint64_t x : levelStart) w.u64(x);
+  return w.bytes();
+}
+
 } // namespace
 
 void encodeLabels(const Volume& v, const HdtWriteOptions& options, EncodedVolume& e) {
@@ -134,42 +175,9 @@ void encodeArrays(const Volume& v, EncodedVolume& e) {
 // The required sections but the leaf data: grid, statistics, level table, the
 // elements' CRC.
 void encodeSmallSections(const Volume& v, EncodedVolume& e) {
-  const GridSpec& g = v.grid;
-  {
-    ByteWriter w;
-    w.u32(uint32_t(g.resolution));
-    w.u32(uint32_t(g.rootGrid));
-    w.u32(uint32_t(g.leafSize));
-    w.u32(uint32_t(g.height));
-    for (double o : g.origin) w.f64(o);
-    w.f64(g.voxelSize);
-    w.u32(v.surfaceOnly ? 1 : 0);
-    w.u32(v.closedMesh ? 1 : 0);
-    w.u32(uint32_t(v.insideTest));
-    e.grid = w.bytes();
-  }
-  {
-    const Statistics& s = v.stats;
-    ByteWriter w;
-    for (uint64_t x : {s.triangles, s.degenerateTriangles, s.treeElements, s.leafGrids, s.leafVoxels,
-                       s.activeVoxels, s.insideVoxels})
-      w.u64(x);
-    w.f64(s.paperBitsPerActiveVoxel);
-    w.u64(s.topologyBytes);
-    w.u64(s.leafBytes);
-    for (double t : {s.time.mapping, s.time.branching, s.time.leaf, s.time.classify, s.time.total}) w.f64(t);
-    w.u64(s.peakHostBytes);
-    w.u64(s.peakDeviceBytes);
-    w.i32(s.threads);
-    w.u32(uint32_t(s.backend.size()));
-    w.raw(s.backend.data(), s.backend.size());
-    e.stats = w.bytes();
-  }
-  {
-    ByteWriter w;
-    for (uint64_t x : v.levelStart) w.u64(x);
-    e.levels = w.bytes();
-  }
+  e.grid = encodeGrid(v);
+  e.stats = encodeStatistics(v.stats);
+  e.levels = encodeLevelTable(v.levelStart);
   e.elementsCrc = crcOfWords(v.elements);
   e.leafRawBytes = uint64_t(v.leafWords.size()) * 4;
 }
