@@ -10,8 +10,6 @@
 #include "hdt/lattice.hpp"
 #include "hdt/transfer.hpp"
 
-#include <zlib.h>
-
 #include <algorithm>
 #include <cstring>
 
@@ -44,8 +42,7 @@ void skipSection(Source& in, const RawSectionHeader& raw) {
 
 // Rule 6 for an optional section: the CRC covers the header's first 24 bytes.
 void checkOptionalCrc(const SectionHeader& h, const uint8_t* stored) {
-  const uint32_t seed = optionalSectionCrcSeed(uint32_t(h.id), uint32_t(h.encoding), h.stored, h.raw);
-  checkCrc(h, static_cast<uint32_t>(crc32_combine(seed, crc32Of(stored, size_t(h.stored)), z_off_t(h.stored))));
+  checkCrc(h, optionalSectionCrc(h.id, h.encoding, h.stored, h.raw, crc32Of(stored, size_t(h.stored))));
 }
 
 // An optional section holding an array of T (raw, or zstd when allowed), its
