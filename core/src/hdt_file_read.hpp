@@ -15,6 +15,8 @@
 
 namespace hdt::hdt_file_detail {
 
+// The file's bytes, read once from the front: from memory (deserializeHdt) or
+// from a file (readHdt), which is never read whole into memory.
 class Source {
 public:
   explicit Source(uint64_t size) : size_(size) {}
@@ -72,6 +74,7 @@ private:
   std::FILE* f_;
 };
 
+// A section header checked by rule 4 (checkSectionHeader).
 struct SectionHeader {
   Section id;
   Encoding encoding;
@@ -79,8 +82,7 @@ struct SectionHeader {
   uint32_t crc;
 };
 
-// The 28 bytes of a section header, not yet checked; `before` names the
-// section expected there, for the message when the file ends first.
+// The 28 bytes of a section header, not yet checked.
 struct RawSectionHeader {
   uint64_t at = 0; // file offset of the header
   uint32_t id = 0, encoding = 0;
@@ -88,6 +90,8 @@ struct RawSectionHeader {
   uint32_t crc = 0;
 };
 
+// `before` names the section expected there, for the message when the file
+// ends first.
 RawSectionHeader readRawSectionHeader(Source& in, const std::string& before);
 // Rule 4 for a header whose id is known: an allowed encoding, the payload in
 // the file, raw == stored when raw.
