@@ -1,6 +1,7 @@
 // The host memory model behind the CPU driver's refusal of oversized builds.
 //
-// Each part follows the data structures of cpu_builder.cpp and hdt_file.cpp:
+// Each part follows the data structures of cpu_builder.cpp and the .hdt
+// writer (hdt_file_encode.hpp):
 //   root grid   per cell: the element word (4 B), its packed coordinates (8 B,
 //               while branching and again while the uniform elements are
 //               classified) and 4 B for the joined volume's copy of the words
