@@ -204,17 +204,23 @@ namespace hdt {
 namespace test {
 namespace {
 
+// The winding shapes at 64^3 in 4^3 root cells of 8^3 leaves.
+BuildConfig windingShapesConfig() {
+  BuildConfig config;
+  config.resolution = 64;
+  config.rootGrid = 4;
+  config.leafSize = 8;
+  config.insideTest = InsideTest::WindingNumber;
+  return config;
+}
+
 // The distributed winding-number build (apps/cli_mpi.cpp,
 // filters/vtkHDTDistributedBuild.cxx): the ranges' surface trees joined,
 // classified by applyInsideTest in the joining process, each range's trees
 // sliced out again for its process. Equal to the serial build's, whole and
 // range by range, for every open, overlapping and nested test shape.
 TEST(RangeExchange, WindingNumberAcrossProcessesGivesTheSerialVolume) {
-  BuildConfig config;
-  config.resolution = 64;
-  config.rootGrid = 4;
-  config.leafSize = 8;
-  config.insideTest = InsideTest::WindingNumber;
+  const BuildConfig config = windingShapesConfig();
   BuildOptions options;
   options.backend = Backend::Cpu;
   for (const WindingShape& shape : windingShapes()) {
@@ -246,11 +252,7 @@ TEST(RangeExchange, WindingNumberAcrossProcessesGivesTheSerialVolume) {
 // the CPU (insideTestOptionsAfterRangeBuild with device -1), whatever backend
 // was asked; the serial bytes. (With a device, tests/cuda/test_cuda_ranges.cpp.)
 TEST(RangeExchange, InsideTestAfterPhasesOnTheHostGivesTheSerialVolume) {
-  BuildConfig config;
-  config.resolution = 64;
-  config.rootGrid = 4;
-  config.leafSize = 8;
-  config.insideTest = InsideTest::WindingNumber;
+  const BuildConfig config = windingShapesConfig();
   BuildOptions cpu;
   cpu.backend = Backend::Cpu;
   BuildOptions cuda;
