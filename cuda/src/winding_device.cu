@@ -127,13 +127,18 @@ struct LeafOrigin {
 // and then listed at their exclusive sum, one thread a leaf; a block a leaf
 // then takes its candidates' lines, one item a thread
 // (windingForEachPairLineCrossing, the host's crossings line by line), and
-// sums the signed crossings into the leaf's row totals, row hits and voxel
-// deltas in shared memory with integer atomics (exact and order-free: the
-// same sums as one thread adding them in walk order), written out whole (so
-// the arrays need no zeroing). One thread a leaf, walking and crossing
-// serially, left most lanes idle behind the leaves with the most crossings.
-// Leaves larger than kSharedLeaf (32: the deltas would not fit shared
-// memory) keep the serial kernel.
+// sums the signed crossings in shared memory with integer atomics (exact and
+// order-free: the same sums as one thread adding them in walk order). One
+// thread a leaf, walking and crossing serially, left most lanes idle behind
+// the leaves with the most crossings.
+// Two passes over the same list: the first sums only the row totals (what
+// the lines step needs); the second, after the lines step, sums the voxel
+// deltas and row hits again and turns them into the counts N in shared
+// memory (leafCountsKernel). So the 2 bytes a voxel of deltas are never
+// stored and read back (4.4 GB each way at 8192^3 with the hits), and a leaf
+// of a held block stores only its inside bits. Leaves larger than
+// kSharedLeaf (32: the deltas would not fit shared memory) keep the serial
+// kernel and countsKernel.
 constexpr int kSharedLeaf = 16;
 constexpr unsigned kCrossingBlock = 128;
 
@@ -168,41 +173,37 @@ __global__ void candidateListKernel(WindingTreeView t, const LeafOrigin* origins
   });
 }
 
-// One block a leaf (L <= kSharedLeaf): its candidates' lines, one item a
-// thread; the sums written whole, the deltas as int16 (the sum modulo 2^16,
-// as the serial kernel's int16 additions wrap).
-__global__ void __launch_bounds__(kCrossingBlock)
-    leafCrossingSumsKernel(WindingTreeView t, const LeafOrigin* origins, int L, const uint64_t* offsets,
-                           const uint32_t* candidates, int32_t* rowTotals, int32_t* rowHits, int16_t* deltas) {
-  __shared__ int32_t total[kSharedLeaf * kSharedLeaf], hits[kSharedLeaf * kSharedLeaf];
-  __shared__ int32_t delta[kSharedLeaf * kSharedLeaf * kSharedLeaf];
+// fn(row, before, sign) for every crossing of the leaf (block blockIdx.x),
+// its listed candidates' lines spread over the block's threads, one
+// (candidate, line) item a thread.
+template <class Fn>
+__device__ void forEachBlockLeafCrossing(const WindingTreeView& t, const LeafOrigin* origins, int L,
+                                         const uint64_t* offsets, const uint32_t* candidates, Fn&& fn) {
   const uint32_t leaf = blockIdx.x;
-  const uint32_t rows = uint32_t(L * L), voxels = rows * uint32_t(L);
-  for (uint32_t k = threadIdx.x; k < rows; k += blockDim.x) total[k] = hits[k] = 0;
-  for (uint32_t k = threadIdx.x; k < voxels; k += blockDim.x) delta[k] = 0;
-  __syncthreads();
   const uint64_t first = offsets[leaf], items = (offsets[leaf + 1] - first) * uint64_t(L);
   const LeafOrigin o = origins[leaf];
   for (uint64_t k = threadIdx.x; k < items; k += blockDim.x) {
     const uint32_t i = candidates[first + k / uint64_t(L)];
     const int sign = windingCrossingSign(t.lattice[i]);
-    windingForEachPairLineCrossing(t, i, o.o, L, int(k % uint64_t(L)), [&](int row, int before) {
-      atomicAdd(total + row, sign);
-      atomicAdd(hits + row, 1);
-      if (before > 0) atomicAdd(delta + row * L + before - 1, sign);
-    });
+    windingForEachPairLineCrossing(t, i, o.o, L, int(k % uint64_t(L)),
+                                   [&](int row, int before) { fn(row, before, sign); });
   }
+}
+
+// The first pass (L <= kSharedLeaf): the leaf's row totals, written whole
+// (the array needs no zeroing).
+__global__ void __launch_bounds__(kCrossingBlock)
+    leafRowTotalsKernel(WindingTreeView t, const LeafOrigin* origins, int L, const uint64_t* offsets,
+                        const uint32_t* candidates, int32_t* rowTotals) {
+  __shared__ int32_t total[kSharedLeaf * kSharedLeaf];
+  const uint32_t rows = uint32_t(L * L);
+  for (uint32_t k = threadIdx.x; k < rows; k += blockDim.x) total[k] = 0;
   __syncthreads();
-  const size_t rowBase = size_t(leaf) * rows;
-  for (uint32_t k = threadIdx.x; k < rows; k += blockDim.x) {
-    rowTotals[rowBase + k] = total[k];
-    rowHits[rowBase + k] = hits[k];
-  }
-  // Two deltas a 32-bit store (voxels is even; the leaf's deltas start
-  // 4-byte aligned).
-  uint32_t* pairs = reinterpret_cast<uint32_t*>(deltas + size_t(leaf) * voxels);
-  for (uint32_t k = threadIdx.x; k < voxels / 2; k += blockDim.x)
-    pairs[k] = uint32_t(uint16_t(int16_t(delta[2 * k]))) | (uint32_t(uint16_t(int16_t(delta[2 * k + 1]))) << 16);
+  forEachBlockLeafCrossing(t, origins, L, offsets, candidates,
+                           [&](int row, int, int sign) { atomicAdd(total + row, sign); });
+  __syncthreads();
+  const size_t rowBase = size_t(blockIdx.x) * rows;
+  for (uint32_t k = threadIdx.x; k < rows; k += blockDim.x) rowTotals[rowBase + k] = total[k];
 }
 
 // L > kSharedLeaf: one thread a leaf, serially (the arrays zeroed before).
@@ -306,6 +307,70 @@ __global__ void countsKernel(uint32_t leafCount, int L, const int32_t* exits, co
     for (int i = 0; i < L / 8; ++i) reinterpret_cast<int4*>(c)[i] = reinterpret_cast<const int4*>(row)[i];
   }
   if (!fit) fits[k / rows] = 0;
+}
+
+// The second pass (L <= kSharedLeaf), after the lines step turned the row
+// totals into exits: the leaf's crossings summed again, into row hits and
+// voxel deltas in shared memory, then each row's counts N = exit + the deltas
+// from the row's far end, as countsKernel computes them from the stored int16
+// deltas (the same values wherever the row fits: |delta| <= hits <=
+// INT16_MAX, so no int16 wrapped). A leaf whose rows all fit writes its
+// counts whole, or with leafT, a leaf of a held block only its inside bits
+// (N >= T, one 16-bit group a word, L a multiple of kVoxelsPerWord); any other
+// leaf gets fits 0 (the host's leaf: nothing of it is read on the device).
+// A row's deltas lie kSharedLeaf + 1 apart in shared memory: one thread a row
+// then reads 32 rows from 32 banks.
+__global__ void __launch_bounds__(kCrossingBlock)
+    leafCountsKernel(WindingTreeView t, const LeafOrigin* origins, int L, const uint64_t* offsets,
+                     const uint32_t* candidates, const int32_t* exits, int16_t* counts, uint8_t* fits,
+                     const int* leafT, uint16_t* insideBits) {
+  constexpr int kStride = kSharedLeaf + 1;
+  __shared__ int32_t hits[kSharedLeaf * kSharedLeaf];
+  __shared__ int32_t N[kSharedLeaf * kSharedLeaf * kStride];
+  __shared__ int allFit;
+  const uint32_t leaf = blockIdx.x, uL = uint32_t(L);
+  const uint32_t rows = uL * uL, voxels = rows * uL;
+  for (uint32_t k = threadIdx.x; k < rows; k += blockDim.x) hits[k] = 0;
+  for (uint32_t k = threadIdx.x; k < rows * kStride; k += blockDim.x) N[k] = 0;
+  if (threadIdx.x == 0) allFit = 1;
+  __syncthreads();
+  forEachBlockLeafCrossing(t, origins, L, offsets, candidates, [&](int row, int before, int sign) {
+    atomicAdd(hits + row, 1);
+    if (before > 0) atomicAdd(N + row * kStride + before - 1, sign);
+  });
+  __syncthreads();
+  const size_t rowBase = size_t(leaf) * rows;
+  for (uint32_t k = threadIdx.x; k < rows; k += blockDim.x) {
+    bool fit = hits[k] <= INT16_MAX; // the int16 deltas could not wrap
+    int32_t n = exits[rowBase + k];
+    for (int x = L - 1; x >= 0; --x) {
+      n += N[k * kStride + uint32_t(x)];
+      fit = fit && n >= INT16_MIN && n <= INT16_MAX;
+      N[k * kStride + uint32_t(x)] = n;
+    }
+    if (!fit) allFit = 0;
+  }
+  __syncthreads();
+  if (!allFit) {
+    if (threadIdx.x == 0) fits[leaf] = 0;
+    return;
+  }
+  auto at = [&](uint32_t v) { return N[(v / uL) * kStride + v % uL]; }; // voxel v = x + L row
+  const int T = leafT ? leafT[leaf] : kNoThreshold;
+  if (T != kNoThreshold) {
+    const uint32_t words = voxels / kVoxelsPerWord;
+    for (uint32_t g = threadIdx.x; g < words; g += blockDim.x) {
+      uint32_t bits = 0;
+      for (uint32_t x = 0; x < kVoxelsPerWord; ++x) bits |= uint32_t(at(g * kVoxelsPerWord + x) >= T) << x;
+      insideBits[size_t(leaf) * words + g] = uint16_t(bits);
+    }
+    return;
+  }
+  // Two counts a 32-bit store (voxels is even; the leaf's counts start 4-byte
+  // aligned).
+  uint32_t* pairs = reinterpret_cast<uint32_t*>(counts + size_t(leaf) * voxels);
+  for (uint32_t k = threadIdx.x; k < voxels / 2; k += blockDim.x)
+    pairs[k] = uint32_t(uint16_t(int16_t(at(2 * k)))) | (uint32_t(uint16_t(int16_t(at(2 * k + 1)))) << 16);
 }
 
 // The inside plane of every leaf that fits cleared (leafBoxesKernel sets it).
@@ -696,7 +761,7 @@ struct CountsOnDevice {
   Array<int16_t> counts;
   Array<uint8_t> fits;
   CountsOnDevice(size_t leaves, int L)
-      : origins(leaves), totals(leaves * size_t(L) * size_t(L)), hits(totals.size()),
+      : origins(leaves), totals(leaves * size_t(L) * size_t(L)), hits(L > kSharedLeaf ? totals.size() : 0),
         counts(totals.size() * size_t(L)), fits(leaves) {}
 };
 
@@ -717,7 +782,7 @@ public:
   }
 
 private:
-  cudaEvent_t e_[9];
+  cudaEvent_t e_[11];
 };
 
 // HDT_WINDING_TRACE set: each level's boxes and kernel time on stderr.
@@ -860,30 +925,35 @@ void uploadOrigins(const std::vector<std::array<int, 3>>& origins, CountsOnDevic
   d.origins.upload(host.data());
 }
 
-// The crossings step for L <= kSharedLeaf: the candidates counted, summed
-// (CUB), listed, then leafCrossingSumsKernel writes d.totals, d.hits and the
-// deltas in d.counts whole.
-void leafCrossingSums(const WindingTreeView& t, CountsOnDevice& d, uint32_t leaves, int L) {
-  Array<uint64_t> counts(size_t(leaves) + 1), offsets(size_t(leaves) + 1);
+// Each leaf's candidates with rays in it (L <= kSharedLeaf), listed once
+// for both passes: list[offsets[leaf], offsets[leaf + 1]).
+struct LeafCandidates {
+  Array<uint64_t> offsets;
+  std::unique_ptr<Array<uint32_t>> list;
+  uint64_t pairs = 0;
+  explicit LeafCandidates(uint32_t leaves) : offsets(size_t(leaves) + 1) {}
+};
+
+// The candidates counted, summed (CUB), listed.
+void listLeafCandidates(const WindingTreeView& t, const CountsOnDevice& d, uint32_t leaves, int L,
+                        LeafCandidates& c) {
+  Array<uint64_t> counts(size_t(leaves) + 1);
   HDT_CUDA_CHECK(cudaMemset(counts.data() + leaves, 0, sizeof(uint64_t))); // the scan's last input
   candidateCountKernel<<<blocks(leaves), kBlock>>>(t, d.origins.data(), leaves, L, counts.data());
   checkLaunch("candidateCountKernel");
   size_t bytes = 0;
-  HDT_CUDA_CHECK(cub::DeviceScan::ExclusiveSum(nullptr, bytes, counts.data(), offsets.data(), int(leaves) + 1));
+  HDT_CUDA_CHECK(cub::DeviceScan::ExclusiveSum(nullptr, bytes, counts.data(), c.offsets.data(), int(leaves) + 1));
   Array<uint8_t> temp(std::max<size_t>(bytes, 16));
-  HDT_CUDA_CHECK(cub::DeviceScan::ExclusiveSum(temp.data(), bytes, counts.data(), offsets.data(), int(leaves) + 1));
-  uint64_t pairs = 0;
-  HDT_CUDA_CHECK(cudaMemcpy(&pairs, offsets.data() + leaves, sizeof(uint64_t), cudaMemcpyDeviceToHost));
-  Array<uint32_t> candidates(std::max<uint64_t>(pairs, 1));
-  candidateListKernel<<<blocks(leaves), kBlock>>>(t, d.origins.data(), leaves, L, offsets.data(), candidates.data());
+  HDT_CUDA_CHECK(cub::DeviceScan::ExclusiveSum(temp.data(), bytes, counts.data(), c.offsets.data(), int(leaves) + 1));
+  // The copy waits for the scan: counts and temp may go after it.
+  HDT_CUDA_CHECK(cudaMemcpy(&c.pairs, c.offsets.data() + leaves, sizeof(uint64_t), cudaMemcpyDeviceToHost));
+  c.list = std::make_unique<Array<uint32_t>>(std::max<uint64_t>(c.pairs, 1));
+  candidateListKernel<<<blocks(leaves), kBlock>>>(t, d.origins.data(), leaves, L, c.offsets.data(),
+                                                  c.list->data());
   checkLaunch("candidateListKernel");
-  leafCrossingSumsKernel<<<leaves, kCrossingBlock>>>(t, d.origins.data(), L, offsets.data(), candidates.data(),
-                                                     d.totals.data(), d.hits.data(), d.counts.data());
-  checkLaunch("leafCrossingSumsKernel");
-  HDT_CUDA_CHECK(cudaStreamSynchronize(0)); // before the temporaries go (not the words' upload)
   if (traceLevels())
     std::fprintf(stderr, "winding trace crossings: %u leaves, %llu (leaf, candidate) pairs\n", leaves,
-                 (unsigned long long)pairs);
+                 (unsigned long long)c.pairs);
 }
 
 // leafT, insideBits: countsKernel's (null: every leaf's counts kept).
@@ -892,9 +962,14 @@ void computeCounts(const WindingTreeView& t, const std::vector<std::array<int, 3
                    CountsOnDevice& d, Events& ev, const int* leafT = nullptr, uint16_t* insideBits = nullptr) {
   const uint32_t leaves = uint32_t(origins.size());
   const uint32_t rows = uint32_t(L * L);
+  std::optional<LeafCandidates> candidates; // L <= kSharedLeaf: the two passes'
   if (L <= kSharedLeaf) {
     ev.mark(1);
-    leafCrossingSums(t, d, leaves, L);
+    candidates.emplace(leaves);
+    listLeafCandidates(t, d, leaves, L, *candidates);
+    leafRowTotalsKernel<<<leaves, kCrossingBlock>>>(t, d.origins.data(), L, candidates->offsets.data(),
+                                                    candidates->list->data(), d.totals.data());
+    checkLaunch("leafRowTotalsKernel");
   } else {
     d.totals.zero();
     d.hits.zero();
@@ -928,6 +1003,8 @@ void computeCounts(const WindingTreeView& t, const std::vector<std::array<int, 3
                                               lineCount.data(), int(leaves)));
     uint32_t lines = 0;
     lineCount.download(&lines);
+    ev.mark(9);
+    if (traceLevels()) std::fprintf(stderr, "winding trace lines: %u leaves on %u lines\n", leaves, lines);
     lineSuffixKernel<<<blocks(uint64_t(lines) * rows), kBlock>>>(starts.data(), lines, leaves,
                                                                   sortedOrder.data(), rows, d.totals.data());
     checkLaunch("lineSuffixKernel");
@@ -935,10 +1012,19 @@ void computeCounts(const WindingTreeView& t, const std::vector<std::array<int, 3
     HDT_CUDA_CHECK(cudaStreamSynchronize(0)); // before the temporaries go (not the words' upload)
   }
   HDT_CUDA_CHECK(cudaMemset(d.fits.data(), 1, leaves));
-  countsKernel<<<blocks(uint64_t(leaves) * rows), kBlock>>>(leaves, L, d.totals.data(), d.hits.data(), d.counts.data(),
-                                                            d.fits.data(), leafT, insideBits);
-  checkLaunch("countsKernel");
+  ev.mark(10);
+  if (candidates) {
+    leafCountsKernel<<<leaves, kCrossingBlock>>>(t, d.origins.data(), L, candidates->offsets.data(),
+                                                 candidates->list->data(), d.totals.data(), d.counts.data(),
+                                                 d.fits.data(), leafT, insideBits);
+    checkLaunch("leafCountsKernel");
+  } else {
+    countsKernel<<<blocks(uint64_t(leaves) * rows), kBlock>>>(leaves, L, d.totals.data(), d.hits.data(),
+                                                              d.counts.data(), d.fits.data(), leafT, insideBits);
+    checkLaunch("countsKernel");
+  }
   ev.mark(4);
+  if (candidates) HDT_CUDA_CHECK(cudaStreamSynchronize(0)); // before the candidate list goes (not the words' upload)
 }
 
 // The volume's leaf words copied up on a stream of their own (non-blocking:
@@ -1082,6 +1168,11 @@ bool WindingDevicePass::leaves(const WindingTree& tree, Volume& volume, const st
                    "words up %.3f ms beside the counts, %.3f ms waited for%s\n",
                    leaves, blockCount, edge, settled, ev.ms(0, 8), uploadMs, uploadWaitMs,
                    upload ? "" : " (kept on the device: none)");
+      std::fprintf(stderr,
+                   "winding trace steps: lines = sort and select %.3f ms + suffixes %.3f ms; counts = the "
+                   "lines' temporaries freed %.3f ms + %s %.3f ms\n",
+                   ev.ms(2, 9), ev.ms(9, 3), ev.ms(3, 10), L <= kSharedLeaf ? "the second crossings pass" : "countsKernel",
+                   ev.ms(10, 4));
     }
     if (times) {
       times->hardVoxels = hard.size();
