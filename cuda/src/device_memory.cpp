@@ -118,6 +118,17 @@ void DeviceMemory::reserve(size_t bytes) {
   if (live_ > peak_) peak_ = live_;
 }
 
+bool DeviceMemory::releaseUnused() {
+  if (!pool_) return false;
+  HDT_CUDA_CHECK(cudaStreamSynchronize(stream_));
+  uint64_t reserved = 0, used = 0;
+  HDT_CUDA_CHECK(cudaMemPoolGetAttribute(pool_, cudaMemPoolAttrReservedMemCurrent, &reserved));
+  HDT_CUDA_CHECK(cudaMemPoolGetAttribute(pool_, cudaMemPoolAttrUsedMemCurrent, &used));
+  if (reserved <= used) return false;
+  HDT_CUDA_CHECK(cudaMemPoolTrimTo(pool_, 0));
+  return true;
+}
+
 } // namespace cuda
 
 void setCudaPoolRetention(uint64_t bytes) { cuda::g_retainedBytes.store(bytes); }

@@ -25,6 +25,7 @@
 #include "winding_device.hpp"
 
 #include "check.hpp"
+#include "device_memory.hpp"
 #include "host_copy.hpp"
 
 #include "hdt/build_steps.hpp"
@@ -58,14 +59,90 @@ constexpr unsigned kBoxBlock = 64; // the box queues' kernels (double-heavy thre
 
 unsigned blocks(uint64_t n) { return unsigned((n + kBlock - 1) / kBlock); }
 
-// A device array freed on scope exit; allocation failure throws bad_alloc
-// (the pass then returns false and the host pass runs).
+// The bytes the pass holds, counted against the build's DeviceMemory (its
+// budget and its peak: Statistics::peakDeviceBytes) as reservations, and
+// the pass's own live and peak bytes (the driver's log, the tests).
+//
+// Why reservations beside cudaMalloc rather than the build's pool
+// (DeviceMemory::allocate): pool allocations are ordered on the session's
+// stream, which is non-blocking, while the pass launches and copies on the
+// legacy default stream; a cudaFreeAsync at scope exit on the session's
+// stream would not wait for the pass's kernels. cudaMalloc and cudaFree
+// synchronise with every stream, so an Array may go at any scope exit. The
+// pool keeps the build's freed memory (release threshold: never), which
+// cudaMalloc cannot use but the budget counted as obtainable: when
+// cudaMalloc finds no room, the pool's unused memory goes back to the driver
+// (DeviceMemory::releaseUnused) and cudaMalloc is tried once more.
+class PassMemory {
+public:
+  explicit PassMemory(DeviceMemory* build) : build_(build) {}
+  // Throws bad_alloc (the pass's fallback: the host pass) beyond the budget.
+  void reserve(size_t bytes) {
+    if (build_) {
+      try {
+        build_->reserve(bytes);
+      } catch (const DeviceMemoryExhausted&) {
+        throw std::bad_alloc();
+      }
+    }
+    live_ += bytes;
+    peak_ = std::max(peak_, live_);
+  }
+  void unreserve(size_t bytes) noexcept {
+    if (build_) build_->unreserve(bytes);
+    live_ -= bytes;
+  }
+  // cudaMalloc found no room: the build's pool gives back what it holds unused.
+  bool releaseUnused() { return build_ && build_->releaseUnused(); }
+  // Bytes the budget leaves for further reservations.
+  uint64_t room() const {
+    if (!build_) return UINT64_MAX;
+    return build_->budget() > build_->live() ? build_->budget() - build_->live() : 0;
+  }
+  uint64_t peak() const { return peak_; }
+
+private:
+  DeviceMemory* build_; // null: counted here only (windingCountsOnDevice)
+  uint64_t live_ = 0, peak_ = 0;
+};
+
+// The PassMemory of the pass call under way on this thread (PassMemoryScope,
+// set by each entry point): every Array made within the call, in whichever
+// helper, counts against it without the memory being passed through each.
+thread_local PassMemory* t_passMemory = nullptr;
+
+class PassMemoryScope {
+public:
+  explicit PassMemoryScope(PassMemory& m) : previous_(std::exchange(t_passMemory, &m)) {}
+  ~PassMemoryScope() { t_passMemory = previous_; }
+  PassMemoryScope(const PassMemoryScope&) = delete;
+  PassMemoryScope& operator=(const PassMemoryScope&) = delete;
+
+private:
+  PassMemory* previous_;
+};
+
+// A device array freed on scope exit, its bytes reserved in the call's
+// PassMemory; no room (budget or device) throws bad_alloc (the pass then
+// returns false and the host pass runs).
 template <class T>
 class Array {
 public:
   explicit Array(size_t n) : n_(n) {
     if (n == 0) return;
-    const cudaError_t e = cudaMalloc(&p_, n * sizeof(T));
+    const size_t bytes = n * sizeof(T);
+    if (t_passMemory) t_passMemory->reserve(bytes); // may throw bad_alloc
+    memory_ = t_passMemory;
+    cudaError_t e = cudaMalloc(&p_, bytes);
+    if (e == cudaErrorMemoryAllocation && memory_ && memory_->releaseUnused()) {
+      (void)cudaGetLastError();
+      e = cudaMalloc(&p_, bytes);
+    }
+    if (e != cudaSuccess) {
+      p_ = nullptr;
+      if (memory_) memory_->unreserve(bytes);
+      memory_ = nullptr;
+    }
     if (e == cudaErrorMemoryAllocation) {
       (void)cudaGetLastError(); // not sticky: clear it
       throw std::bad_alloc();
@@ -74,6 +151,7 @@ public:
   }
   ~Array() {
     if (p_) cudaFree(p_);
+    if (memory_) memory_->unreserve(n_ * sizeof(T));
   }
   Array(const Array&) = delete;
   Array& operator=(const Array&) = delete;
@@ -92,6 +170,7 @@ public:
 private:
   T* p_ = nullptr;
   size_t n_ = 0;
+  PassMemory* memory_ = nullptr; // where its bytes are reserved
 };
 
 // The tree's arrays on the device, uploaded once per pass.
@@ -267,6 +346,13 @@ __global__ void lineSuffixKernel(const uint32_t* lineStarts, uint32_t lines, uin
 // A leaf's threshold when its block holds (blocks below), else this.
 constexpr int kNoThreshold = INT_MIN;
 
+// Where a leaf's counts (L^3 of them) start, in leaves: its slot among the
+// leaves that keep counts (keepCounts; slots null: every leaf keeps them, in
+// leaf order).
+__host__ __device__ inline uint64_t countsSlot(const uint32_t* slots, uint32_t leaf) {
+  return slots ? slots[leaf] : leaf;
+}
+
 // One thread per (leaf, row); fits[leaf] starts at 1 and any row that does
 // not fit writes 0 (the same value whatever the order).
 // With leafT (L a multiple of 16: a row is whole 16-voxel words), a leaf of
@@ -322,8 +408,8 @@ __global__ void countsKernel(uint32_t leafCount, int L, const int32_t* exits, co
 // then reads 32 rows from 32 banks.
 __global__ void __launch_bounds__(kCrossingBlock)
     leafCountsKernel(WindingTreeView t, const LeafOrigin* origins, int L, const uint64_t* offsets,
-                     const uint32_t* candidates, const int32_t* exits, int16_t* counts, uint8_t* fits,
-                     const int* leafT, uint16_t* insideBits) {
+                     const uint32_t* candidates, const int32_t* exits, int16_t* counts, const uint32_t* slots,
+                     uint8_t* fits, const int* leafT, uint16_t* insideBits) {
   constexpr int kStride = kSharedLeaf + 1;
   __shared__ int32_t hits[kSharedLeaf * kSharedLeaf];
   __shared__ int32_t N[kSharedLeaf * kSharedLeaf * kStride];
@@ -368,7 +454,7 @@ __global__ void __launch_bounds__(kCrossingBlock)
   }
   // Two counts a 32-bit store (voxels is even; the leaf's counts start 4-byte
   // aligned).
-  uint32_t* pairs = reinterpret_cast<uint32_t*>(counts + size_t(leaf) * voxels);
+  uint32_t* pairs = reinterpret_cast<uint32_t*>(counts + countsSlot(slots, leaf) * voxels);
   for (uint32_t k = threadIdx.x; k < voxels / 2; k += blockDim.x)
     pairs[k] = uint32_t(uint16_t(int16_t(at(2 * k)))) | (uint32_t(uint16_t(int16_t(at(2 * k + 1)))) << 16);
 }
@@ -595,14 +681,14 @@ __device__ int countedVerdict(const WindingTreeView& t, const double* p, int N) 
 }
 
 __global__ void leafBoxesKernel(WindingTreeView t, const LeafOrigin* origins, int L, const int16_t* counts,
-                                uint8_t* fits, uint32_t* words, const LeafBox* in, uint32_t count, LeafBox* out,
+                                const uint32_t* slots, uint8_t* fits, uint32_t* words, const LeafBox* in, uint32_t count, LeafBox* out,
                                 uint32_t* outCount, uint32_t capacity, HardVoxels hard, bool allHard) {
   const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i >= count) return;
   const LeafBox q = in[i];
   if (q.leaf == kNoJob || !fits[q.leaf]) return;
   uint32_t* leafWords = words + leafWordOffset(q.leaf, L);
-  const int16_t* N = counts + size_t(q.leaf) * size_t(L) * size_t(L) * size_t(L);
+  const int16_t* N = counts + countsSlot(slots, q.leaf) * uint64_t(L) * uint64_t(L) * uint64_t(L);
   const WindingLeafWords w{leafWords, uint32_t(L)};
   const VoxelBox& b = q.box;
   if (!w.open(b)) return;
@@ -736,7 +822,8 @@ uint32_t blockThresholds(const WindingTreeView& t, const uint64_t* itemKeys, uin
 // thread per word; the word's inside plane rewritten).
 // insideBits: the bits countsKernel left (else from the counts).
 __global__ void settleBlockLeavesKernel(uint64_t wordCount, int L, const uint8_t* fits, const int* leafT,
-                                        const int16_t* counts, const uint16_t* insideBits, uint32_t* words) {
+                                        const int16_t* counts, const uint32_t* slots, const uint16_t* insideBits,
+                                        uint32_t* words) {
   const uint64_t i = uint64_t(blockIdx.x) * blockDim.x + threadIdx.x;
   const uint32_t wc = leafWordCount(L);
   if (i >= wordCount) return;
@@ -747,7 +834,8 @@ __global__ void settleBlockLeavesKernel(uint64_t wordCount, int L, const uint8_t
   if (insideBits) {
     inside = insideBits[i];
   } else {
-    const int16_t* N = counts + leaf * uint64_t(L) * uint64_t(L) * uint64_t(L) + (i % wc) * kVoxelsPerWord;
+    const int16_t* N =
+        counts + countsSlot(slots, uint32_t(leaf)) * uint64_t(L) * uint64_t(L) * uint64_t(L) + (i % wc) * kVoxelsPerWord;
     for (uint32_t v = 0; v < kVoxelsPerWord; ++v) inside |= uint32_t(int(N[v]) >= T) << v;
   }
   words[i] = withInsidePlane(words[i], inside);
@@ -755,15 +843,51 @@ __global__ void settleBlockLeavesKernel(uint64_t wordCount, int L, const uint8_t
 
 
 // The device's state between the steps.
+// counts: N per voxel (L^3 a leaf) of the leaves that keep them, at their
+// slots (countsSlot), allocated by the counts step (keepCounts).
 struct CountsOnDevice {
   Array<LeafOrigin> origins;
   Array<int32_t> totals, hits;
-  Array<int16_t> counts;
   Array<uint8_t> fits;
+  std::optional<Array<int16_t>> counts;
+  std::optional<Array<uint32_t>> slots; // none: every leaf keeps counts, in leaf order
+  uint32_t keptLeaves = 0;
   CountsOnDevice(size_t leaves, int L)
       : origins(leaves), totals(leaves * size_t(L) * size_t(L)), hits(L > kSharedLeaf ? totals.size() : 0),
-        counts(totals.size() * size_t(L)), fits(leaves) {}
+        fits(leaves) {}
+  int16_t* countsData() const { return counts ? counts->data() : nullptr; }
+  const uint32_t* slotsData() const { return slots ? slots->data() : nullptr; }
 };
+
+// 1 for a leaf that keeps its counts (no held block: leafT[leaf] is
+// kNoThreshold), 0 for one whose inside bits the counts step writes instead.
+__global__ void keepsCountsKernel(const int* leafT, uint32_t n, uint32_t* keeps) {
+  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i < n) keeps[i] = leafT[i] == kNoThreshold ? 1u : 0u;
+}
+
+// The counts array: with leafT (the leaves of held blocks store only their
+// inside bits, about 90% of them), a slot per leaf that keeps counts from an
+// exclusive sum of keepsCountsKernel's flags (CUB), so the array holds those
+// leaves only; without, every leaf in leaf order (no slots).
+void keepCounts(CountsOnDevice& d, uint32_t leaves, int L, const int* leafT) {
+  const uint64_t voxels = uint64_t(L) * uint64_t(L) * uint64_t(L);
+  d.keptLeaves = leaves;
+  if (leafT) {
+    d.slots.emplace(size_t(leaves) + 1);
+    Array<uint32_t> keeps(size_t(leaves) + 1);
+    HDT_CUDA_CHECK(cudaMemset(keeps.data() + leaves, 0, sizeof(uint32_t))); // the scan's last input
+    keepsCountsKernel<<<blocks(leaves), kBlock>>>(leafT, leaves, keeps.data());
+    HDT_CUDA_CHECK_LAUNCH("keepsCountsKernel");
+    size_t bytes = 0;
+    HDT_CUDA_CHECK(cub::DeviceScan::ExclusiveSum(nullptr, bytes, keeps.data(), d.slots->data(), int(leaves) + 1));
+    Array<uint8_t> temp(std::max<size_t>(bytes, 16));
+    HDT_CUDA_CHECK(cub::DeviceScan::ExclusiveSum(temp.data(), bytes, keeps.data(), d.slots->data(), int(leaves) + 1));
+    // The copy waits for the scan: keeps and temp may go after it.
+    HDT_CUDA_CHECK(cudaMemcpy(&d.keptLeaves, d.slots->data() + leaves, sizeof(uint32_t), cudaMemcpyDeviceToHost));
+  }
+  d.counts.emplace(std::max<uint64_t>(uint64_t(d.keptLeaves) * voxels, 1));
+}
 
 class Events {
 public:
@@ -839,9 +963,34 @@ public:
     return {a, a + capacity};
   }
 
+  // Boxes a queue of T can hold within the budget: room for two such
+  // queues (the block held now counted as free: it goes first) beside
+  // `spare` bytes for what the pass allocates after them.
+  template <class T>
+  uint64_t affordable(uint64_t spare) const {
+    const uint64_t room = t_passMemory ? t_passMemory->room() : UINT64_MAX;
+    if (room == UINT64_MAX) return UINT64_MAX;
+    const uint64_t free = room + (block_ ? block_->size() : 0);
+    return free > spare ? (free - spare) / (2 * sizeof(T)) : 0;
+  }
+
 private:
   std::unique_ptr<Array<uint8_t>> block_;
 };
+
+// A queue's capacity in boxes: `standard` (or HDT_WINDING_QUEUE_BOXES), cut
+// to what the budget affords, at least twice the items queued first. A
+// full queue is no error (the items whose boxes do not fit take the
+// fallbacks: the serial walk, the host's leaf), so under a small device
+// memory budget the pass runs with shorter queues instead of not at all.
+template <class T>
+uint32_t queueCapacity(const QueueMemory& memory, uint32_t items, uint32_t standard, uint64_t spare) {
+  const uint64_t wanted = std::min<uint64_t>(leastQueueBoxes(standard), memory.affordable<T>(spare));
+  return uint32_t(std::max<uint64_t>(2 * uint64_t(items), wanted));
+}
+
+// Bytes kept free beside the queues for the small arrays after them.
+constexpr uint64_t kQueueSpareBytes = uint64_t(1) << 20;
 
 // One queue's levels: launch(in, n, out) per level until a level queues no
 // box; the queues swap between levels. Returns the boxes taken.
@@ -867,12 +1016,13 @@ uint64_t runQueueLevels(const char* name, uint32_t first, uint32_t capacity, Box
 // hard: on return the voxels left to the host (decideHardVoxels).
 // leafT: each leaf's block threshold (those with one are settled already), or null.
 uint64_t decideLeavesBreadthFirst(const WindingTreeView& t, const LeafOrigin* origins, uint32_t leaves, int L,
-                                  const int16_t* counts, uint8_t* fits, const int* leafT, uint32_t* words,
+                                  const int16_t* counts, const uint32_t* slots, uint8_t* fits, const int* leafT,
+                                  uint32_t* words,
                                   QueueMemory& memory, std::vector<uint2>& hard) {
-  const uint32_t capacity = std::max<uint32_t>(2 * leaves, leastQueueBoxes(kLeafQueue));
   Array<uint32_t> hardCount(1);
   Array<uint2> hardItems(kHardVoxels);
   hardCount.zero();
+  const uint32_t capacity = queueCapacity<LeafBox>(memory, leaves, kLeafQueue, kQueueSpareBytes);
   const bool allHard = std::getenv("HDT_WINDING_HOST_VOXELS") != nullptr;
   auto [in, out] = memory.queues<LeafBox>(capacity);
   uint32_t first = 0;
@@ -886,7 +1036,7 @@ uint64_t decideLeavesBreadthFirst(const WindingTreeView& t, const LeafOrigin* or
   const HardVoxels hardVoxels{hardItems.data(), hardCount.data(), kHardVoxels};
   const uint64_t total =
       runQueueLevels("leaves", first, capacity, in, out, [&](LeafBox* from, uint32_t n, LeafBox* to, uint32_t* toCount) {
-        leafBoxesKernel<<<(n + kBoxBlock - 1) / kBoxBlock, kBoxBlock>>>(t, origins, L, counts, fits, words, from, n, to,
+        leafBoxesKernel<<<(n + kBoxBlock - 1) / kBoxBlock, kBoxBlock>>>(t, origins, L, counts, slots, fits, words, from, n, to,
                                                                          toCount, capacity, hardVoxels, allHard);
         checkLaunch("leafBoxesKernel");
       });
@@ -971,12 +1121,15 @@ void computeCounts(const WindingTreeView& t, const std::vector<std::array<int, 3
                                                     candidates->list->data(), d.totals.data());
     checkLaunch("leafRowTotalsKernel");
   } else {
+    // The serial kernel's per-voxel deltas go to the counts array (N is
+    // computed in place by countsKernel): every leaf keeps counts.
+    keepCounts(d, leaves, L, nullptr);
     d.totals.zero();
     d.hits.zero();
-    d.counts.zero();
+    d.counts->zero();
     ev.mark(1);
     signedCrossingsKernel<<<blocks(leaves), kBlock>>>(t, d.origins.data(), leaves, L, d.totals.data(), d.hits.data(),
-                                                      d.counts.data());
+                                                      d.countsData());
     checkLaunch("signedCrossingsKernel");
   }
   ev.mark(2);
@@ -1012,15 +1165,17 @@ void computeCounts(const WindingTreeView& t, const std::vector<std::array<int, 3
     HDT_CUDA_CHECK(cudaStreamSynchronize(0)); // before the temporaries go (not the words' upload)
   }
   HDT_CUDA_CHECK(cudaMemset(d.fits.data(), 1, leaves));
+  // After the lines' temporaries: the counts of the leaves that keep them.
+  if (candidates) keepCounts(d, leaves, L, leafT);
   ev.mark(10);
   if (candidates) {
     leafCountsKernel<<<leaves, kCrossingBlock>>>(t, d.origins.data(), L, candidates->offsets.data(),
-                                                 candidates->list->data(), d.totals.data(), d.counts.data(),
-                                                 d.fits.data(), leafT, insideBits);
+                                                 candidates->list->data(), d.totals.data(), d.countsData(),
+                                                 d.slotsData(), d.fits.data(), leafT, insideBits);
     checkLaunch("leafCountsKernel");
   } else {
     countsKernel<<<blocks(uint64_t(leaves) * rows), kBlock>>>(leaves, L, d.totals.data(), d.hits.data(),
-                                                              d.counts.data(), d.fits.data(), leafT, insideBits);
+                                                              d.countsData(), d.fits.data(), leafT, insideBits);
     checkLaunch("countsKernel");
   }
   ev.mark(4);
@@ -1073,10 +1228,12 @@ private:
 } // namespace
 
 struct WindingDevicePass::Impl {
+  PassMemory memory; // first: the arrays below give their bytes back to it
   const WindingTree* host = nullptr;
   DeviceTree* tree = nullptr;
   QueueMemory queues;
   int blockEdge = 0; // the blocks' edge in voxels, once known
+  explicit Impl(DeviceMemory* build) : memory(build) {}
   ~Impl() { delete tree; }
   const DeviceTree& upload(const WindingTree& t) {
     if (host != &t) {
@@ -1089,8 +1246,10 @@ struct WindingDevicePass::Impl {
   }
 };
 
-WindingDevicePass::WindingDevicePass() : impl_(std::make_unique<Impl>()) {}
+WindingDevicePass::WindingDevicePass(DeviceMemory* build) : impl_(std::make_unique<Impl>(build)) {}
 WindingDevicePass::~WindingDevicePass() = default;
+
+uint64_t WindingDevicePass::peakBytes() const { return impl_->memory.peak(); }
 
 bool WindingDevicePass::leaves(const WindingTree& tree, Volume& volume, const std::vector<std::array<int, 3>>& origins,
                                std::vector<uint32_t>& leftLeaves, WindingDeviceTimes* times, uint32_t* deviceWords,
@@ -1099,6 +1258,7 @@ bool WindingDevicePass::leaves(const WindingTree& tree, Volume& volume, const st
   const int L = volume.grid.leafSize;
   const uint32_t leaves = uint32_t(origins.size());
   if (leaves == 0) return true;
+  const PassMemoryScope scope(impl_->memory);
   try {
     Events ev;
     ev.mark(0);
@@ -1138,15 +1298,15 @@ bool WindingDevicePass::leaves(const WindingTree& tree, Volume& volume, const st
     const double uploadWaitMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - wait0).count();
     clearInsideKernel<<<blocks(wordCount), kBlock>>>(wordCount, L, d.fits.data(), words);
     checkLaunch("clearInsideKernel");
-    settleBlockLeavesKernel<<<blocks(wordCount), kBlock>>>(wordCount, L, d.fits.data(), leafT.data(),
-                                                          d.counts.data(), fuse ? insideBits.data() : nullptr, words);
+    settleBlockLeavesKernel<<<blocks(wordCount), kBlock>>>(wordCount, L, d.fits.data(), leafT.data(), d.countsData(),
+                                                          d.slotsData(), fuse ? insideBits.data() : nullptr, words);
     checkLaunch("settleBlockLeavesKernel");
     // Tests: the pass failing for want of memory after it began rewriting the
     // words (the breadth-first queues are its last allocations).
     if (std::getenv("HDT_WINDING_LEAF_PASS_FAILS")) throw std::bad_alloc();
     ev.mark(7);
     const uint64_t boxes =
-        decideLeavesBreadthFirst(t.view(), d.origins.data(), leaves, L, d.counts.data(), d.fits.data(), leafT.data(),
+        decideLeavesBreadthFirst(t.view(), d.origins.data(), leaves, L, d.countsData(), d.slotsData(), d.fits.data(), leafT.data(),
                                  words, impl_->queues, hard);
     ev.mark(5);
     std::vector<uint8_t> fits(leaves);
@@ -1165,9 +1325,11 @@ bool WindingDevicePass::leaves(const WindingTree& tree, Volume& volume, const st
       const size_t settled = size_t(std::count_if(T.begin(), T.end(), [](int x) { return x != kNoThreshold; }));
       std::fprintf(stderr,
                    "winding trace leaves: %u leaves, %u blocks of %d voxels, %zu leaves settled by them, %.3f ms; "
-                   "words up %.3f ms beside the counts, %.3f ms waited for%s\n",
+                   "words up %.3f ms beside the counts, %.3f ms waited for%s; %u leaves keep counts (%.1f MB); "
+                   "the pass's device bytes at most %.1f MB so far\n",
                    leaves, blockCount, edge, settled, ev.ms(0, 8), uploadMs, uploadWaitMs,
-                   upload ? "" : " (kept on the device: none)");
+                   upload ? "" : " (kept on the device: none)", d.keptLeaves, double(d.counts->size()) * 2e-6,
+                   double(impl_->memory.peak()) * 1e-6);
       std::fprintf(stderr,
                    "winding trace steps: lines = sort and select %.3f ms + suffixes %.3f ms; counts = the "
                    "lines' temporaries freed %.3f ms + %s %.3f ms\n",
@@ -1196,6 +1358,7 @@ bool WindingDevicePass::uniform(const WindingTree& tree, const std::vector<Windi
                                 std::vector<uint8_t>& verdicts, double* ms, uint64_t* boxes) {
   verdicts.assign(jobs.size(), 0);
   if (jobs.empty()) return true;
+  const PassMemoryScope scope(impl_->memory);
   try {
     Events ev;
     ev.mark(0);
@@ -1205,8 +1368,6 @@ bool WindingDevicePass::uniform(const WindingTree& tree, const std::vector<Windi
     d.upload(jobs.data());
     Array<uint32_t> seen(jobs.size());
     seen.zero();
-    const uint32_t capacity = std::max<uint32_t>(2 * count, leastQueueBoxes(kUniformQueue));
-    auto [in, out] = impl_->queues.queues<QueuedBox>(capacity);
     // The blocks of the elements that fit in one: the leaves' blocks when the
     // edge is known, else kBlockLeaves of the smallest element's edges (the
     // leaf's, but for a volume with no element at the last level).
@@ -1219,14 +1380,19 @@ bool WindingDevicePass::uniform(const WindingTree& tree, const std::vector<Windi
     const bool anyInBlock = std::any_of(jobs.begin(), jobs.end(), [&](const WindingUniformJob& j) { return j.edge <= edge; });
     std::unique_ptr<Array<int>> jobT;
     uint32_t first = 0, blockCount = 0;
+    if (anyInBlock) {
+      jobT = std::make_unique<Array<int>>(count);
+      Array<uint64_t> keys(count);
+      jobBlockKeysKernel<<<blocks(count), kBlock>>>(d.data(), count, edge, keys.data());
+      checkLaunch("jobBlockKeysKernel");
+      blockCount = blockThresholds(t.view(), keys.data(), count, edge, jobT->data());
+    }
+    // After the thresholds' temporaries; spare: the serial walk's copies of
+    // the elements whose boxes overflow (at most all of them).
+    const uint64_t spare = kQueueSpareBytes + uint64_t(count) * (sizeof(WindingUniformJob) + 1);
+    const uint32_t capacity = queueCapacity<QueuedBox>(impl_->queues, count, kUniformQueue, spare);
+    auto [in, out] = impl_->queues.queues<QueuedBox>(capacity);
     {
-      if (anyInBlock) {
-        jobT = std::make_unique<Array<int>>(count);
-        Array<uint64_t> keys(count);
-        jobBlockKeysKernel<<<blocks(count), kBlock>>>(d.data(), count, edge, keys.data());
-        checkLaunch("jobBlockKeysKernel");
-        blockCount = blockThresholds(t.view(), keys.data(), count, edge, jobT->data());
-      }
       Array<uint32_t> queued(1);
       queued.zero();
       firstBoxesKernel<<<blocks(count), kBlock>>>(t.view(), d.data(), count, jobT ? jobT->data() : nullptr, seen.data(),
@@ -1282,6 +1448,7 @@ bool WindingDevicePass::fresh(const WindingTree& tree, int L, const std::vector<
   leftLeaves.clear();
   const uint32_t leaves = uint32_t(origins.size());
   if (leaves == 0) return true;
+  const PassMemoryScope scope(impl_->memory);
   try {
     Events ev;
     ev.mark(0);
@@ -1300,7 +1467,7 @@ bool WindingDevicePass::fresh(const WindingTree& tree, int L, const std::vector<
                                                                  fits.data());
     checkLaunch("freshCountsKernel");
     std::vector<uint2> hard;
-    decideLeavesBreadthFirst(t.view(), o.data(), leaves, L, counts.data(), fits.data(), nullptr, w.data(), impl_->queues,
+    decideLeavesBreadthFirst(t.view(), o.data(), leaves, L, counts.data(), nullptr, fits.data(), nullptr, w.data(), impl_->queues,
                              hard);
     std::vector<uint8_t> hostFits(leaves);
     fits.download(hostFits.data());
@@ -1327,7 +1494,7 @@ void windingCountsOnDevice(const WindingTree& tree, int L, const std::vector<std
   CountsOnDevice d(leaves, L);
   uploadOrigins(origins, d);
   computeCounts(t.view(), origins, L, d, ev);
-  d.counts.download(counts.data());
+  d.counts->download(counts.data());
   d.fits.download(fits.data());
 }
 
