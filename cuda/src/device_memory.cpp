@@ -119,14 +119,14 @@ void DeviceMemory::reserve(size_t bytes) {
 }
 
 bool DeviceMemory::releaseUnused() {
-  if (!pool_) return false;
-  HDT_CUDA_CHECK(cudaStreamSynchronize(stream_));
+  // Any failure here only means nothing was given back (a fault shows at the
+  // caller's next checked call).
   uint64_t reserved = 0, used = 0;
-  HDT_CUDA_CHECK(cudaMemPoolGetAttribute(pool_, cudaMemPoolAttrReservedMemCurrent, &reserved));
-  HDT_CUDA_CHECK(cudaMemPoolGetAttribute(pool_, cudaMemPoolAttrUsedMemCurrent, &used));
-  if (reserved <= used) return false;
-  HDT_CUDA_CHECK(cudaMemPoolTrimTo(pool_, 0));
-  return true;
+  if (!pool_ || cudaStreamSynchronize(stream_) != cudaSuccess ||
+      cudaMemPoolGetAttribute(pool_, cudaMemPoolAttrReservedMemCurrent, &reserved) != cudaSuccess ||
+      cudaMemPoolGetAttribute(pool_, cudaMemPoolAttrUsedMemCurrent, &used) != cudaSuccess || reserved <= used)
+    return false;
+  return cudaMemPoolTrimTo(pool_, 0) == cudaSuccess;
 }
 
 } // namespace cuda

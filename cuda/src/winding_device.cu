@@ -681,8 +681,8 @@ __device__ int countedVerdict(const WindingTreeView& t, const double* p, int N) 
 }
 
 __global__ void leafBoxesKernel(WindingTreeView t, const LeafOrigin* origins, int L, const int16_t* counts,
-                                const uint32_t* slots, uint8_t* fits, uint32_t* words, const LeafBox* in, uint32_t count, LeafBox* out,
-                                uint32_t* outCount, uint32_t capacity, HardVoxels hard, bool allHard) {
+                                const uint32_t* slots, uint8_t* fits, uint32_t* words, const LeafBox* in,
+                                uint32_t count, LeafBox* out, uint32_t* outCount, uint32_t capacity, HardVoxels hard, bool allHard) {
   const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i >= count) return;
   const LeafBox q = in[i];
@@ -834,8 +834,8 @@ __global__ void settleBlockLeavesKernel(uint64_t wordCount, int L, const uint8_t
   if (insideBits) {
     inside = insideBits[i];
   } else {
-    const int16_t* N =
-        counts + countsSlot(slots, uint32_t(leaf)) * uint64_t(L) * uint64_t(L) * uint64_t(L) + (i % wc) * kVoxelsPerWord;
+    const uint64_t voxels = uint64_t(L) * uint64_t(L) * uint64_t(L);
+    const int16_t* N = counts + countsSlot(slots, uint32_t(leaf)) * voxels + (i % wc) * kVoxelsPerWord;
     for (uint32_t v = 0; v < kVoxelsPerWord; ++v) inside |= uint32_t(int(N[v]) >= T) << v;
   }
   words[i] = withInsidePlane(words[i], inside);
@@ -1017,8 +1017,7 @@ uint64_t runQueueLevels(const char* name, uint32_t first, uint32_t capacity, Box
 // leafT: each leaf's block threshold (those with one are settled already), or null.
 uint64_t decideLeavesBreadthFirst(const WindingTreeView& t, const LeafOrigin* origins, uint32_t leaves, int L,
                                   const int16_t* counts, const uint32_t* slots, uint8_t* fits, const int* leafT,
-                                  uint32_t* words,
-                                  QueueMemory& memory, std::vector<uint2>& hard) {
+                                  uint32_t* words, QueueMemory& memory, std::vector<uint2>& hard) {
   Array<uint32_t> hardCount(1);
   Array<uint2> hardItems(kHardVoxels);
   hardCount.zero();
@@ -1036,8 +1035,9 @@ uint64_t decideLeavesBreadthFirst(const WindingTreeView& t, const LeafOrigin* or
   const HardVoxels hardVoxels{hardItems.data(), hardCount.data(), kHardVoxels};
   const uint64_t total =
       runQueueLevels("leaves", first, capacity, in, out, [&](LeafBox* from, uint32_t n, LeafBox* to, uint32_t* toCount) {
-        leafBoxesKernel<<<(n + kBoxBlock - 1) / kBoxBlock, kBoxBlock>>>(t, origins, L, counts, slots, fits, words, from, n, to,
-                                                                         toCount, capacity, hardVoxels, allHard);
+        leafBoxesKernel<<<(n + kBoxBlock - 1) / kBoxBlock, kBoxBlock>>>(t, origins, L, counts, slots, fits, words,
+                                                                         from, n, to, toCount, capacity, hardVoxels,
+                                                                         allHard);
         checkLaunch("leafBoxesKernel");
       });
   uint32_t n = 0;
@@ -1306,7 +1306,8 @@ bool WindingDevicePass::leaves(const WindingTree& tree, Volume& volume, const st
     if (std::getenv("HDT_WINDING_LEAF_PASS_FAILS")) throw std::bad_alloc();
     ev.mark(7);
     const uint64_t boxes =
-        decideLeavesBreadthFirst(t.view(), d.origins.data(), leaves, L, d.countsData(), d.slotsData(), d.fits.data(), leafT.data(),
+        decideLeavesBreadthFirst(t.view(), d.origins.data(), leaves, L, d.countsData(), d.slotsData(), d.fits.data(),
+                                 leafT.data(),
                                  words, impl_->queues, hard);
     ev.mark(5);
     std::vector<uint8_t> fits(leaves);
