@@ -1307,8 +1307,7 @@ bool WindingDevicePass::leaves(const WindingTree& tree, Volume& volume, const st
     ev.mark(7);
     const uint64_t boxes =
         decideLeavesBreadthFirst(t.view(), d.origins.data(), leaves, L, d.countsData(), d.slotsData(), d.fits.data(),
-                                 leafT.data(),
-                                 words, impl_->queues, hard);
+                                 leafT.data(), words, impl_->queues, hard);
     ev.mark(5);
     std::vector<uint8_t> fits(leaves);
     d.fits.download(fits.data());
@@ -1468,8 +1467,8 @@ bool WindingDevicePass::fresh(const WindingTree& tree, int L, const std::vector<
                                                                  fits.data());
     checkLaunch("freshCountsKernel");
     std::vector<uint2> hard;
-    decideLeavesBreadthFirst(t.view(), o.data(), leaves, L, counts.data(), nullptr, fits.data(), nullptr, w.data(), impl_->queues,
-                             hard);
+    decideLeavesBreadthFirst(t.view(), o.data(), leaves, L, counts.data(), nullptr, fits.data(), nullptr, w.data(),
+                             impl_->queues, hard);
     std::vector<uint8_t> hostFits(leaves);
     fits.download(hostFits.data());
     copyToHost(0, words, w.data(), w.size() * sizeof(uint32_t));
