@@ -3,6 +3,7 @@
 // one-piece builds, a budget too small for one root cell is refused with
 // OutOfResources, aborting through progress works and leaves the driver
 // usable, a bad device ordinal is an InvalidArgument.
+#include "chunked.hpp" // estimateBytes (host code: runs without a device)
 #include "cuda_compare.hpp"
 
 #include "hdt/builder.hpp"
@@ -344,6 +345,23 @@ TEST(CudaDriver, WindingBuildEstimateIsTheSurfaceBuilds) {
   const uint64_t winding = estimate(InsideTest::WindingNumber, false);
   EXPECT_EQ(winding, estimate(InsideTest::WindingNumber, true));
   EXPECT_LT(winding, estimate(InsideTest::Parity, false));
+}
+
+// The same on the estimate itself (chunked.cpp; no device needed): closed
+// and open meshes, the winding number's estimate is the surface build's and
+// below the parity build's.
+TEST(CudaDriver, EstimateOfAWindingBuildSkipsTheParityBuffers) {
+  for (const char* name : {"sphere", "open_hemisphere"}) {
+    const Shape shape = makeShape(name, 256);
+    const auto estimate = [&](InsideTest test, bool surfaceOnly) {
+      BuildConfig config = windingConfig(shape, test);
+      config.surfaceOnly = surfaceOnly;
+      return cuda::estimateBytes(prepareMesh(shape.mesh, config), 1.0e6, 5000, 4096);
+    };
+    const uint64_t winding = estimate(InsideTest::WindingNumber, false);
+    EXPECT_EQ(winding, estimate(InsideTest::WindingNumber, true)) << name;
+    EXPECT_LT(winding, estimate(InsideTest::Parity, false)) << name;
+  }
 }
 
 TEST(CudaDriver, BadDeviceIsInvalidArgument) {
