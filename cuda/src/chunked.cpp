@@ -3,6 +3,7 @@
 #include "pipeline.hpp"
 
 #include "hdt/error.hpp"
+#include "hdt/mesh.hpp" // windingPassFollows
 #include "hdt/root_ranges.hpp"
 
 #include <chrono>
@@ -98,7 +99,12 @@ uint64_t estimateBytes(const PreparedMesh& mesh, double area, uint64_t rootPairs
   const double rowWords = L * L / 32.0;
   const int axes = mesh.closed ? 1 : 3;
   double perLeaf = L * L * L / 4.0 /*grid*/ + 12 /*coord, pair start*/;
-  if (!mesh.surfaceOnly)
+  // The parity classification's buffers: solid builds not followed by the
+  // winding-number pass (those build the surface only on the device, as
+  // Session::parityClassification says; the pass's own arrays are not part
+  // of this estimate: it runs after the build, on the whole volume whatever
+  // the chunks, and returns to the host when the budget has no room for it).
+  if (!mesh.surfaceOnly && !windingPassFollows(mesh))
     perLeaf += axes * (rowWords * 4 /*parity*/ + 13 /*line table*/) + 24 /*sort buffers*/ +
                (axes - 1) * L * L * 4 /*open meshes: pass-1 masks of axes 1, 2*/;
   // T3's tables (a triangle's slices, row heights and ray lines, 4-8 bytes
@@ -106,7 +112,12 @@ uint64_t estimateBytes(const PreparedMesh& mesh, double area, uint64_t rootPairs
   // about 3x the real pairs (measurements: bench/results/gpu-notes.md). An
   // estimate too low costs a failed one-piece try (then chunks), one too
   // high needless chunks.
-  const double perLeafPair = 4 /*kept*/ + 16 /*T2 pairs, double-buffered*/ + 9 /*rank, mask, offset*/ + 24;
+  // T2 (branching.cu; no sort): its last level holds the parent pairs
+  // (element, triangle: 8 bytes), their child-test bytes (1) and scanned
+  // child counters (24, or 32 + a 4-byte rank past 65,535 triangles) beside
+  // the hits (8 a leaf pair, whose triangles T3 keeps): with ~2-3 hits a
+  // parent pair, about 16 + 9 bytes a leaf pair.
+  const double perLeafPair = 4 /*kept*/ + 16 /*T2's hits and parent pairs*/ + 9 /*child tests, counters*/ + 24;
   const double elements = 3.0 * leaves + double(rootCells);
   const double bytes = leaves * perLeaf + leafPairs * perLeafPair + elements * 12 /*word, coords*/;
   return uint64_t(1.25 * bytes);

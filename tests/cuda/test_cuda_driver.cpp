@@ -3,6 +3,7 @@
 // one-piece builds, a budget too small for one root cell is refused with
 // OutOfResources, aborting through progress works and leaves the driver
 // usable, a bad device ordinal is an InvalidArgument.
+#include "chunked.hpp" // estimateBytes (host code: runs without a device)
 #include "cuda_compare.hpp"
 
 #include "hdt/builder.hpp"
@@ -254,6 +255,25 @@ TEST(CudaDriver, WindingPassReportsAndAborts) {
     EXPECT_EQ(e.kind(), ErrorKind::Aborted) << e.what();
   }
   EXPECT_TRUE(sameVolume(v, build(mesh, cudaOptions())));
+}
+
+// The chunk planner's one-piece estimate (chunked.cpp; host code, no device
+// needed): a build followed by the winding-number pass allocates no parity
+// buffers, so on a closed and an open mesh its estimate is the surface
+// build's and below the parity build's (which counts three ray axes on the
+// open one).
+TEST(CudaDriver, EstimateOfAWindingBuildSkipsTheParityBuffers) {
+  for (const char* name : {"sphere", "open_hemisphere"}) {
+    const Shape shape = makeShape(name, 256);
+    const auto estimate = [&](InsideTest test, bool surfaceOnly) {
+      BuildConfig config = shape.config(256, 16, 16, surfaceOnly);
+      config.insideTest = test;
+      return cuda::estimateBytes(prepareMesh(shape.mesh, config), 1.0e6, 5000, 4096);
+    };
+    const uint64_t winding = estimate(InsideTest::WindingNumber, false);
+    EXPECT_EQ(winding, estimate(InsideTest::WindingNumber, true)) << name;
+    EXPECT_LT(winding, estimate(InsideTest::Parity, false)) << name;
+  }
 }
 
 TEST(CudaDriver, BadDeviceIsInvalidArgument) {
