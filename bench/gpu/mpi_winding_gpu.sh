@@ -4,6 +4,8 @@
 # machine's GPU against 2 CPU ranks (the pass on rank 0's host) and the serial
 # CUDA build; every file compared with the serial one. Run from the repository
 # root with .devdeps/mpi-runtime.tar.xz (bench/gpu/pack_device_bundles.sh).
+# MPI_MESH (teapot.ply), MPI_RES ("2048 4096"), MPI_REPS (2); GPU_BACKEND=auto
+# runs the script on a machine without a GPU (a dry run: everything on the CPU).
 set -u
 ROOT=$(pwd); OUT=${OUT:-/tmp/out-mpi}; mkdir -p $OUT
 D=/tmp/hdt-mpi; rm -rf $D && mkdir -p $D && tar -xJf .devdeps/mpi-runtime.tar.xz -C $D
