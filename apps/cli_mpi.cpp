@@ -250,8 +250,9 @@ Volume buildAcrossRanks(const MpiSession& session, const PreparedMesh& mesh, con
   // skip the parity passes) and the joined volume is classified here, the
   // serial build's last step on the same surface: the same bytes. On this
   // rank's GPU where its build ran on one, else on the host.
+  const BuildOptions passOptions = insideTestOptionsAfterRangeBuild(rankOptions, device);
   double windingMs = 0;
-  arena.execute([&] { windingMs = applyInsideTestAfterPhases(mesh, v, insideTestOptionsAfterRangeBuild(rankOptions, device)); });
+  arena.execute([&] { windingMs = applyInsideTestAfterPhases(mesh, v, passOptions); });
   figures.phases.classify += windingMs;
   figures.phases.total += windingMs;
   figures.peakHostBytes = peakResidentBytes(); // rank 0 holds the joined volume now

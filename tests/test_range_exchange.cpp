@@ -204,16 +204,6 @@ namespace hdt {
 namespace test {
 namespace {
 
-// The winding shapes at 64^3 in 4^3 root cells of 8^3 leaves.
-BuildConfig windingShapesConfig() {
-  BuildConfig config;
-  config.resolution = 64;
-  config.rootGrid = 4;
-  config.leafSize = 8;
-  config.insideTest = InsideTest::WindingNumber;
-  return config;
-}
-
 // The distributed winding-number build (apps/cli_mpi.cpp,
 // filters/vtkHDTDistributedBuild.cxx): the ranges' surface trees joined,
 // classified by applyInsideTest in the joining process, each range's trees

@@ -41,17 +41,15 @@ double applyInsideTestCuda(const PreparedMesh&, Volume&, const BuildOptions&) {
 #endif
 
 double applyInsideTestAfterPhases(const PreparedMesh& mesh, Volume& volume, const BuildOptions& options) {
-  switch (options.backend) {
-  case Backend::Cpu: return applyInsideTestAfterCpuPhases(mesh, volume, options.progress);
-  case Backend::Cuda: return applyInsideTestCuda(mesh, volume, options);
-  case Backend::Auto: break;
-  }
-  // No fallback after the device pass has begun: it rewrites the volume in
-  // place, so a device failure there is an error, as it is for Backend Cuda.
+  // Only the winding-number pass has a device form.
+  if (!windingPassFollows(mesh) || options.backend == Backend::Cpu)
+    return applyInsideTestAfterCpuPhases(mesh, volume, options.progress);
+  if (options.backend == Backend::Cuda) return applyInsideTestCuda(mesh, volume, options);
+  // Auto. No fallback after the device pass has begun: it rewrites the volume
+  // in place, so a device failure there is an error, as it is for Cuda.
   std::string why;
-  if (windingPassFollows(mesh) && cudaAvailable(&why)) return applyInsideTestCuda(mesh, volume, options);
-  if (options.log && windingPassFollows(mesh))
-    options.log("backend auto: the winding-number pass runs on the host (" + why + ")");
+  if (cudaAvailable(&why)) return applyInsideTestCuda(mesh, volume, options);
+  if (options.log) options.log("backend auto: the winding-number pass runs on the host (" + why + ")");
   return applyInsideTestAfterCpuPhases(mesh, volume, options.progress);
 }
 

@@ -235,6 +235,18 @@ int cudaDeviceCount() {
   return count;
 }
 
+namespace {
+
+// The user's error for a device allocation that did not fit; `where` names
+// the step (" in ...") or is empty.
+Error outOfDeviceMemory(const cuda::DeviceMemoryExhausted& e, const std::string& where) {
+  return Error(ErrorKind::OutOfResources, "out of device memory" + where + " (needed at least " +
+                                              std::to_string(mib(e.neededBytes())) + " MiB, " +
+                                              std::to_string(mib(e.availableBytes())) + " MiB available)");
+}
+
+} // namespace
+
 Volume buildCudaWithReport(const PreparedMesh& mesh, const BuildOptions& options, CudaBuildReport* report,
                            bool keepResult) {
   CudaBuildReport local;
@@ -242,9 +254,7 @@ Volume buildCudaWithReport(const PreparedMesh& mesh, const BuildOptions& options
     Volume v = build(mesh, options, report ? *report : local, keepResult);
     return v;
   } catch (const cuda::DeviceMemoryExhausted& e) { // never escapes: say what was missing
-    throw Error(ErrorKind::OutOfResources, "out of device memory (needed at least " +
-                                               std::to_string(mib(e.neededBytes())) + " MiB, " +
-                                               std::to_string(mib(e.availableBytes())) + " MiB available)");
+    throw outOfDeviceMemory(e, "");
   }
 }
 
@@ -263,9 +273,7 @@ double applyInsideTestCuda(const PreparedMesh& mesh, Volume& volume, const Build
     progress.report(1.0, "done");
     return ms;
   } catch (const cuda::DeviceMemoryExhausted& e) {
-    throw Error(ErrorKind::OutOfResources, "out of device memory in the winding-number pass (needed at least " +
-                                               std::to_string(mib(e.neededBytes())) + " MiB, " +
-                                               std::to_string(mib(e.availableBytes())) + " MiB available)");
+    throw outOfDeviceMemory(e, " in the winding-number pass");
   }
 }
 

@@ -159,21 +159,17 @@ TEST(CudaRangeBuild, AutoFallsBackToTheCpuPerRange) {
 // joining process's own range ran on the CPU.
 TEST(CudaRangeBuild, WindingPassOnTheJoiningProcesssDeviceGivesTheSerialVolume) {
   HDT_REQUIRE_CUDA();
-  BuildConfig config;
-  config.resolution = 64;
-  config.rootGrid = 4;
-  config.leafSize = 8;
-  config.insideTest = InsideTest::WindingNumber;
   for (const WindingShape& shape : windingShapes()) {
     SCOPED_TRACE(shape.name);
-    const PreparedMesh mesh = prepareMesh(shape.mesh, config);
+    const PreparedMesh mesh = prepareMesh(shape.mesh, windingShapesConfig());
     const Volume serial = build(mesh, cpuOptions());
     const std::vector<RootRange> ranges = planRootRanges(cellLoads(mesh), 64, 3, 4);
     for (const BuildOptions& rangeOptions : {cudaOptions(), cpuOptions()}) {
+      const Volume surfaces = joinRanges(mesh.grid, runRanges(mesh, {rangeOptions}, ranges).pieces);
       for (const int rangeDevice : {0, -1}) {
         SCOPED_TRACE("ranges on " + std::string(rangeOptions.backend == Backend::Cuda ? "cuda" : "cpu") +
                      ", the joining range's device " + std::to_string(rangeDevice));
-        Volume v = joinRanges(mesh.grid, runRanges(mesh, {rangeOptions}, ranges).pieces);
+        Volume v = surfaces;
         std::vector<std::string> log;
         BuildOptions automatic;
         automatic.backend = Backend::Auto;

@@ -68,6 +68,15 @@ TriangleMesh openCubeOneFaceFlipped() {
 
 } // namespace
 
+BuildConfig windingShapesConfig() {
+  BuildConfig config;
+  config.resolution = 64;
+  config.rootGrid = 4;
+  config.leafSize = 8;
+  config.insideTest = InsideTest::WindingNumber;
+  return config;
+}
+
 std::vector<WindingShape> windingShapes() {
   std::vector<WindingShape> out;
   out.push_back({"open_cube", openCube()});

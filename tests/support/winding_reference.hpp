@@ -30,6 +30,10 @@ struct WindingShape {
 // open cube with one face turned inward (inconsistent orientation).
 std::vector<WindingShape> windingShapes();
 
+// The winding shapes at 64^3 in 4^3 root cells of 8^3 leaves under the
+// winding number: the distributed builds' tests (a few ranges of root cells).
+BuildConfig windingShapesConfig();
+
 // Every voxel of the volume against the reference: surface voxels must match
 // the reference surface (the box test), every other voxel must be inside
 // exactly when w >= 1/2. Voxels with |w - 1/2| < 1e-9 are not judged (the
