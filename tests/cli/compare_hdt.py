@@ -1,7 +1,9 @@
-"""compare_hdt.py A.hdt B.hdt: exits 1 unless the two .hdt files hold the same
-volume: every section byte for byte, except in the statistics section the
-run's own measurements (phase times, peak memory, threads), which differ
-between any two runs. Prints the first difference. Reads in bounded chunks,
+"""compare_hdt.py [--any-backend] A.hdt B.hdt: exits 1 unless the two .hdt
+files hold the same volume: every section byte for byte, except in the
+statistics section the run's own measurements (phase times, peak memory,
+threads), which differ between any two runs. --any-backend leaves the
+statistics section out (it also names the driver that ran: cpu, cuda), for
+files of two drivers. Prints the first difference. Reads in bounded chunks,
 so it also compares 65536^3 volumes (tens of GB)."""
 import sys
 
@@ -58,11 +60,18 @@ def same_section(fa, fb, a, b):
     return True
 
 
-with open(sys.argv[1], "rb") as fa, open(sys.argv[2], "rb") as fb:
+args = sys.argv[1:]
+any_backend = "--any-backend" in args
+args = [x for x in args if x != "--any-backend"]
+if len(args) != 2:
+    sys.exit("usage: compare_hdt.py [--any-backend] A.hdt B.hdt")
+with open(args[0], "rb") as fa, open(args[1], "rb") as fb:
     a, b = sections(fa), sections(fb)
     for sa, sb in zip(a, b):
+        if any_backend and sa[0] == STATISTICS and sb[0] == STATISTICS:
+            continue
         if not same_section(fa, fb, sa, sb):
-            sys.exit("compare_hdt: section %s differs between %s and %s" % (sa[0], sys.argv[1], sys.argv[2]))
+            sys.exit("compare_hdt: section %s differs between %s and %s" % (sa[0], args[0], args[1]))
     if len(a) != len(b):
         sys.exit("compare_hdt: section counts differ")
 print("compare_hdt: same volume (%d sections)" % (len(a) - 1))
