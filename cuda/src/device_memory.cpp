@@ -118,6 +118,17 @@ void DeviceMemory::reserve(size_t bytes) {
   if (live_ > peak_) peak_ = live_;
 }
 
+bool DeviceMemory::releaseUnused() {
+  // Any failure here only means nothing was given back (a fault shows at the
+  // caller's next checked call).
+  uint64_t reserved = 0, used = 0;
+  if (!pool_ || cudaStreamSynchronize(stream_) != cudaSuccess ||
+      cudaMemPoolGetAttribute(pool_, cudaMemPoolAttrReservedMemCurrent, &reserved) != cudaSuccess ||
+      cudaMemPoolGetAttribute(pool_, cudaMemPoolAttrUsedMemCurrent, &used) != cudaSuccess || reserved <= used)
+    return false;
+  return cudaMemPoolTrimTo(pool_, 0) == cudaSuccess;
+}
+
 } // namespace cuda
 
 void setCudaPoolRetention(uint64_t bytes) { cuda::g_retainedBytes.store(bytes); }

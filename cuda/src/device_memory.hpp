@@ -43,6 +43,11 @@ public:
   void reserve(size_t bytes);
   void unreserve(size_t bytes) noexcept { live_ -= bytes; }
 
+  // Hands what the pool holds unused back to the driver (after the stream's
+  // frees), for allocations outside the pool (the winding pass's cudaMalloc).
+  // False when there was nothing to give back.
+  bool releaseUnused();
+
   cudaStream_t stream() const { return stream_; }
   uint64_t live() const { return live_; }
   uint64_t peak() const { return peak_; }

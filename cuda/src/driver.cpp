@@ -47,7 +47,8 @@ uint64_t mib(uint64_t bytes) { return (bytes + (uint64_t(1) << 20) - 1) >> 20; }
 double applyInsideTestOnDevice(cuda::Session& s, const PreparedMesh& mesh, Volume& v, const BuildOptions& options,
                                WindingTreeInBackground& tree, cuda::DeviceBuffer<uint32_t>& keptWords,
                                ProgressPoll& progress) {
-  cuda::WindingDevicePass device;
+  // Its arrays count against the build's budget and peak (s.memory).
+  cuda::WindingDevicePass device(&s.memory);
   double uniformMs = 0;
   // Host time around the device passes: tree + walk before, then the rest.
   const auto windingStart = Clock::now();
@@ -116,7 +117,8 @@ double applyInsideTestOnDevice(cuda::Session& s, const PreparedMesh& mesh, Volum
                 " ms (" + std::to_string(uniformBoxes) + " boxes), leaf pass " + std::to_string(leavesWallMs) + " ms, fresh leaves " + std::to_string(freshWallMs) +
                 " ms (wall, allocations included; fresh kernels " + std::to_string(freshMs) + " ms, " +
                 std::to_string(freshLeaves) + " leaves); " + std::to_string(v.stats.windingRefinedElements) +
-                " elements refined");
+                " elements refined; the device passes held at most " + std::to_string(device.peakBytes()) +
+                " bytes at once");
   return windingMs;
 }
 

@@ -25,6 +25,7 @@
 #include "winding_device.hpp"
 
 #include "check.hpp"
+#include "device_memory.hpp"
 #include "host_copy.hpp"
 
 #include "hdt/build_steps.hpp"
@@ -58,14 +59,90 @@ constexpr unsigned kBoxBlock = 64; // the box queues' kernels (double-heavy thre
 
 unsigned blocks(uint64_t n) { return unsigned((n + kBlock - 1) / kBlock); }
 
-// A device array freed on scope exit; allocation failure throws bad_alloc
-// (the pass then returns false and the host pass runs).
+// The bytes the pass holds, counted against the build's DeviceMemory (its
+// budget and its peak: Statistics::peakDeviceBytes) as reservations, and
+// the pass's own live and peak bytes (the driver's log, the tests).
+//
+// Why reservations beside cudaMalloc rather than the build's pool
+// (DeviceMemory::allocate): pool allocations are ordered on the session's
+// stream, which is non-blocking, while the pass launches and copies on the
+// legacy default stream; a cudaFreeAsync at scope exit on the session's
+// stream would not wait for the pass's kernels. cudaMalloc and cudaFree
+// synchronise with every stream, so an Array may go at any scope exit. The
+// pool keeps the build's freed memory (release threshold: never), which
+// cudaMalloc cannot use but the budget counted as obtainable: when
+// cudaMalloc finds no room, the pool's unused memory goes back to the driver
+// (DeviceMemory::releaseUnused) and cudaMalloc is tried once more.
+class PassMemory {
+public:
+  explicit PassMemory(DeviceMemory* build) : build_(build) {}
+  // Throws bad_alloc (the pass's fallback: the host pass) beyond the budget.
+  void reserve(size_t bytes) {
+    if (build_) {
+      try {
+        build_->reserve(bytes);
+      } catch (const DeviceMemoryExhausted&) {
+        throw std::bad_alloc();
+      }
+    }
+    live_ += bytes;
+    peak_ = std::max(peak_, live_);
+  }
+  void unreserve(size_t bytes) noexcept {
+    if (build_) build_->unreserve(bytes);
+    live_ -= bytes;
+  }
+  // cudaMalloc found no room: the build's pool gives back what it holds unused.
+  bool releaseUnused() { return build_ && build_->releaseUnused(); }
+  // Bytes the budget leaves for further reservations.
+  uint64_t room() const {
+    if (!build_) return UINT64_MAX;
+    return build_->budget() > build_->live() ? build_->budget() - build_->live() : 0;
+  }
+  uint64_t peak() const { return peak_; }
+
+private:
+  DeviceMemory* build_; // null: counted here only (windingCountsOnDevice)
+  uint64_t live_ = 0, peak_ = 0;
+};
+
+// The PassMemory of the pass call under way on this thread (PassMemoryScope,
+// set by each entry point): every Array made within the call, in whichever
+// helper, counts against it without the memory being passed through each.
+thread_local PassMemory* t_passMemory = nullptr;
+
+class PassMemoryScope {
+public:
+  explicit PassMemoryScope(PassMemory& m) : previous_(std::exchange(t_passMemory, &m)) {}
+  ~PassMemoryScope() { t_passMemory = previous_; }
+  PassMemoryScope(const PassMemoryScope&) = delete;
+  PassMemoryScope& operator=(const PassMemoryScope&) = delete;
+
+private:
+  PassMemory* previous_;
+};
+
+// A device array freed on scope exit, its bytes reserved in the call's
+// PassMemory; no room (budget or device) throws bad_alloc (the pass then
+// returns false and the host pass runs).
 template <class T>
 class Array {
 public:
   explicit Array(size_t n) : n_(n) {
     if (n == 0) return;
-    const cudaError_t e = cudaMalloc(&p_, n * sizeof(T));
+    const size_t bytes = n * sizeof(T);
+    if (t_passMemory) t_passMemory->reserve(bytes); // may throw bad_alloc
+    memory_ = t_passMemory;
+    cudaError_t e = cudaMalloc(&p_, bytes);
+    if (e == cudaErrorMemoryAllocation && memory_ && memory_->releaseUnused()) {
+      (void)cudaGetLastError();
+      e = cudaMalloc(&p_, bytes);
+    }
+    if (e != cudaSuccess) {
+      p_ = nullptr;
+      if (memory_) memory_->unreserve(bytes);
+      memory_ = nullptr;
+    }
     if (e == cudaErrorMemoryAllocation) {
       (void)cudaGetLastError(); // not sticky: clear it
       throw std::bad_alloc();
@@ -74,6 +151,7 @@ public:
   }
   ~Array() {
     if (p_) cudaFree(p_);
+    if (memory_) memory_->unreserve(n_ * sizeof(T));
   }
   Array(const Array&) = delete;
   Array& operator=(const Array&) = delete;
@@ -92,6 +170,7 @@ public:
 private:
   T* p_ = nullptr;
   size_t n_ = 0;
+  PassMemory* memory_ = nullptr; // where its bytes are reserved
 };
 
 // The tree's arrays on the device, uploaded once per pass.
@@ -127,13 +206,18 @@ struct LeafOrigin {
 // and then listed at their exclusive sum, one thread a leaf; a block a leaf
 // then takes its candidates' lines, one item a thread
 // (windingForEachPairLineCrossing, the host's crossings line by line), and
-// sums the signed crossings into the leaf's row totals, row hits and voxel
-// deltas in shared memory with integer atomics (exact and order-free: the
-// same sums as one thread adding them in walk order), written out whole (so
-// the arrays need no zeroing). One thread a leaf, walking and crossing
-// serially, left most lanes idle behind the leaves with the most crossings.
-// Leaves larger than kSharedLeaf (32: the deltas would not fit shared
-// memory) keep the serial kernel.
+// sums the signed crossings in shared memory with integer atomics (exact and
+// order-free: the same sums as one thread adding them in walk order). One
+// thread a leaf, walking and crossing serially, left most lanes idle behind
+// the leaves with the most crossings.
+// Two passes over the same list: the first sums only the row totals (what
+// the lines step needs); the second, after the lines step, sums the voxel
+// deltas and row hits again and turns them into the counts N in shared
+// memory (leafCountsKernel). So the 2 bytes a voxel of deltas are never
+// stored and read back (4.4 GB each way at 8192^3 with the hits), and a leaf
+// of a held block stores only its inside bits. Leaves larger than
+// kSharedLeaf (32: the deltas would not fit shared memory) keep the serial
+// kernel and countsKernel.
 constexpr int kSharedLeaf = 16;
 constexpr unsigned kCrossingBlock = 128;
 
@@ -168,41 +252,37 @@ __global__ void candidateListKernel(WindingTreeView t, const LeafOrigin* origins
   });
 }
 
-// One block a leaf (L <= kSharedLeaf): its candidates' lines, one item a
-// thread; the sums written whole, the deltas as int16 (the sum modulo 2^16,
-// as the serial kernel's int16 additions wrap).
-__global__ void __launch_bounds__(kCrossingBlock)
-    leafCrossingSumsKernel(WindingTreeView t, const LeafOrigin* origins, int L, const uint64_t* offsets,
-                           const uint32_t* candidates, int32_t* rowTotals, int32_t* rowHits, int16_t* deltas) {
-  __shared__ int32_t total[kSharedLeaf * kSharedLeaf], hits[kSharedLeaf * kSharedLeaf];
-  __shared__ int32_t delta[kSharedLeaf * kSharedLeaf * kSharedLeaf];
+// fn(row, before, sign) for every crossing of the leaf (block blockIdx.x),
+// its listed candidates' lines spread over the block's threads, one
+// (candidate, line) item a thread.
+template <class Fn>
+__device__ void forEachBlockLeafCrossing(const WindingTreeView& t, const LeafOrigin* origins, int L,
+                                         const uint64_t* offsets, const uint32_t* candidates, Fn&& fn) {
   const uint32_t leaf = blockIdx.x;
-  const uint32_t rows = uint32_t(L * L), voxels = rows * uint32_t(L);
-  for (uint32_t k = threadIdx.x; k < rows; k += blockDim.x) total[k] = hits[k] = 0;
-  for (uint32_t k = threadIdx.x; k < voxels; k += blockDim.x) delta[k] = 0;
-  __syncthreads();
   const uint64_t first = offsets[leaf], items = (offsets[leaf + 1] - first) * uint64_t(L);
   const LeafOrigin o = origins[leaf];
   for (uint64_t k = threadIdx.x; k < items; k += blockDim.x) {
     const uint32_t i = candidates[first + k / uint64_t(L)];
     const int sign = windingCrossingSign(t.lattice[i]);
-    windingForEachPairLineCrossing(t, i, o.o, L, int(k % uint64_t(L)), [&](int row, int before) {
-      atomicAdd(total + row, sign);
-      atomicAdd(hits + row, 1);
-      if (before > 0) atomicAdd(delta + row * L + before - 1, sign);
-    });
+    windingForEachPairLineCrossing(t, i, o.o, L, int(k % uint64_t(L)),
+                                   [&](int row, int before) { fn(row, before, sign); });
   }
+}
+
+// The first pass (L <= kSharedLeaf): the leaf's row totals, written whole
+// (the array needs no zeroing).
+__global__ void __launch_bounds__(kCrossingBlock)
+    leafRowTotalsKernel(WindingTreeView t, const LeafOrigin* origins, int L, const uint64_t* offsets,
+                        const uint32_t* candidates, int32_t* rowTotals) {
+  __shared__ int32_t total[kSharedLeaf * kSharedLeaf];
+  const uint32_t rows = uint32_t(L * L);
+  for (uint32_t k = threadIdx.x; k < rows; k += blockDim.x) total[k] = 0;
   __syncthreads();
-  const size_t rowBase = size_t(leaf) * rows;
-  for (uint32_t k = threadIdx.x; k < rows; k += blockDim.x) {
-    rowTotals[rowBase + k] = total[k];
-    rowHits[rowBase + k] = hits[k];
-  }
-  // Two deltas a 32-bit store (voxels is even; the leaf's deltas start
-  // 4-byte aligned).
-  uint32_t* pairs = reinterpret_cast<uint32_t*>(deltas + size_t(leaf) * voxels);
-  for (uint32_t k = threadIdx.x; k < voxels / 2; k += blockDim.x)
-    pairs[k] = uint32_t(uint16_t(int16_t(delta[2 * k]))) | (uint32_t(uint16_t(int16_t(delta[2 * k + 1]))) << 16);
+  forEachBlockLeafCrossing(t, origins, L, offsets, candidates,
+                           [&](int row, int, int sign) { atomicAdd(total + row, sign); });
+  __syncthreads();
+  const size_t rowBase = size_t(blockIdx.x) * rows;
+  for (uint32_t k = threadIdx.x; k < rows; k += blockDim.x) rowTotals[rowBase + k] = total[k];
 }
 
 // L > kSharedLeaf: one thread a leaf, serially (the arrays zeroed before).
@@ -266,6 +346,13 @@ __global__ void lineSuffixKernel(const uint32_t* lineStarts, uint32_t lines, uin
 // A leaf's threshold when its block holds (blocks below), else this.
 constexpr int kNoThreshold = INT_MIN;
 
+// Where a leaf's counts (L^3 of them) start, in leaves: its slot among the
+// leaves that keep counts (keepCounts; slots null: every leaf keeps them, in
+// leaf order).
+__host__ __device__ inline uint64_t countsSlot(const uint32_t* slots, uint32_t leaf) {
+  return slots ? slots[leaf] : leaf;
+}
+
 // One thread per (leaf, row); fits[leaf] starts at 1 and any row that does
 // not fit writes 0 (the same value whatever the order).
 // With leafT (L a multiple of 16: a row is whole 16-voxel words), a leaf of
@@ -306,6 +393,70 @@ __global__ void countsKernel(uint32_t leafCount, int L, const int32_t* exits, co
     for (int i = 0; i < L / 8; ++i) reinterpret_cast<int4*>(c)[i] = reinterpret_cast<const int4*>(row)[i];
   }
   if (!fit) fits[k / rows] = 0;
+}
+
+// The second pass (L <= kSharedLeaf), after the lines step turned the row
+// totals into exits: the leaf's crossings summed again, into row hits and
+// voxel deltas in shared memory, then each row's counts N = exit + the deltas
+// from the row's far end, as countsKernel computes them from the stored int16
+// deltas (the same values wherever the row fits: |delta| <= hits <=
+// INT16_MAX, so no int16 wrapped). A leaf whose rows all fit writes its
+// counts whole, or with leafT, a leaf of a held block only its inside bits
+// (N >= T, one 16-bit group a word, L a multiple of kVoxelsPerWord); any other
+// leaf gets fits 0 (the host's leaf: nothing of it is read on the device).
+// A row's deltas lie kSharedLeaf + 1 apart in shared memory: one thread a row
+// then reads 32 rows from 32 banks.
+__global__ void __launch_bounds__(kCrossingBlock)
+    leafCountsKernel(WindingTreeView t, const LeafOrigin* origins, int L, const uint64_t* offsets,
+                     const uint32_t* candidates, const int32_t* exits, int16_t* counts, const uint32_t* slots,
+                     uint8_t* fits, const int* leafT, uint16_t* insideBits) {
+  constexpr int kStride = kSharedLeaf + 1;
+  __shared__ int32_t hits[kSharedLeaf * kSharedLeaf];
+  __shared__ int32_t N[kSharedLeaf * kSharedLeaf * kStride];
+  __shared__ int allFit;
+  const uint32_t leaf = blockIdx.x, uL = uint32_t(L);
+  const uint32_t rows = uL * uL, voxels = rows * uL;
+  for (uint32_t k = threadIdx.x; k < rows; k += blockDim.x) hits[k] = 0;
+  for (uint32_t k = threadIdx.x; k < rows * kStride; k += blockDim.x) N[k] = 0;
+  if (threadIdx.x == 0) allFit = 1;
+  __syncthreads();
+  forEachBlockLeafCrossing(t, origins, L, offsets, candidates, [&](int row, int before, int sign) {
+    atomicAdd(hits + row, 1);
+    if (before > 0) atomicAdd(N + row * kStride + before - 1, sign);
+  });
+  __syncthreads();
+  const size_t rowBase = size_t(leaf) * rows;
+  for (uint32_t k = threadIdx.x; k < rows; k += blockDim.x) {
+    bool fit = hits[k] <= INT16_MAX; // the int16 deltas could not wrap
+    int32_t n = exits[rowBase + k];
+    for (int x = L - 1; x >= 0; --x) {
+      n += N[k * kStride + uint32_t(x)];
+      fit = fit && n >= INT16_MIN && n <= INT16_MAX;
+      N[k * kStride + uint32_t(x)] = n;
+    }
+    if (!fit) allFit = 0;
+  }
+  __syncthreads();
+  if (!allFit) {
+    if (threadIdx.x == 0) fits[leaf] = 0;
+    return;
+  }
+  auto at = [&](uint32_t v) { return N[(v / uL) * kStride + v % uL]; }; // voxel v = x + L row
+  const int T = leafT ? leafT[leaf] : kNoThreshold;
+  if (T != kNoThreshold) {
+    const uint32_t words = voxels / kVoxelsPerWord;
+    for (uint32_t g = threadIdx.x; g < words; g += blockDim.x) {
+      uint32_t bits = 0;
+      for (uint32_t x = 0; x < kVoxelsPerWord; ++x) bits |= uint32_t(at(g * kVoxelsPerWord + x) >= T) << x;
+      insideBits[size_t(leaf) * words + g] = uint16_t(bits);
+    }
+    return;
+  }
+  // Two counts a 32-bit store (voxels is even; the leaf's counts start 4-byte
+  // aligned).
+  uint32_t* pairs = reinterpret_cast<uint32_t*>(counts + countsSlot(slots, leaf) * voxels);
+  for (uint32_t k = threadIdx.x; k < voxels / 2; k += blockDim.x)
+    pairs[k] = uint32_t(uint16_t(int16_t(at(2 * k)))) | (uint32_t(uint16_t(int16_t(at(2 * k + 1)))) << 16);
 }
 
 // The inside plane of every leaf that fits cleared (leafBoxesKernel sets it).
@@ -530,14 +681,14 @@ __device__ int countedVerdict(const WindingTreeView& t, const double* p, int N) 
 }
 
 __global__ void leafBoxesKernel(WindingTreeView t, const LeafOrigin* origins, int L, const int16_t* counts,
-                                uint8_t* fits, uint32_t* words, const LeafBox* in, uint32_t count, LeafBox* out,
-                                uint32_t* outCount, uint32_t capacity, HardVoxels hard, bool allHard) {
+                                const uint32_t* slots, uint8_t* fits, uint32_t* words, const LeafBox* in,
+                                uint32_t count, LeafBox* out, uint32_t* outCount, uint32_t capacity, HardVoxels hard, bool allHard) {
   const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i >= count) return;
   const LeafBox q = in[i];
   if (q.leaf == kNoJob || !fits[q.leaf]) return;
   uint32_t* leafWords = words + leafWordOffset(q.leaf, L);
-  const int16_t* N = counts + size_t(q.leaf) * size_t(L) * size_t(L) * size_t(L);
+  const int16_t* N = counts + countsSlot(slots, q.leaf) * uint64_t(L) * uint64_t(L) * uint64_t(L);
   const WindingLeafWords w{leafWords, uint32_t(L)};
   const VoxelBox& b = q.box;
   if (!w.open(b)) return;
@@ -671,7 +822,8 @@ uint32_t blockThresholds(const WindingTreeView& t, const uint64_t* itemKeys, uin
 // thread per word; the word's inside plane rewritten).
 // insideBits: the bits countsKernel left (else from the counts).
 __global__ void settleBlockLeavesKernel(uint64_t wordCount, int L, const uint8_t* fits, const int* leafT,
-                                        const int16_t* counts, const uint16_t* insideBits, uint32_t* words) {
+                                        const int16_t* counts, const uint32_t* slots, const uint16_t* insideBits,
+                                        uint32_t* words) {
   const uint64_t i = uint64_t(blockIdx.x) * blockDim.x + threadIdx.x;
   const uint32_t wc = leafWordCount(L);
   if (i >= wordCount) return;
@@ -682,7 +834,8 @@ __global__ void settleBlockLeavesKernel(uint64_t wordCount, int L, const uint8_t
   if (insideBits) {
     inside = insideBits[i];
   } else {
-    const int16_t* N = counts + leaf * uint64_t(L) * uint64_t(L) * uint64_t(L) + (i % wc) * kVoxelsPerWord;
+    const uint64_t voxels = uint64_t(L) * uint64_t(L) * uint64_t(L);
+    const int16_t* N = counts + countsSlot(slots, uint32_t(leaf)) * voxels + (i % wc) * kVoxelsPerWord;
     for (uint32_t v = 0; v < kVoxelsPerWord; ++v) inside |= uint32_t(int(N[v]) >= T) << v;
   }
   words[i] = withInsidePlane(words[i], inside);
@@ -690,15 +843,51 @@ __global__ void settleBlockLeavesKernel(uint64_t wordCount, int L, const uint8_t
 
 
 // The device's state between the steps.
+// counts: N per voxel (L^3 a leaf) of the leaves that keep them, at their
+// slots (countsSlot), allocated by the counts step (keepCounts).
 struct CountsOnDevice {
   Array<LeafOrigin> origins;
   Array<int32_t> totals, hits;
-  Array<int16_t> counts;
   Array<uint8_t> fits;
+  std::optional<Array<int16_t>> counts;
+  std::optional<Array<uint32_t>> slots; // none: every leaf keeps counts, in leaf order
+  uint32_t keptLeaves = 0;
   CountsOnDevice(size_t leaves, int L)
-      : origins(leaves), totals(leaves * size_t(L) * size_t(L)), hits(totals.size()),
-        counts(totals.size() * size_t(L)), fits(leaves) {}
+      : origins(leaves), totals(leaves * size_t(L) * size_t(L)), hits(L > kSharedLeaf ? totals.size() : 0),
+        fits(leaves) {}
+  int16_t* countsData() const { return counts ? counts->data() : nullptr; }
+  const uint32_t* slotsData() const { return slots ? slots->data() : nullptr; }
 };
+
+// 1 for a leaf that keeps its counts (no held block: leafT[leaf] is
+// kNoThreshold), 0 for one whose inside bits the counts step writes instead.
+__global__ void keepsCountsKernel(const int* leafT, uint32_t n, uint32_t* keeps) {
+  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i < n) keeps[i] = leafT[i] == kNoThreshold ? 1u : 0u;
+}
+
+// The counts array: with leafT (the leaves of held blocks store only their
+// inside bits, about 90% of them), a slot per leaf that keeps counts from an
+// exclusive sum of keepsCountsKernel's flags (CUB), so the array holds those
+// leaves only; without, every leaf in leaf order (no slots).
+void keepCounts(CountsOnDevice& d, uint32_t leaves, int L, const int* leafT) {
+  const uint64_t voxels = uint64_t(L) * uint64_t(L) * uint64_t(L);
+  d.keptLeaves = leaves;
+  if (leafT) {
+    d.slots.emplace(size_t(leaves) + 1);
+    Array<uint32_t> keeps(size_t(leaves) + 1);
+    HDT_CUDA_CHECK(cudaMemset(keeps.data() + leaves, 0, sizeof(uint32_t))); // the scan's last input
+    keepsCountsKernel<<<blocks(leaves), kBlock>>>(leafT, leaves, keeps.data());
+    HDT_CUDA_CHECK_LAUNCH("keepsCountsKernel");
+    size_t bytes = 0;
+    HDT_CUDA_CHECK(cub::DeviceScan::ExclusiveSum(nullptr, bytes, keeps.data(), d.slots->data(), int(leaves) + 1));
+    Array<uint8_t> temp(std::max<size_t>(bytes, 16));
+    HDT_CUDA_CHECK(cub::DeviceScan::ExclusiveSum(temp.data(), bytes, keeps.data(), d.slots->data(), int(leaves) + 1));
+    // The copy waits for the scan: keeps and temp may go after it.
+    HDT_CUDA_CHECK(cudaMemcpy(&d.keptLeaves, d.slots->data() + leaves, sizeof(uint32_t), cudaMemcpyDeviceToHost));
+  }
+  d.counts.emplace(std::max<uint64_t>(uint64_t(d.keptLeaves) * voxels, 1));
+}
 
 class Events {
 public:
@@ -717,7 +906,7 @@ public:
   }
 
 private:
-  cudaEvent_t e_[9];
+  cudaEvent_t e_[11];
 };
 
 // HDT_WINDING_TRACE set: each level's boxes and kernel time on stderr.
@@ -774,9 +963,34 @@ public:
     return {a, a + capacity};
   }
 
+  // Boxes a queue of T can hold within the budget: room for two such
+  // queues (the block held now counted as free: it goes first) beside
+  // `spare` bytes for what the pass allocates after them.
+  template <class T>
+  uint64_t affordable(uint64_t spare) const {
+    const uint64_t room = t_passMemory ? t_passMemory->room() : UINT64_MAX;
+    if (room == UINT64_MAX) return UINT64_MAX;
+    const uint64_t free = room + (block_ ? block_->size() : 0);
+    return free > spare ? (free - spare) / (2 * sizeof(T)) : 0;
+  }
+
 private:
   std::unique_ptr<Array<uint8_t>> block_;
 };
+
+// A queue's capacity in boxes: `standard` (or HDT_WINDING_QUEUE_BOXES), cut
+// to what the budget affords, at least twice the items queued first. A
+// full queue is no error (the items whose boxes do not fit take the
+// fallbacks: the serial walk, the host's leaf), so under a small device
+// memory budget the pass runs with shorter queues instead of not at all.
+template <class T>
+uint32_t queueCapacity(const QueueMemory& memory, uint32_t items, uint32_t standard, uint64_t spare) {
+  const uint64_t wanted = std::min<uint64_t>(leastQueueBoxes(standard), memory.affordable<T>(spare));
+  return uint32_t(std::max<uint64_t>(2 * uint64_t(items), wanted));
+}
+
+// Bytes kept free beside the queues for the small arrays after them.
+constexpr uint64_t kQueueSpareBytes = uint64_t(1) << 20;
 
 // One queue's levels: launch(in, n, out) per level until a level queues no
 // box; the queues swap between levels. Returns the boxes taken.
@@ -802,12 +1016,12 @@ uint64_t runQueueLevels(const char* name, uint32_t first, uint32_t capacity, Box
 // hard: on return the voxels left to the host (decideHardVoxels).
 // leafT: each leaf's block threshold (those with one are settled already), or null.
 uint64_t decideLeavesBreadthFirst(const WindingTreeView& t, const LeafOrigin* origins, uint32_t leaves, int L,
-                                  const int16_t* counts, uint8_t* fits, const int* leafT, uint32_t* words,
-                                  QueueMemory& memory, std::vector<uint2>& hard) {
-  const uint32_t capacity = std::max<uint32_t>(2 * leaves, leastQueueBoxes(kLeafQueue));
+                                  const int16_t* counts, const uint32_t* slots, uint8_t* fits, const int* leafT,
+                                  uint32_t* words, QueueMemory& memory, std::vector<uint2>& hard) {
   Array<uint32_t> hardCount(1);
   Array<uint2> hardItems(kHardVoxels);
   hardCount.zero();
+  const uint32_t capacity = queueCapacity<LeafBox>(memory, leaves, kLeafQueue, kQueueSpareBytes);
   const bool allHard = std::getenv("HDT_WINDING_HOST_VOXELS") != nullptr;
   auto [in, out] = memory.queues<LeafBox>(capacity);
   uint32_t first = 0;
@@ -821,8 +1035,9 @@ uint64_t decideLeavesBreadthFirst(const WindingTreeView& t, const LeafOrigin* or
   const HardVoxels hardVoxels{hardItems.data(), hardCount.data(), kHardVoxels};
   const uint64_t total =
       runQueueLevels("leaves", first, capacity, in, out, [&](LeafBox* from, uint32_t n, LeafBox* to, uint32_t* toCount) {
-        leafBoxesKernel<<<(n + kBoxBlock - 1) / kBoxBlock, kBoxBlock>>>(t, origins, L, counts, fits, words, from, n, to,
-                                                                         toCount, capacity, hardVoxels, allHard);
+        leafBoxesKernel<<<(n + kBoxBlock - 1) / kBoxBlock, kBoxBlock>>>(t, origins, L, counts, slots, fits, words,
+                                                                         from, n, to, toCount, capacity, hardVoxels,
+                                                                         allHard);
         checkLaunch("leafBoxesKernel");
       });
   uint32_t n = 0;
@@ -860,30 +1075,35 @@ void uploadOrigins(const std::vector<std::array<int, 3>>& origins, CountsOnDevic
   d.origins.upload(host.data());
 }
 
-// The crossings step for L <= kSharedLeaf: the candidates counted, summed
-// (CUB), listed, then leafCrossingSumsKernel writes d.totals, d.hits and the
-// deltas in d.counts whole.
-void leafCrossingSums(const WindingTreeView& t, CountsOnDevice& d, uint32_t leaves, int L) {
-  Array<uint64_t> counts(size_t(leaves) + 1), offsets(size_t(leaves) + 1);
+// Each leaf's candidates with rays in it (L <= kSharedLeaf), listed once
+// for both passes: list[offsets[leaf], offsets[leaf + 1]).
+struct LeafCandidates {
+  Array<uint64_t> offsets;
+  std::unique_ptr<Array<uint32_t>> list;
+  uint64_t pairs = 0;
+  explicit LeafCandidates(uint32_t leaves) : offsets(size_t(leaves) + 1) {}
+};
+
+// The candidates counted, summed (CUB), listed.
+void listLeafCandidates(const WindingTreeView& t, const CountsOnDevice& d, uint32_t leaves, int L,
+                        LeafCandidates& c) {
+  Array<uint64_t> counts(size_t(leaves) + 1);
   HDT_CUDA_CHECK(cudaMemset(counts.data() + leaves, 0, sizeof(uint64_t))); // the scan's last input
   candidateCountKernel<<<blocks(leaves), kBlock>>>(t, d.origins.data(), leaves, L, counts.data());
   checkLaunch("candidateCountKernel");
   size_t bytes = 0;
-  HDT_CUDA_CHECK(cub::DeviceScan::ExclusiveSum(nullptr, bytes, counts.data(), offsets.data(), int(leaves) + 1));
+  HDT_CUDA_CHECK(cub::DeviceScan::ExclusiveSum(nullptr, bytes, counts.data(), c.offsets.data(), int(leaves) + 1));
   Array<uint8_t> temp(std::max<size_t>(bytes, 16));
-  HDT_CUDA_CHECK(cub::DeviceScan::ExclusiveSum(temp.data(), bytes, counts.data(), offsets.data(), int(leaves) + 1));
-  uint64_t pairs = 0;
-  HDT_CUDA_CHECK(cudaMemcpy(&pairs, offsets.data() + leaves, sizeof(uint64_t), cudaMemcpyDeviceToHost));
-  Array<uint32_t> candidates(std::max<uint64_t>(pairs, 1));
-  candidateListKernel<<<blocks(leaves), kBlock>>>(t, d.origins.data(), leaves, L, offsets.data(), candidates.data());
+  HDT_CUDA_CHECK(cub::DeviceScan::ExclusiveSum(temp.data(), bytes, counts.data(), c.offsets.data(), int(leaves) + 1));
+  // The copy waits for the scan: counts and temp may go after it.
+  HDT_CUDA_CHECK(cudaMemcpy(&c.pairs, c.offsets.data() + leaves, sizeof(uint64_t), cudaMemcpyDeviceToHost));
+  c.list = std::make_unique<Array<uint32_t>>(std::max<uint64_t>(c.pairs, 1));
+  candidateListKernel<<<blocks(leaves), kBlock>>>(t, d.origins.data(), leaves, L, c.offsets.data(),
+                                                  c.list->data());
   checkLaunch("candidateListKernel");
-  leafCrossingSumsKernel<<<leaves, kCrossingBlock>>>(t, d.origins.data(), L, offsets.data(), candidates.data(),
-                                                     d.totals.data(), d.hits.data(), d.counts.data());
-  checkLaunch("leafCrossingSumsKernel");
-  HDT_CUDA_CHECK(cudaStreamSynchronize(0)); // before the temporaries go (not the words' upload)
   if (traceLevels())
     std::fprintf(stderr, "winding trace crossings: %u leaves, %llu (leaf, candidate) pairs\n", leaves,
-                 (unsigned long long)pairs);
+                 (unsigned long long)c.pairs);
 }
 
 // leafT, insideBits: countsKernel's (null: every leaf's counts kept).
@@ -892,16 +1112,24 @@ void computeCounts(const WindingTreeView& t, const std::vector<std::array<int, 3
                    CountsOnDevice& d, Events& ev, const int* leafT = nullptr, uint16_t* insideBits = nullptr) {
   const uint32_t leaves = uint32_t(origins.size());
   const uint32_t rows = uint32_t(L * L);
+  std::optional<LeafCandidates> candidates; // L <= kSharedLeaf: the two passes'
   if (L <= kSharedLeaf) {
     ev.mark(1);
-    leafCrossingSums(t, d, leaves, L);
+    candidates.emplace(leaves);
+    listLeafCandidates(t, d, leaves, L, *candidates);
+    leafRowTotalsKernel<<<leaves, kCrossingBlock>>>(t, d.origins.data(), L, candidates->offsets.data(),
+                                                    candidates->list->data(), d.totals.data());
+    checkLaunch("leafRowTotalsKernel");
   } else {
+    // The serial kernel's per-voxel deltas go to the counts array (N is
+    // computed in place by countsKernel): every leaf keeps counts.
+    keepCounts(d, leaves, L, nullptr);
     d.totals.zero();
     d.hits.zero();
-    d.counts.zero();
+    d.counts->zero();
     ev.mark(1);
     signedCrossingsKernel<<<blocks(leaves), kBlock>>>(t, d.origins.data(), leaves, L, d.totals.data(), d.hits.data(),
-                                                      d.counts.data());
+                                                      d.countsData());
     checkLaunch("signedCrossingsKernel");
   }
   ev.mark(2);
@@ -928,6 +1156,8 @@ void computeCounts(const WindingTreeView& t, const std::vector<std::array<int, 3
                                               lineCount.data(), int(leaves)));
     uint32_t lines = 0;
     lineCount.download(&lines);
+    ev.mark(9);
+    if (traceLevels()) std::fprintf(stderr, "winding trace lines: %u leaves on %u lines\n", leaves, lines);
     lineSuffixKernel<<<blocks(uint64_t(lines) * rows), kBlock>>>(starts.data(), lines, leaves,
                                                                   sortedOrder.data(), rows, d.totals.data());
     checkLaunch("lineSuffixKernel");
@@ -935,10 +1165,21 @@ void computeCounts(const WindingTreeView& t, const std::vector<std::array<int, 3
     HDT_CUDA_CHECK(cudaStreamSynchronize(0)); // before the temporaries go (not the words' upload)
   }
   HDT_CUDA_CHECK(cudaMemset(d.fits.data(), 1, leaves));
-  countsKernel<<<blocks(uint64_t(leaves) * rows), kBlock>>>(leaves, L, d.totals.data(), d.hits.data(), d.counts.data(),
-                                                            d.fits.data(), leafT, insideBits);
-  checkLaunch("countsKernel");
+  // After the lines' temporaries: the counts of the leaves that keep them.
+  if (candidates) keepCounts(d, leaves, L, leafT);
+  ev.mark(10);
+  if (candidates) {
+    leafCountsKernel<<<leaves, kCrossingBlock>>>(t, d.origins.data(), L, candidates->offsets.data(),
+                                                 candidates->list->data(), d.totals.data(), d.countsData(),
+                                                 d.slotsData(), d.fits.data(), leafT, insideBits);
+    checkLaunch("leafCountsKernel");
+  } else {
+    countsKernel<<<blocks(uint64_t(leaves) * rows), kBlock>>>(leaves, L, d.totals.data(), d.hits.data(),
+                                                              d.countsData(), d.fits.data(), leafT, insideBits);
+    checkLaunch("countsKernel");
+  }
   ev.mark(4);
+  if (candidates) HDT_CUDA_CHECK(cudaStreamSynchronize(0)); // before the candidate list goes (not the words' upload)
 }
 
 // The volume's leaf words copied up on a stream of their own (non-blocking:
@@ -987,10 +1228,12 @@ private:
 } // namespace
 
 struct WindingDevicePass::Impl {
+  PassMemory memory; // first: the arrays below give their bytes back to it
   const WindingTree* host = nullptr;
   DeviceTree* tree = nullptr;
   QueueMemory queues;
   int blockEdge = 0; // the blocks' edge in voxels, once known
+  explicit Impl(DeviceMemory* build) : memory(build) {}
   ~Impl() { delete tree; }
   const DeviceTree& upload(const WindingTree& t) {
     if (host != &t) {
@@ -1003,8 +1246,10 @@ struct WindingDevicePass::Impl {
   }
 };
 
-WindingDevicePass::WindingDevicePass() : impl_(std::make_unique<Impl>()) {}
+WindingDevicePass::WindingDevicePass(DeviceMemory* build) : impl_(std::make_unique<Impl>(build)) {}
 WindingDevicePass::~WindingDevicePass() = default;
+
+uint64_t WindingDevicePass::peakBytes() const { return impl_->memory.peak(); }
 
 bool WindingDevicePass::leaves(const WindingTree& tree, Volume& volume, const std::vector<std::array<int, 3>>& origins,
                                std::vector<uint32_t>& leftLeaves, WindingDeviceTimes* times, uint32_t* deviceWords,
@@ -1013,6 +1258,7 @@ bool WindingDevicePass::leaves(const WindingTree& tree, Volume& volume, const st
   const int L = volume.grid.leafSize;
   const uint32_t leaves = uint32_t(origins.size());
   if (leaves == 0) return true;
+  const PassMemoryScope scope(impl_->memory);
   try {
     Events ev;
     ev.mark(0);
@@ -1052,16 +1298,16 @@ bool WindingDevicePass::leaves(const WindingTree& tree, Volume& volume, const st
     const double uploadWaitMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - wait0).count();
     clearInsideKernel<<<blocks(wordCount), kBlock>>>(wordCount, L, d.fits.data(), words);
     checkLaunch("clearInsideKernel");
-    settleBlockLeavesKernel<<<blocks(wordCount), kBlock>>>(wordCount, L, d.fits.data(), leafT.data(),
-                                                          d.counts.data(), fuse ? insideBits.data() : nullptr, words);
+    settleBlockLeavesKernel<<<blocks(wordCount), kBlock>>>(wordCount, L, d.fits.data(), leafT.data(), d.countsData(),
+                                                          d.slotsData(), fuse ? insideBits.data() : nullptr, words);
     checkLaunch("settleBlockLeavesKernel");
     // Tests: the pass failing for want of memory after it began rewriting the
     // words (the breadth-first queues are its last allocations).
     if (std::getenv("HDT_WINDING_LEAF_PASS_FAILS")) throw std::bad_alloc();
     ev.mark(7);
     const uint64_t boxes =
-        decideLeavesBreadthFirst(t.view(), d.origins.data(), leaves, L, d.counts.data(), d.fits.data(), leafT.data(),
-                                 words, impl_->queues, hard);
+        decideLeavesBreadthFirst(t.view(), d.origins.data(), leaves, L, d.countsData(), d.slotsData(), d.fits.data(),
+                                 leafT.data(), words, impl_->queues, hard);
     ev.mark(5);
     std::vector<uint8_t> fits(leaves);
     d.fits.download(fits.data());
@@ -1079,9 +1325,16 @@ bool WindingDevicePass::leaves(const WindingTree& tree, Volume& volume, const st
       const size_t settled = size_t(std::count_if(T.begin(), T.end(), [](int x) { return x != kNoThreshold; }));
       std::fprintf(stderr,
                    "winding trace leaves: %u leaves, %u blocks of %d voxels, %zu leaves settled by them, %.3f ms; "
-                   "words up %.3f ms beside the counts, %.3f ms waited for%s\n",
+                   "words up %.3f ms beside the counts, %.3f ms waited for%s; %u leaves keep counts (%.1f MB); "
+                   "the pass's device bytes at most %.1f MB so far\n",
                    leaves, blockCount, edge, settled, ev.ms(0, 8), uploadMs, uploadWaitMs,
-                   upload ? "" : " (kept on the device: none)");
+                   upload ? "" : " (kept on the device: none)", d.keptLeaves, double(d.counts->size()) * 2e-6,
+                   double(impl_->memory.peak()) * 1e-6);
+      std::fprintf(stderr,
+                   "winding trace steps: lines = sort and select %.3f ms + suffixes %.3f ms; counts = the "
+                   "lines' temporaries freed %.3f ms + %s %.3f ms\n",
+                   ev.ms(2, 9), ev.ms(9, 3), ev.ms(3, 10), L <= kSharedLeaf ? "the second crossings pass" : "countsKernel",
+                   ev.ms(10, 4));
     }
     if (times) {
       times->hardVoxels = hard.size();
@@ -1105,6 +1358,7 @@ bool WindingDevicePass::uniform(const WindingTree& tree, const std::vector<Windi
                                 std::vector<uint8_t>& verdicts, double* ms, uint64_t* boxes) {
   verdicts.assign(jobs.size(), 0);
   if (jobs.empty()) return true;
+  const PassMemoryScope scope(impl_->memory);
   try {
     Events ev;
     ev.mark(0);
@@ -1114,8 +1368,6 @@ bool WindingDevicePass::uniform(const WindingTree& tree, const std::vector<Windi
     d.upload(jobs.data());
     Array<uint32_t> seen(jobs.size());
     seen.zero();
-    const uint32_t capacity = std::max<uint32_t>(2 * count, leastQueueBoxes(kUniformQueue));
-    auto [in, out] = impl_->queues.queues<QueuedBox>(capacity);
     // The blocks of the elements that fit in one: the leaves' blocks when the
     // edge is known, else kBlockLeaves of the smallest element's edges (the
     // leaf's, but for a volume with no element at the last level).
@@ -1128,14 +1380,19 @@ bool WindingDevicePass::uniform(const WindingTree& tree, const std::vector<Windi
     const bool anyInBlock = std::any_of(jobs.begin(), jobs.end(), [&](const WindingUniformJob& j) { return j.edge <= edge; });
     std::unique_ptr<Array<int>> jobT;
     uint32_t first = 0, blockCount = 0;
+    if (anyInBlock) {
+      jobT = std::make_unique<Array<int>>(count);
+      Array<uint64_t> keys(count);
+      jobBlockKeysKernel<<<blocks(count), kBlock>>>(d.data(), count, edge, keys.data());
+      checkLaunch("jobBlockKeysKernel");
+      blockCount = blockThresholds(t.view(), keys.data(), count, edge, jobT->data());
+    }
+    // After the thresholds' temporaries; spare: the serial walk's copies of
+    // the elements whose boxes overflow (at most all of them).
+    const uint64_t spare = kQueueSpareBytes + uint64_t(count) * (sizeof(WindingUniformJob) + 1);
+    const uint32_t capacity = queueCapacity<QueuedBox>(impl_->queues, count, kUniformQueue, spare);
+    auto [in, out] = impl_->queues.queues<QueuedBox>(capacity);
     {
-      if (anyInBlock) {
-        jobT = std::make_unique<Array<int>>(count);
-        Array<uint64_t> keys(count);
-        jobBlockKeysKernel<<<blocks(count), kBlock>>>(d.data(), count, edge, keys.data());
-        checkLaunch("jobBlockKeysKernel");
-        blockCount = blockThresholds(t.view(), keys.data(), count, edge, jobT->data());
-      }
       Array<uint32_t> queued(1);
       queued.zero();
       firstBoxesKernel<<<blocks(count), kBlock>>>(t.view(), d.data(), count, jobT ? jobT->data() : nullptr, seen.data(),
@@ -1191,6 +1448,7 @@ bool WindingDevicePass::fresh(const WindingTree& tree, int L, const std::vector<
   leftLeaves.clear();
   const uint32_t leaves = uint32_t(origins.size());
   if (leaves == 0) return true;
+  const PassMemoryScope scope(impl_->memory);
   try {
     Events ev;
     ev.mark(0);
@@ -1209,8 +1467,8 @@ bool WindingDevicePass::fresh(const WindingTree& tree, int L, const std::vector<
                                                                  fits.data());
     checkLaunch("freshCountsKernel");
     std::vector<uint2> hard;
-    decideLeavesBreadthFirst(t.view(), o.data(), leaves, L, counts.data(), fits.data(), nullptr, w.data(), impl_->queues,
-                             hard);
+    decideLeavesBreadthFirst(t.view(), o.data(), leaves, L, counts.data(), nullptr, fits.data(), nullptr, w.data(),
+                             impl_->queues, hard);
     std::vector<uint8_t> hostFits(leaves);
     fits.download(hostFits.data());
     copyToHost(0, words, w.data(), w.size() * sizeof(uint32_t));
@@ -1236,7 +1494,7 @@ void windingCountsOnDevice(const WindingTree& tree, int L, const std::vector<std
   CountsOnDevice d(leaves, L);
   uploadOrigins(origins, d);
   computeCounts(t.view(), origins, L, d, ev);
-  d.counts.download(counts.data());
+  d.counts->download(counts.data());
   d.fits.download(fits.data());
 }
 

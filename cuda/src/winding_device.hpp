@@ -18,6 +18,8 @@
 namespace hdt {
 namespace cuda {
 
+class DeviceMemory;
+
 // CUDA-event times of the device pass (milliseconds).
 struct WindingDeviceTimes {
   double upload = 0, crossings = 0, lines = 0, counts = 0, decide = 0, download = 0;
@@ -28,9 +30,14 @@ struct WindingDeviceTimes {
 };
 
 // The device passes of one build; the tree is uploaded once, on first use.
+//
+// Memory: every array the passes hold is reserved in `build` (the build's
+// DeviceMemory: its budget caps them, its peak includes them); beyond the
+// budget, or with no room on the device, a pass returns false (the host
+// runs it). Null: counted only in peakBytes.
 class WindingDevicePass {
 public:
-  WindingDevicePass();
+  explicit WindingDevicePass(DeviceMemory* build = nullptr);
   ~WindingDevicePass();
   WindingDevicePass(const WindingDevicePass&) = delete;
   WindingDevicePass& operator=(const WindingDevicePass&) = delete;
@@ -65,6 +72,9 @@ public:
   // per row: N is constant along a row there), then the same decision as leaves().
   bool fresh(const WindingTree& tree, int L, const std::vector<std::array<int, 3>>& origins, uint32_t* words,
              std::vector<uint32_t>& leftLeaves, double* ms = nullptr);
+
+  // The most device bytes the passes held at once so far.
+  uint64_t peakBytes() const;
 
 private:
   struct Impl;

@@ -7,6 +7,7 @@
 #include "cuda_compare.hpp"
 
 #include "hdt/builder.hpp"
+#include "hdt/cuda_build.hpp"
 #include "hdt/error.hpp"
 #include "hdt/hdt_file.hpp"
 #include "hdt/mesh.hpp"
@@ -15,6 +16,8 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <regex>
 #include <string>
 #include <utility>
 #include <vector>
@@ -257,17 +260,102 @@ TEST(CudaDriver, WindingPassReportsAndAborts) {
   EXPECT_TRUE(sameVolume(v, build(mesh, cudaOptions())));
 }
 
-// The chunk planner's one-piece estimate (chunked.cpp; host code, no device
-// needed): a build followed by the winding-number pass allocates no parity
-// buffers, so on a closed and an open mesh its estimate is the surface
-// build's and below the parity build's (which counts three ray axes on the
-// open one).
+// The winding pass's device arrays count against the build's DeviceMemory
+// (winding_device.cu, PassMemory): the reported peak includes them, and a
+// budget caps them: with little room beyond the build the pass runs with
+// shorter queues, with none the leaf pass returns to the host; the bytes are
+// the same every time.
+BuildConfig windingConfig(const Shape& shape, InsideTest test) {
+  BuildConfig config = shape.config(256, 16, 16, false);
+  config.insideTest = test;
+  return config;
+}
+
+struct LoggedBuild {
+  Volume volume;
+  std::vector<std::string> log;
+  bool said(const std::string& text) const {
+    return std::any_of(log.begin(), log.end(), [&](const std::string& l) { return l.find(text) != std::string::npos; });
+  }
+  uint64_t passPeakBytes() const { // the driver's "held at most N bytes at once"
+    const std::regex re("the device passes held at most ([0-9]+) bytes");
+    std::smatch m;
+    for (const std::string& l : log)
+      if (std::regex_search(l, m, re)) return std::stoull(m[1].str());
+    return 0;
+  }
+};
+
+LoggedBuild buildLogged(const PreparedMesh& mesh, uint64_t budget) {
+  LoggedBuild b;
+  BuildOptions o = cudaOptions();
+  o.deviceMemoryBudget = budget;
+  o.log = [&b](const std::string& line) { b.log.push_back(line); };
+  b.volume = build(mesh, o);
+  return b;
+}
+
+TEST(CudaDriver, WindingPassCountsAgainstThePeakAndTheBudget) {
+  HDT_REQUIRE_CUDA();
+  const Shape shape = makeShape("open_hemisphere", 256);
+  const PreparedMesh mesh = prepareMesh(shape.mesh, windingConfig(shape, InsideTest::WindingNumber));
+  const Volume cpu = build(mesh, cpuOptions());
+  // The parity build allocates more than the winding build's device phases
+  // (which skip the parity buffers): an upper bound on them.
+  const uint64_t parityPeak =
+      build(prepareMesh(shape.mesh, windingConfig(shape, InsideTest::Parity)), cudaOptions()).stats.peakDeviceBytes;
+
+  const LoggedBuild unlimited = buildLogged(mesh, 0);
+  EXPECT_TRUE(sameVolume(unlimited.volume, cpu));
+  ASSERT_TRUE(unlimited.said("winding pass on the device"));
+  const uint64_t passPeak = unlimited.passPeakBytes();
+  EXPECT_GT(passPeak, parityPeak) << "the pass (its box queues) should dominate this build";
+  EXPECT_GE(unlimited.volume.stats.peakDeviceBytes, passPeak) << "the reported peak leaves the pass out";
+
+  // Room for the pass's arrays and shorter queues: it still runs on the device.
+  const uint64_t roomy = parityPeak + (uint64_t(64) << 20);
+  ASSERT_LT(roomy, passPeak);
+  const LoggedBuild shorter = buildLogged(mesh, roomy);
+  EXPECT_TRUE(sameVolume(shorter.volume, cpu));
+  EXPECT_TRUE(shorter.said("winding pass on the device"));
+  EXPECT_LE(shorter.volume.stats.peakDeviceBytes, roomy);
+
+  // 1 MiB beyond the build: the leaf pass declines (its list of hard voxels
+  // alone takes 8 MiB) and the host decides the leaves.
+  const uint64_t tight = parityPeak + (uint64_t(1) << 20);
+  const LoggedBuild declined = buildLogged(mesh, tight);
+  EXPECT_TRUE(sameVolume(declined.volume, cpu));
+  EXPECT_TRUE(declined.said("no device memory for the winding leaf pass; it runs on the host"));
+  EXPECT_LE(declined.volume.stats.peakDeviceBytes, tight);
+}
+
+// The one-piece estimate of a build followed by the winding pass counts what
+// its device phases allocate: the surface only, as for a surface-only build
+// (no parity buffers, line tables or pass-1 masks).
+TEST(CudaDriver, WindingBuildEstimateIsTheSurfaceBuilds) {
+  HDT_REQUIRE_CUDA();
+  const Shape shape = makeShape("open_hemisphere", 256);
+  const auto estimate = [&](InsideTest test, bool surfaceOnly) {
+    BuildConfig config = windingConfig(shape, test);
+    config.surfaceOnly = surfaceOnly;
+    CudaBuildReport report;
+    buildCudaWithReport(prepareMesh(shape.mesh, config), cudaOptions(), &report, true);
+    return report.estimatedBytes;
+  };
+  const uint64_t winding = estimate(InsideTest::WindingNumber, false);
+  EXPECT_EQ(winding, estimate(InsideTest::WindingNumber, true));
+  EXPECT_LT(winding, estimate(InsideTest::Parity, false));
+}
+
+// The same on the estimate itself (chunked.cpp; no device needed): closed
+// and open meshes, the winding number's estimate is the surface build's and
+// below the parity build's.
 TEST(CudaDriver, EstimateOfAWindingBuildSkipsTheParityBuffers) {
   for (const char* name : {"sphere", "open_hemisphere"}) {
     const Shape shape = makeShape(name, 256);
     const auto estimate = [&](InsideTest test, bool surfaceOnly) {
-      BuildConfig config = shape.config(256, 16, 16, surfaceOnly);
-      config.insideTest = test;
+      BuildConfig config = windingConfig(shape, test);
+      config.surfaceOnly = surfaceOnly;
       return cuda::estimateBytes(prepareMesh(shape.mesh, config), 1.0e6, 5000, 4096);
     };
     const uint64_t winding = estimate(InsideTest::WindingNumber, false);
