@@ -326,18 +326,35 @@ __global__ void indexKernel(uint32_t n, uint32_t* index) {
 }
 
 // One thread per (line, row): totals become the counts beyond each leaf.
-__global__ void lineSuffixKernel(const uint32_t* lineStarts, uint32_t lines, uint32_t leafCount,
-                                 const uint32_t* order, uint32_t rows, int32_t* rowTotals) {
+// The line's leaves go kSuffixChunk at a time, every load of a chunk issued
+// before its stores, so a thread waits on memory once a chunk rather than
+// twice a leaf (the walk is otherwise one long chain of dependent loads).
+constexpr uint32_t kSuffixChunk = 8;
+
+__global__ void lineSuffixKernel(const uint32_t* __restrict__ lineStarts, uint32_t lines, uint32_t leafCount,
+                                 const uint32_t* __restrict__ order, uint32_t rows, int32_t* __restrict__ rowTotals) {
   const uint64_t k = uint64_t(blockIdx.x) * blockDim.x + threadIdx.x;
   if (k >= uint64_t(lines) * rows) return;
   const uint32_t line = uint32_t(k / rows), r = uint32_t(k % rows);
   const uint32_t end = line + 1 < lines ? lineStarts[line + 1] : leafCount;
   int32_t running = 0;
-  for (uint32_t i = lineStarts[line]; i < end; ++i) {
-    int32_t& e = rowTotals[size_t(order[i]) * rows + r];
-    const int32_t own = e;
-    e = running;
-    running += own;
+  for (uint32_t i = lineStarts[line]; i < end; i += kSuffixChunk) {
+    const uint32_t n = min(kSuffixChunk, end - i);
+    size_t at[kSuffixChunk];
+    int32_t own[kSuffixChunk];
+#pragma unroll
+    for (uint32_t j = 0; j < kSuffixChunk; ++j)
+      if (j < n) at[j] = size_t(order[i + j]) * rows + r;
+#pragma unroll
+    for (uint32_t j = 0; j < kSuffixChunk; ++j)
+      if (j < n) own[j] = rowTotals[at[j]];
+#pragma unroll
+    for (uint32_t j = 0; j < kSuffixChunk; ++j) {
+      if (j < n) {
+        rowTotals[at[j]] = running;
+        running += own[j];
+      }
+    }
   }
 }
 
@@ -951,6 +968,13 @@ private:
 // uniform pass runs once per refinement level).
 class QueueMemory {
 public:
+  // Before a pass that allocates its own arrays ahead of its queues: a block
+  // kept from an earlier pass goes when the budget's room beside it is less
+  // than the block itself (it was cut to a tight budget, and kept it would
+  // leave the pass's arrays no room); under a roomy budget it stays.
+  void releaseIfTight(uint64_t room) {
+    if (block_ && room < block_->size()) block_.reset();
+  }
   // Two queues of `capacity` T each.
   template <class T>
   std::pair<T*, T*> queues(uint32_t capacity) {
@@ -1260,6 +1284,7 @@ bool WindingDevicePass::leaves(const WindingTree& tree, Volume& volume, const st
   if (leaves == 0) return true;
   const PassMemoryScope scope(impl_->memory);
   try {
+    impl_->queues.releaseIfTight(impl_->memory.room());
     Events ev;
     ev.mark(0);
     const DeviceTree& t = impl_->upload(tree);
@@ -1450,6 +1475,7 @@ bool WindingDevicePass::fresh(const WindingTree& tree, int L, const std::vector<
   if (leaves == 0) return true;
   const PassMemoryScope scope(impl_->memory);
   try {
+    impl_->queues.releaseIfTight(impl_->memory.room());
     Events ev;
     ev.mark(0);
     const DeviceTree& t = impl_->upload(tree);

@@ -274,6 +274,11 @@ BuildConfig windingConfig(const Shape& shape, InsideTest test) {
 struct LoggedBuild {
   Volume volume;
   std::vector<std::string> log;
+  std::string text() const { // for failure messages
+    std::string all;
+    for (const std::string& l : log) all += l + "\n";
+    return all;
+  }
   bool said(const std::string& text) const {
     return std::any_of(log.begin(), log.end(), [&](const std::string& l) { return l.find(text) != std::string::npos; });
   }
@@ -307,7 +312,7 @@ TEST(CudaDriver, WindingPassCountsAgainstThePeakAndTheBudget) {
 
   const LoggedBuild unlimited = buildLogged(mesh, 0);
   EXPECT_TRUE(sameVolume(unlimited.volume, cpu));
-  ASSERT_TRUE(unlimited.said("winding pass on the device"));
+  ASSERT_TRUE(unlimited.said("winding pass on the device")) << unlimited.text();
   const uint64_t passPeak = unlimited.passPeakBytes();
   EXPECT_GT(passPeak, parityPeak) << "the pass (its box queues) should dominate this build";
   EXPECT_GE(unlimited.volume.stats.peakDeviceBytes, passPeak) << "the reported peak leaves the pass out";
@@ -317,7 +322,7 @@ TEST(CudaDriver, WindingPassCountsAgainstThePeakAndTheBudget) {
   ASSERT_LT(roomy, passPeak);
   const LoggedBuild shorter = buildLogged(mesh, roomy);
   EXPECT_TRUE(sameVolume(shorter.volume, cpu));
-  EXPECT_TRUE(shorter.said("winding pass on the device"));
+  EXPECT_TRUE(shorter.said("winding pass on the device")) << shorter.text();
   EXPECT_LE(shorter.volume.stats.peakDeviceBytes, roomy);
 
   // 1 MiB beyond the build: the leaf pass declines (its list of hard voxels
@@ -325,7 +330,7 @@ TEST(CudaDriver, WindingPassCountsAgainstThePeakAndTheBudget) {
   const uint64_t tight = parityPeak + (uint64_t(1) << 20);
   const LoggedBuild declined = buildLogged(mesh, tight);
   EXPECT_TRUE(sameVolume(declined.volume, cpu));
-  EXPECT_TRUE(declined.said("no device memory for the winding leaf pass; it runs on the host"));
+  EXPECT_TRUE(declined.said("no device memory for the winding leaf pass; it runs on the host")) << declined.text();
   EXPECT_LE(declined.volume.stats.peakDeviceBytes, tight);
 }
 
