@@ -965,50 +965,70 @@ private:
 };
 
 // The two box queues' memory, kept across the passes of one build (the
-// uniform pass runs once per refinement level).
+// uniform pass runs once per refinement level). Each queue is an array of
+// its own, grown level by level to what the next level can hold (a box has
+// at most kChildBoxes children) up to the pass's limit, so a small build
+// holds small queues instead of the limit's 2 x 2^23 boxes. A queue grows
+// only when the next level is to be written into it: its old boxes were
+// consumed by then, so it is freed before the larger one is allocated (no
+// copy, never more than two queues held).
 class QueueMemory {
 public:
-  // Before a pass that allocates its own arrays ahead of its queues: a block
-  // kept from an earlier pass goes when the budget's room beside it is less
-  // than the block itself (it was cut to a tight budget, and kept it would
-  // leave the pass's arrays no room); under a roomy budget it stays.
+  // Before a pass that allocates its own arrays ahead of its queues: queues
+  // kept from an earlier pass go when the budget's room beside them is less
+  // than they hold (they were cut to a tight budget, and kept they would
+  // leave the pass's arrays no room); under a roomy budget they stay.
   void releaseIfTight(uint64_t room) {
-    if (block_ && room < block_->size()) block_.reset();
-  }
-  // Two queues of `capacity` T each.
-  template <class T>
-  std::pair<T*, T*> queues(uint32_t capacity) {
-    const size_t bytes = 2 * size_t(capacity) * sizeof(T);
-    if (!block_ || block_->size() < bytes) {
-      block_.reset();
-      block_ = std::make_unique<Array<uint8_t>>(bytes);
+    if (room < bytes()) {
+      queue_[0].reset();
+      queue_[1].reset();
     }
-    T* a = reinterpret_cast<T*>(block_->data());
-    return {a, a + capacity};
+  }
+  // Queue q (0 or 1) holding at least `boxes` T; grown, its boxes are lost.
+  template <class T>
+  T* hold(int q, uint64_t boxes) {
+    std::unique_ptr<Array<uint8_t>>& a = queue_[q];
+    const size_t wanted = size_t(boxes) * sizeof(T);
+    if (!a || a->size() < wanted) {
+      a.reset();
+      a = std::make_unique<Array<uint8_t>>(wanted);
+    }
+    return reinterpret_cast<T*>(a->data());
+  }
+  // Queue q's boxes (as many as it holds: boxes<T>(q)).
+  template <class T>
+  T* at(int q) const {
+    return reinterpret_cast<T*>(queue_[q]->data());
+  }
+  // The boxes of T queue q holds now.
+  template <class T>
+  uint64_t boxes(int q) const {
+    return queue_[q] ? queue_[q]->size() / sizeof(T) : 0;
   }
 
   // Boxes a queue of T can hold within the budget: room for two such
-  // queues (the block held now counted as free: it goes first) beside
-  // `spare` bytes for what the pass allocates after them.
+  // queues (those held now counted as free: they go first) beside `spare`
+  // bytes for what the pass allocates after them.
   template <class T>
   uint64_t affordable(uint64_t spare) const {
     const uint64_t room = t_passMemory ? t_passMemory->room() : UINT64_MAX;
     if (room == UINT64_MAX) return UINT64_MAX;
-    const uint64_t free = room + (block_ ? block_->size() : 0);
+    const uint64_t free = room + bytes();
     return free > spare ? (free - spare) / (2 * sizeof(T)) : 0;
   }
 
 private:
-  std::unique_ptr<Array<uint8_t>> block_;
+  uint64_t bytes() const { return (queue_[0] ? queue_[0]->size() : 0) + (queue_[1] ? queue_[1]->size() : 0); }
+  std::unique_ptr<Array<uint8_t>> queue_[2];
 };
 
-// A queue's capacity in boxes: `standard` (or HDT_WINDING_QUEUE_BOXES), cut
+// A queue's limit in boxes: `standard` (or HDT_WINDING_QUEUE_BOXES), cut
 // to what the budget affords, at least twice the items queued first. A
 // full queue is no error (the items whose boxes do not fit take the
 // fallbacks: the serial walk, the host's leaf), so under a small device
 // memory budget the pass runs with shorter queues instead of not at all.
 template <class T>
-uint32_t queueCapacity(const QueueMemory& memory, uint32_t items, uint32_t standard, uint64_t spare) {
+uint32_t queueLimit(const QueueMemory& memory, uint32_t items, uint32_t standard, uint64_t spare) {
   const uint64_t wanted = std::min<uint64_t>(leastQueueBoxes(standard), memory.affordable<T>(spare));
   return uint32_t(std::max<uint64_t>(2 * uint64_t(items), wanted));
 }
@@ -1016,22 +1036,40 @@ uint32_t queueCapacity(const QueueMemory& memory, uint32_t items, uint32_t stand
 // Bytes kept free beside the queues for the small arrays after them.
 constexpr uint64_t kQueueSpareBytes = uint64_t(1) << 20;
 
-// One queue's levels: launch(in, n, out) per level until a level queues no
-// box; the queues swap between levels. Returns the boxes taken.
+// The most boxes one box is split into.
+constexpr uint64_t kChildBoxes = 8;
+
+// A queue about to take a level of `n` boxes' children: kChildBoxes * n
+// (at least 4 times what it holds, to grow seldom), never beyond `limit`.
+uint64_t nextLevelBoxes(uint64_t n, uint64_t held, uint32_t limit) {
+  const uint64_t needed = kChildBoxes * n;
+  if (needed <= held) return held;
+  return std::min<uint64_t>(limit, std::max(needed, 4 * held));
+}
+
+// The levels of a pass's boxes, the first level's `first` boxes in queue 0:
+// launch(in, n, out, capacity, outCount) per level until a level queues no
+// box, the next level's queue grown first (nextLevelBoxes) and the queues
+// swapping between levels. A level of more than `limit` boxes is cut, its
+// items marked by the kernel (the fallbacks). Returns the boxes taken.
 template <class Box, class Launch>
-uint64_t runQueueLevels(const char* name, uint32_t first, uint32_t capacity, Box* in, Box* out, Launch launch) {
+uint64_t runQueueLevels(const char* name, uint32_t first, uint32_t limit, QueueMemory& memory, Launch launch) {
   Array<uint32_t> outCount(1);
   uint64_t total = 0;
   LevelTrace trace(name);
+  int in = 0;
   for (uint32_t n = first, level = 0; n > 0; ++level) {
     total += n;
+    const int out = 1 - in;
+    Box* to = memory.hold<Box>(out, nextLevelBoxes(n, memory.boxes<Box>(out), limit));
+    const uint32_t capacity = uint32_t(std::min<uint64_t>(limit, memory.boxes<Box>(out)));
     outCount.zero();
     trace.start();
-    launch(in, n, out, outCount.data());
+    launch(memory.at<Box>(in), n, to, capacity, outCount.data());
     trace.stop(int(level), n);
     outCount.download(&n);
     n = std::min(n, capacity);
-    std::swap(in, out);
+    in = out;
   }
   return total;
 }
@@ -1045,20 +1083,21 @@ uint64_t decideLeavesBreadthFirst(const WindingTreeView& t, const LeafOrigin* or
   Array<uint32_t> hardCount(1);
   Array<uint2> hardItems(kHardVoxels);
   hardCount.zero();
-  const uint32_t capacity = queueCapacity<LeafBox>(memory, leaves, kLeafQueue, kQueueSpareBytes);
+  const uint32_t limit = queueLimit<LeafBox>(memory, leaves, kLeafQueue, kQueueSpareBytes);
   const bool allHard = std::getenv("HDT_WINDING_HOST_VOXELS") != nullptr;
-  auto [in, out] = memory.queues<LeafBox>(capacity);
   uint32_t first = 0;
   {
     Array<uint32_t> firstCount(1);
     firstCount.zero();
-    firstLeafBoxesKernel<<<blocks(leaves), kBlock>>>(leaves, L, fits, leafT, in, firstCount.data());
+    firstLeafBoxesKernel<<<blocks(leaves), kBlock>>>(leaves, L, fits, leafT, memory.hold<LeafBox>(0, leaves),
+                                                     firstCount.data());
     checkLaunch("firstLeafBoxesKernel");
     firstCount.download(&first);
   }
   const HardVoxels hardVoxels{hardItems.data(), hardCount.data(), kHardVoxels};
   const uint64_t total =
-      runQueueLevels("leaves", first, capacity, in, out, [&](LeafBox* from, uint32_t n, LeafBox* to, uint32_t* toCount) {
+      runQueueLevels<LeafBox>("leaves", first, limit, memory,
+                              [&](LeafBox* from, uint32_t n, LeafBox* to, uint32_t capacity, uint32_t* toCount) {
         leafBoxesKernel<<<(n + kBoxBlock - 1) / kBoxBlock, kBoxBlock>>>(t, origins, L, counts, slots, fits, words,
                                                                          from, n, to, toCount, capacity, hardVoxels,
                                                                          allHard);
@@ -1415,13 +1454,12 @@ bool WindingDevicePass::uniform(const WindingTree& tree, const std::vector<Windi
     // After the thresholds' temporaries; spare: the serial walk's copies of
     // the elements whose boxes overflow (at most all of them).
     const uint64_t spare = kQueueSpareBytes + uint64_t(count) * (sizeof(WindingUniformJob) + 1);
-    const uint32_t capacity = queueCapacity<QueuedBox>(impl_->queues, count, kUniformQueue, spare);
-    auto [in, out] = impl_->queues.queues<QueuedBox>(capacity);
+    const uint32_t limit = queueLimit<QueuedBox>(impl_->queues, count, kUniformQueue, spare);
     {
       Array<uint32_t> queued(1);
       queued.zero();
       firstBoxesKernel<<<blocks(count), kBlock>>>(t.view(), d.data(), count, jobT ? jobT->data() : nullptr, seen.data(),
-                                                  in, queued.data());
+                                                  impl_->queues.hold<QueuedBox>(0, count), queued.data());
       checkLaunch("firstBoxesKernel");
       queued.download(&first);
     }
@@ -1429,7 +1467,8 @@ bool WindingDevicePass::uniform(const WindingTree& tree, const std::vector<Windi
       std::fprintf(stderr, "winding trace uniform: %u elements, %u blocks of %d voxels, %u elements queued\n", count,
                    blockCount, edge, first);
     const uint64_t total =
-        runQueueLevels("uniform", first, capacity, in, out, [&](QueuedBox* from, uint32_t n, QueuedBox* to, uint32_t* toCount) {
+        runQueueLevels<QueuedBox>("uniform", first, limit, impl_->queues,
+                                  [&](QueuedBox* from, uint32_t n, QueuedBox* to, uint32_t capacity, uint32_t* toCount) {
           uniformBoxesKernel<<<(n + kBoxBlock - 1) / kBoxBlock, kBoxBlock>>>(t.view(), from, n, to, toCount, capacity,
                                                                              seen.data());
           checkLaunch("uniformBoxesKernel");

@@ -262,9 +262,9 @@ TEST(CudaDriver, WindingPassReportsAndAborts) {
 
 // The winding pass's device arrays count against the build's DeviceMemory
 // (winding_device.cu, PassMemory): the reported peak includes them, and a
-// budget caps them: with little room beyond the build the pass runs with
-// shorter queues, with none the leaf pass returns to the host; the bytes are
-// the same every time.
+// budget caps them: with room beyond the build the pass runs on the device
+// within it (its queues grow with the levels, cut to the budget), with none
+// the leaf pass returns to the host; the bytes are the same every time.
 BuildConfig windingConfig(const Shape& shape, InsideTest test) {
   BuildConfig config = shape.config(256, 16, 16, false);
   config.insideTest = test;
@@ -314,16 +314,17 @@ TEST(CudaDriver, WindingPassCountsAgainstThePeakAndTheBudget) {
   EXPECT_TRUE(sameVolume(unlimited.volume, cpu));
   ASSERT_TRUE(unlimited.said("winding pass on the device")) << unlimited.text();
   const uint64_t passPeak = unlimited.passPeakBytes();
-  EXPECT_GT(passPeak, parityPeak) << "the pass (its box queues) should dominate this build";
   EXPECT_GE(unlimited.volume.stats.peakDeviceBytes, passPeak) << "the reported peak leaves the pass out";
+  // The box queues grow with the levels' boxes: a 256^3 build holds nothing
+  // like the largest queues' 2 x 2^23 boxes (0.67 GB of leaf boxes).
+  EXPECT_LT(passPeak, uint64_t(128) << 20) << unlimited.text();
 
-  // Room for the pass's arrays and shorter queues: it still runs on the device.
+  // Room for the pass beside the build: it runs on the device, within it.
   const uint64_t roomy = parityPeak + (uint64_t(64) << 20);
-  ASSERT_LT(roomy, passPeak);
-  const LoggedBuild shorter = buildLogged(mesh, roomy);
-  EXPECT_TRUE(sameVolume(shorter.volume, cpu));
-  EXPECT_TRUE(shorter.said("winding pass on the device")) << shorter.text();
-  EXPECT_LE(shorter.volume.stats.peakDeviceBytes, roomy);
+  const LoggedBuild roomyBuild = buildLogged(mesh, roomy);
+  EXPECT_TRUE(sameVolume(roomyBuild.volume, cpu));
+  EXPECT_TRUE(roomyBuild.said("winding pass on the device")) << roomyBuild.text();
+  EXPECT_LE(roomyBuild.volume.stats.peakDeviceBytes, roomy);
 
   // 1 MiB beyond the build: the leaf pass declines (its list of hard voxels
   // alone takes 8 MiB) and the host decides the leaves.

@@ -3,6 +3,8 @@
 # the winding leaf pass's counts / decide times from the driver's log lines.
 import json, re, sys, glob, os
 work, merged = sys.argv[1], sys.argv[2]
+# the two binaries' names (call.sh: A_NAME, B_NAME)
+a, b = (sys.argv[3], sys.argv[4]) if len(sys.argv) > 4 else ("main", "mem")
 rows = {}
 with open(merged, "w") as out:
     for path in sorted(glob.glob(os.path.join(work, "*-?.jsonl"))):
@@ -28,21 +30,21 @@ for path in sorted(glob.glob(os.path.join(work, "*-?.log"))):
         if m and current: held[(current, binary, int(rnd))] = int(m.group(1))
         m = re.search(r"winding trace leaves: ([0-9]+) leaves.* ([0-9]+) leaves keep counts \(([0-9.]+) MB\)", line)
         if m: kept[(binary, int(rnd), int(m.group(1)))] = (int(m.group(2)), float(m.group(3)))
-cols = [("main", 1), ("mem", 1), ("mem", 2), ("main", 2)]
-print("mesh res mode | ms total: main1 mem1 mem2 main2 | peak MB: main mem | inside equal")
+cols = [(a, 1), (b, 1), (b, 2), (a, 2)]
+print("mesh res mode | ms total: %s1 %s1 %s2 %s2 | peak MB: %s %s | inside equal" % (a, b, b, a, a, b))
 for key in sorted(rows):
     r = rows[key]
     ms = " ".join("%.1f" % r[c]["time_ms"]["total"] if c in r and "time_ms" in r[c] else "-" for c in cols)
     peak = " ".join("%.0f" % (r[c]["peak_device_bytes"] / 1e6) if c in r and "peak_device_bytes" in r[c] else "-"
-                    for c in [("main", 1), ("mem", 1)])
+                    for c in [(a, 1), (b, 1)])
     inside = set(r[c].get("inside_voxels") for c in r)
     print("%s %d %s | %s | %s | %s" % (key[0], key[1], key[2], ms, peak, "yes" if len(inside) == 1 else inside))
 print("winding leaf pass (crossings, lines, counts, decide ms; the last run's log):")
 for (k, b, rnd), v in sorted(steps.items()):
     print("  %s %d %s %s%d: %s" % (k[0], k[1], k[2], b, rnd, " ".join("%.2f" % x for x in v)))
-print("the device passes' own peak (mem's log, last run), MB:")
+print("the device passes' own peak (the log, last run), MB:")
 for (k, b, rnd), v in sorted(held.items()):
     print("  %s %d %s %s%d: %.1f" % (k[0], k[1], k[2], b, rnd, v / 1e6))
-print("leaves keeping counts (mem's trace; leaves: kept, counts MB), distinct:")
+print("leaves keeping counts (the trace; leaves: kept, counts MB), distinct:")
 for (b, rnd, leaves), v in sorted(kept.items()):
     if rnd == 1: print("  %d leaves: %d keep counts, %.1f MB" % (leaves, v[0], v[1]))
