@@ -964,11 +964,16 @@ private:
   cudaEvent_t a_ = nullptr, b_ = nullptr;
 };
 
+// Bytes a queue slot takes, whichever pass's boxes it holds: a queue grown
+// by the uniform pass then serves the leaf pass as it is (each allocation
+// costs, about a millisecond at 8192^3's sizes).
+constexpr size_t kQueueSlotBytes = std::max(sizeof(LeafBox), sizeof(QueuedBox));
+
 // The two box queues' memory, kept across the passes of one build (the
 // uniform pass runs once per refinement level). Each queue is an array of
 // its own, grown level by level to what the next level can hold (a box has
 // at most kChildBoxes children) up to the pass's limit, so a small build
-// holds small queues instead of the limit's 2 x 2^23 boxes. A queue grows
+// holds small queues instead of the limit's 2 x 2^23 slots. A queue grows
 // only when the next level is to be written into it: its old boxes were
 // consumed by then, so it is freed before the larger one is allocated (no
 // copy, never more than two queues held).
@@ -984,42 +989,46 @@ public:
       queue_[1].reset();
     }
   }
-  // Queue q (0 or 1) holding at least `boxes` T; grown, its boxes are lost.
+  // Queue q (0 or 1) holding at least `slots` boxes; grown, its boxes are lost.
   template <class T>
-  T* hold(int q, uint64_t boxes) {
+  T* hold(int q, uint64_t slots) {
+    static_assert(sizeof(T) <= kQueueSlotBytes, "a queue slot holds any box");
     std::unique_ptr<Array<uint8_t>>& a = queue_[q];
-    const size_t wanted = size_t(boxes) * sizeof(T);
+    const size_t wanted = size_t(slots) * kQueueSlotBytes;
     if (!a || a->size() < wanted) {
+      const auto start = std::chrono::steady_clock::now();
       a.reset();
       a = std::make_unique<Array<uint8_t>>(wanted);
+      ++grown_;
+      growMs_ += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
     }
     return reinterpret_cast<T*>(a->data());
   }
-  // Queue q's boxes (as many as it holds: boxes<T>(q)).
+  // Queue q's boxes (as many as it has slots).
   template <class T>
   T* at(int q) const {
     return reinterpret_cast<T*>(queue_[q]->data());
   }
-  // The boxes of T queue q holds now.
-  template <class T>
-  uint64_t boxes(int q) const {
-    return queue_[q] ? queue_[q]->size() / sizeof(T) : 0;
-  }
-
-  // Boxes a queue of T can hold within the budget: room for two such
-  // queues (those held now counted as free: they go first) beside `spare`
-  // bytes for what the pass allocates after them.
-  template <class T>
+  // The slots queue q holds now.
+  uint64_t slots(int q) const { return queue_[q] ? queue_[q]->size() / kQueueSlotBytes : 0; }
+  // Slots either queue may hold within the budget: room for two queues
+  // (those held now counted as free: they go first) beside `spare` bytes
+  // for what the pass allocates after them.
   uint64_t affordable(uint64_t spare) const {
     const uint64_t room = t_passMemory ? t_passMemory->room() : UINT64_MAX;
     if (room == UINT64_MAX) return UINT64_MAX;
     const uint64_t free = room + bytes();
-    return free > spare ? (free - spare) / (2 * sizeof(T)) : 0;
+    return free > spare ? (free - spare) / (2 * kQueueSlotBytes) : 0;
   }
+  // The allocations so far and their wall time (HDT_WINDING_TRACE).
+  unsigned grown() const { return grown_; }
+  double growMs() const { return growMs_; }
 
 private:
   uint64_t bytes() const { return (queue_[0] ? queue_[0]->size() : 0) + (queue_[1] ? queue_[1]->size() : 0); }
   std::unique_ptr<Array<uint8_t>> queue_[2];
+  unsigned grown_ = 0;
+  double growMs_ = 0;
 };
 
 // A queue's limit in boxes: `standard` (or HDT_WINDING_QUEUE_BOXES), cut
@@ -1027,9 +1036,8 @@ private:
 // full queue is no error (the items whose boxes do not fit take the
 // fallbacks: the serial walk, the host's leaf), so under a small device
 // memory budget the pass runs with shorter queues instead of not at all.
-template <class T>
 uint32_t queueLimit(const QueueMemory& memory, uint32_t items, uint32_t standard, uint64_t spare) {
-  const uint64_t wanted = std::min<uint64_t>(leastQueueBoxes(standard), memory.affordable<T>(spare));
+  const uint64_t wanted = std::min<uint64_t>(leastQueueBoxes(standard), memory.affordable(spare));
   return uint32_t(std::max<uint64_t>(2 * uint64_t(items), wanted));
 }
 
@@ -1040,11 +1048,11 @@ constexpr uint64_t kQueueSpareBytes = uint64_t(1) << 20;
 constexpr uint64_t kChildBoxes = 8;
 
 // A queue about to take a level of `n` boxes' children: kChildBoxes * n
-// (at least 4 times what it holds, to grow seldom), never beyond `limit`.
+// (at least 8 times what it holds, to grow seldom), never beyond `limit`.
 uint64_t nextLevelBoxes(uint64_t n, uint64_t held, uint32_t limit) {
   const uint64_t needed = kChildBoxes * n;
   if (needed <= held) return held;
-  return std::min<uint64_t>(limit, std::max(needed, 4 * held));
+  return std::min<uint64_t>(limit, std::max(needed, 8 * held));
 }
 
 // The levels of a pass's boxes, the first level's `first` boxes in queue 0:
@@ -1061,8 +1069,8 @@ uint64_t runQueueLevels(const char* name, uint32_t first, uint32_t limit, QueueM
   for (uint32_t n = first, level = 0; n > 0; ++level) {
     total += n;
     const int out = 1 - in;
-    Box* to = memory.hold<Box>(out, nextLevelBoxes(n, memory.boxes<Box>(out), limit));
-    const uint32_t capacity = uint32_t(std::min<uint64_t>(limit, memory.boxes<Box>(out)));
+    Box* to = memory.hold<Box>(out, nextLevelBoxes(n, memory.slots(out), limit));
+    const uint32_t capacity = uint32_t(std::min<uint64_t>(limit, memory.slots(out)));
     outCount.zero();
     trace.start();
     launch(memory.at<Box>(in), n, to, capacity, outCount.data());
@@ -1083,7 +1091,7 @@ uint64_t decideLeavesBreadthFirst(const WindingTreeView& t, const LeafOrigin* or
   Array<uint32_t> hardCount(1);
   Array<uint2> hardItems(kHardVoxels);
   hardCount.zero();
-  const uint32_t limit = queueLimit<LeafBox>(memory, leaves, kLeafQueue, kQueueSpareBytes);
+  const uint32_t limit = queueLimit(memory, leaves, kLeafQueue, kQueueSpareBytes);
   const bool allHard = std::getenv("HDT_WINDING_HOST_VOXELS") != nullptr;
   uint32_t first = 0;
   {
@@ -1390,10 +1398,10 @@ bool WindingDevicePass::leaves(const WindingTree& tree, Volume& volume, const st
       std::fprintf(stderr,
                    "winding trace leaves: %u leaves, %u blocks of %d voxels, %zu leaves settled by them, %.3f ms; "
                    "words up %.3f ms beside the counts, %.3f ms waited for%s; %u leaves keep counts (%.1f MB); "
-                   "the pass's device bytes at most %.1f MB so far\n",
+                   "the pass's device bytes at most %.1f MB so far; box queues allocated %u times so far (%.3f ms)\n",
                    leaves, blockCount, edge, settled, ev.ms(0, 8), uploadMs, uploadWaitMs,
                    upload ? "" : " (kept on the device: none)", d.keptLeaves, double(d.counts->size()) * 2e-6,
-                   double(impl_->memory.peak()) * 1e-6);
+                   double(impl_->memory.peak()) * 1e-6, impl_->queues.grown(), impl_->queues.growMs());
       std::fprintf(stderr,
                    "winding trace steps: lines = sort and select %.3f ms + suffixes %.3f ms; counts = the "
                    "lines' temporaries freed %.3f ms + %s %.3f ms\n",
@@ -1454,7 +1462,7 @@ bool WindingDevicePass::uniform(const WindingTree& tree, const std::vector<Windi
     // After the thresholds' temporaries; spare: the serial walk's copies of
     // the elements whose boxes overflow (at most all of them).
     const uint64_t spare = kQueueSpareBytes + uint64_t(count) * (sizeof(WindingUniformJob) + 1);
-    const uint32_t limit = queueLimit<QueuedBox>(impl_->queues, count, kUniformQueue, spare);
+    const uint32_t limit = queueLimit(impl_->queues, count, kUniformQueue, spare);
     {
       Array<uint32_t> queued(1);
       queued.zero();

@@ -9,7 +9,7 @@
 # 2) B's broken-on-purpose binary on $BROKEN_FILTER (must fail; under
 #    memcheck when BROKEN_MEMCHECK=1: must report errors); 3) B's whole
 # hdt_cuda_tests beside memcheck on the winding and driver tests; summary last.
-# BUDGET: seconds the whole call may take (default 228).
+# BUDGET: seconds the whole call may take (default 228); RUNS: builds a process (3).
 set -u
 ROOT=$(pwd)
 export LD_LIBRARY_PATH=$ROOT/.devdeps/lib/x86_64-linux-gnu:/usr/local/cuda/lib64 HDT_MESHES_DIR=$ROOT/.devdeps/meshes
@@ -24,7 +24,7 @@ nvidia-smi --query-gpu=name,memory.total,driver_version --format=csv,noheader; d
 W=/tmp/memwork; rm -rf $W; mkdir -p $W # not under $OUT: at most 8 files come back
 bench() { # binary-dir name round
   HDT_WINDING_TRACE=1 timeout 45 $1/hdt_gpu_bench --meshes .devdeps/meshes --mesh teapot.ply --mesh ogre.ply \
-    --res 1024,8192 --root 8 --modes solid,winding --runs 3 --out $W/$2-$3.jsonl > $W/$2-$3.log 2>&1
+    --res 1024,8192 --root 8 --modes solid,winding --runs ${RUNS:-3} --out $W/$2-$3.jsonl > $W/$2-$3.log 2>&1
   echo "bench $2 round $3 rc=$? at $((SECONDS-T0)) s"
 }
 bench $A $A_NAME 1; bench $B $B_NAME 1; bench $B $B_NAME 2; bench $A $A_NAME 2
