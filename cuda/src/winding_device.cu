@@ -31,7 +31,7 @@
 #include "hdt/build_steps.hpp"
 #include "hdt/geometry.hpp"
 #include "hdt/volume.hpp"
-#include "hdt/winding_leaf.hpp"
+#include "hdt/winding_far.hpp"
 
 #include <cub/device/device_radix_sort.cuh>
 #include <cub/device/device_scan.cuh>
@@ -524,6 +524,19 @@ __global__ void freshCountsKernel(WindingTreeView t, const LeafOrigin* origins, 
   for (int x = 0; x < L; ++x) row[x] = int16_t(count);
 }
 
+// windingInsideWithCount's first step: the verdict from N and K at p.
+__device__ int countedVerdict(const WindingTreeView& t, const double* p, int N) {
+  double K = 0, error = 0;
+  if (!windingStripSum(t, p, K, error)) return kWindingUnsure;
+  const double whole = 4.0 * kWindingPi * double(N);
+  const WindingSum s{whole + K, error + 4.0 * kWindingUlp * (fabs(whole) + fabs(K)), true};
+  return windingVerdict(s, t.triangleCount);
+}
+
+__device__ uint32_t boxVoxels(const VoxelBox& b) {
+  return uint32_t(b.size(0)) * uint32_t(b.size(1)) * uint32_t(b.size(2));
+}
+
 // ---- uniform elements, breadth first ------------------------------------------
 //
 // classifyUniform's verdict (inside, outside or split) is a function of the
@@ -541,6 +554,39 @@ constexpr uint32_t kSeenOutside = 1, kSeenInside = 2, kSeenBoth = 3, kQueueFull 
 constexpr uint32_t kNoJob = 0xFFFFFFFFu;
 constexpr uint32_t kUniformQueue = 1u << 23; // boxes per level (at least twice the jobs)
 
+// A sheet-free box of a uniform element that the carried verdict left unsure.
+// No triangle meets its closed voxels and no sheet its voxel centres, so N is
+// one count over it; each centre is decided from K to first order about the
+// box's centre (as decideLeafBoxLinear below), a centre that leaves unsure by
+// K summed there, else by windingInsideAt (as a single voxel box is). Returns
+// the sides met (kSeenInside / kSeenOutside), stopping once both are; 0 when
+// the expansion or the count cannot be had (the box is halved as before).
+__device__ uint32_t uniformBoxLinearSides(const WindingTreeView& t, const VoxelBox& b) {
+  double lo[3], hi[3];
+  for (int a = 0; a < 3; ++a) {
+    lo[a] = b.lo[a] + 0.5;
+    hi[a] = b.hi[a] - 0.5;
+  }
+  WindingFarExpansion x;
+  if (windingSheetsMeetBox(t, lo, hi) || !windingChainExpansion(t, lo, hi, x) || !windingFarExpansionUseful(x, lo, hi))
+    return 0;
+  const int64_t P[3] = {latticeOfVoxelCentre(b.lo[0]), latticeOfVoxelCentre(b.lo[1]), latticeOfVoxelCentre(b.lo[2])};
+  int N = 0;
+  if (!windingRayCrossings(t, P, N)) return 0;
+  uint32_t sides = 0;
+  for (int z = b.lo[2]; z < b.hi[2]; ++z)
+    for (int y = b.lo[1]; y < b.hi[1]; ++y)
+      for (int xx = b.lo[0]; xx < b.hi[0]; ++xx) {
+        const double p[3] = {xx + 0.5, y + 0.5, z + 0.5};
+        int verdict = windingLinearVerdict(t, x, p, N);
+        if (verdict == kWindingUnsure) verdict = countedVerdict(t, p, N);
+        const bool inside = verdict != kWindingUnsure ? verdict == kWindingInside : windingInsideAt(t, p[0], p[1], p[2]);
+        sides |= inside ? kSeenInside : kSeenOutside;
+        if (sides == kSeenBoth) return sides;
+      }
+  return sides;
+}
+
 // A queue's least capacity in boxes: `standard`, or HDT_WINDING_QUEUE_BOXES
 // (for tests: small enough that the queues overflow and the fallbacks run).
 uint32_t leastQueueBoxes(uint32_t standard) {
@@ -554,7 +600,7 @@ struct QueuedBox {
 };
 
 __global__ void uniformBoxesKernel(WindingTreeView t, const QueuedBox* in, uint32_t count, QueuedBox* out,
-                                   uint32_t* outCount, uint32_t capacity, uint32_t* seen) {
+                                   uint32_t* outCount, uint32_t capacity, uint32_t* seen, uint32_t linearVoxels) {
   const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i >= count) return;
   const QueuedBox q = in[i];
@@ -571,6 +617,13 @@ __global__ void uniformBoxesKernel(WindingTreeView t, const QueuedBox* in, uint3
   if (v != kWindingUnsure) {
     atomicOr(seen + q.job, v == kWindingInside ? kSeenInside : kSeenOutside);
     return;
+  }
+  if (boxVoxels(b) <= linearVoxels) {
+    const uint32_t sides = uniformBoxLinearSides(t, b);
+    if (sides) {
+      atomicOr(seen + q.job, sides);
+      return;
+    }
   }
   bool halve[3];
   uint32_t n = 1;
@@ -688,18 +741,55 @@ struct HardVoxels {
 
 constexpr uint32_t kHardVoxels = 1u << 20;
 
-// windingInsideWithCount's first step: the verdict from N and K at p.
-__device__ int countedVerdict(const WindingTreeView& t, const double* p, int N) {
-  double K = 0, error = 0;
-  if (!windingStripSum(t, p, K, error)) return kWindingUnsure;
-  const double whole = 4.0 * kWindingPi * double(N);
-  const WindingSum s{whole + K, error + 4.0 * kWindingUlp * (fabs(whole) + fabs(K)), true};
-  return windingVerdict(s, t.triangleCount);
+
+// A voxel left to the host: listed, or when the list is full its whole leaf.
+__device__ void listHardVoxel(HardVoxels hard, uint8_t* fits, uint32_t leaf, uint32_t v) {
+  const uint32_t at = atomicAdd(hard.count, 1u);
+  if (at < hard.capacity) {
+    hard.items[at] = make_uint2(leaf, v);
+  } else {
+    fits[leaf] = 0; // the host's whole leaf
+  }
+}
+
+// A sheet-free leaf box that its threshold did not settle: near w = 1/2 the
+// halving would go on down to single voxels, each paying K from every edge.
+// Instead K to first order about the box's centre (windingChainExpansion: one
+// pass over the edges) decides each open voxel from its N alone
+// (windingLinearVerdict); a voxel it leaves unsure takes K summed at its
+// centre (countedVerdict), else goes to the host. False, nothing written,
+// when the expansion cannot be had or its remainder would leave the corners
+// unsure (windingFarExpansionUseful): the box is halved as before.
+__device__ bool decideLeafBoxLinear(const WindingTreeView& t, const double* lo, const double* hi, const VoxelBox& b,
+                                    const WindingLeafWords& w, const int16_t* N, uint32_t leaf, uint8_t* fits,
+                                    HardVoxels hard) {
+  WindingFarExpansion x;
+  if (!windingChainExpansion(t, lo, hi, x) || !windingFarExpansionUseful(x, lo, hi)) return false;
+  uint32_t word = 0xFFFFFFFFu, mask = 0;
+  for (int z = b.lo[2]; z < b.hi[2]; ++z)
+    for (int y = b.lo[1]; y < b.hi[1]; ++y)
+      for (int xx = b.lo[0]; xx < b.hi[0]; ++xx) {
+        const uint32_t v = w.index(xx, y, z);
+        if (w.surface(v)) continue;
+        if (v / kVoxelsPerWord != word) {
+          if (mask) atomicOr(w.words + word, mask);
+          word = v / kVoxelsPerWord;
+          mask = 0;
+        }
+        const double p[3] = {lo[0] + (xx - b.lo[0]), lo[1] + (y - b.lo[1]), lo[2] + (z - b.lo[2])};
+        int verdict = windingLinearVerdict(t, x, p, int(N[v]));
+        if (verdict == kWindingUnsure) verdict = countedVerdict(t, p, int(N[v]));
+        if (verdict == kWindingInside) mask |= 1u << (2 * (v % kVoxelsPerWord));
+        if (verdict == kWindingUnsure) listHardVoxel(hard, fits, leaf, v);
+      }
+  if (mask) atomicOr(w.words + word, mask);
+  return true;
 }
 
 __global__ void leafBoxesKernel(WindingTreeView t, const LeafOrigin* origins, int L, const int16_t* counts,
                                 const uint32_t* slots, uint8_t* fits, uint32_t* words, const LeafBox* in,
-                                uint32_t count, LeafBox* out, uint32_t* outCount, uint32_t capacity, HardVoxels hard, bool allHard) {
+                                uint32_t count, LeafBox* out, uint32_t* outCount, uint32_t capacity, HardVoxels hard,
+                                bool allHard, uint32_t linearVoxels) {
   const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i >= count) return;
   const LeafBox q = in[i];
@@ -715,14 +805,7 @@ __global__ void leafBoxesKernel(WindingTreeView t, const LeafOrigin* origins, in
     const uint32_t v = w.index(b.lo[0], b.lo[1], b.lo[2]);
     const int verdict = allHard ? int(kWindingUnsure) : countedVerdict(t, lo, int(N[v]));
     if (verdict == kWindingInside) atomicOr(leafWords + v / kVoxelsPerWord, 1u << (2 * (v % kVoxelsPerWord)));
-    if (verdict == kWindingUnsure) {
-      const uint32_t at = atomicAdd(hard.count, 1u);
-      if (at < hard.capacity) {
-        hard.items[at] = make_uint2(q.leaf, v);
-      } else {
-        fits[q.leaf] = 0; // the host's whole leaf
-      }
-    }
+    if (verdict == kWindingUnsure) listHardVoxel(hard, fits, q.leaf, v);
     return;
   }
   const bool sheet = windingSheetsMeetBox(t, lo, hi);
@@ -732,6 +815,8 @@ __global__ void leafBoxesKernel(WindingTreeView t, const LeafOrigin* origins, in
     settleLeafBox(leafWords, uint32_t(L), b, N, T);
     return;
   }
+  if (!sheet && !allHard && boxVoxels(b) <= linearVoxels && decideLeafBoxLinear(t, lo, hi, b, w, N, q.leaf, fits, hard))
+    return;
   VoxelBox halves[8];
   double known[8];
   int n = 0;
@@ -876,6 +961,21 @@ struct CountsOnDevice {
   const uint32_t* slotsData() const { return slots ? slots->data() : nullptr; }
 };
 
+// out[i] = in[0] + ... + in[i - 1] for i <= n (CUB, on the legacy stream
+// after the kernel that wrote in[0, n)); in[n] is zeroed first, so out[n] is
+// the total, returned (the copy waits for the scan: in may go after it).
+template <class T>
+T exclusiveSumAndTotal(T* in, T* out, uint32_t n) {
+  HDT_CUDA_CHECK(cudaMemset(in + n, 0, sizeof(T)));
+  size_t bytes = 0;
+  HDT_CUDA_CHECK(cub::DeviceScan::ExclusiveSum(nullptr, bytes, in, out, int(n) + 1));
+  Array<uint8_t> temp(std::max<size_t>(bytes, 16));
+  HDT_CUDA_CHECK(cub::DeviceScan::ExclusiveSum(temp.data(), bytes, in, out, int(n) + 1));
+  T total = 0;
+  HDT_CUDA_CHECK(cudaMemcpy(&total, out + n, sizeof(T), cudaMemcpyDeviceToHost));
+  return total;
+}
+
 // 1 for a leaf that keeps its counts (no held block: leafT[leaf] is
 // kNoThreshold), 0 for one whose inside bits the counts step writes instead.
 __global__ void keepsCountsKernel(const int* leafT, uint32_t n, uint32_t* keeps) {
@@ -893,15 +993,9 @@ void keepCounts(CountsOnDevice& d, uint32_t leaves, int L, const int* leafT) {
   if (leafT) {
     d.slots.emplace(size_t(leaves) + 1);
     Array<uint32_t> keeps(size_t(leaves) + 1);
-    HDT_CUDA_CHECK(cudaMemset(keeps.data() + leaves, 0, sizeof(uint32_t))); // the scan's last input
     keepsCountsKernel<<<blocks(leaves), kBlock>>>(leafT, leaves, keeps.data());
     HDT_CUDA_CHECK_LAUNCH("keepsCountsKernel");
-    size_t bytes = 0;
-    HDT_CUDA_CHECK(cub::DeviceScan::ExclusiveSum(nullptr, bytes, keeps.data(), d.slots->data(), int(leaves) + 1));
-    Array<uint8_t> temp(std::max<size_t>(bytes, 16));
-    HDT_CUDA_CHECK(cub::DeviceScan::ExclusiveSum(temp.data(), bytes, keeps.data(), d.slots->data(), int(leaves) + 1));
-    // The copy waits for the scan: keeps and temp may go after it.
-    HDT_CUDA_CHECK(cudaMemcpy(&d.keptLeaves, d.slots->data() + leaves, sizeof(uint32_t), cudaMemcpyDeviceToHost));
+    d.keptLeaves = exclusiveSumAndTotal(keeps.data(), d.slots->data(), leaves);
   }
   d.counts.emplace(std::max<uint64_t>(uint64_t(d.keptLeaves) * voxels, 1));
 }
@@ -1046,13 +1140,16 @@ constexpr uint64_t kQueueSpareBytes = uint64_t(1) << 20;
 
 // The most boxes one box is split into.
 constexpr uint64_t kChildBoxes = 8;
+// A queue that grows takes at least this many times what it held (each
+// allocation costs: fewer, larger steps).
+constexpr uint64_t kQueueGrowth = 8;
 
 // A queue about to take a level of `n` boxes' children: kChildBoxes * n
-// (at least 8 times what it holds, to grow seldom), never beyond `limit`.
+// (at least kQueueGrowth times what it holds), never beyond `limit`.
 uint64_t nextLevelBoxes(uint64_t n, uint64_t held, uint32_t limit) {
   const uint64_t needed = kChildBoxes * n;
   if (needed <= held) return held;
-  return std::min<uint64_t>(limit, std::max(needed, 8 * held));
+  return std::min<uint64_t>(limit, std::max(needed, kQueueGrowth * held));
 }
 
 // The levels of a pass's boxes, the first level's `first` boxes in queue 0:
@@ -1082,6 +1179,16 @@ uint64_t runQueueLevels(const char* name, uint32_t first, uint32_t limit, QueueM
   return total;
 }
 
+// Boxes of at most this many voxels go first order (decideLeafBoxLinear,
+// decideUniformBoxLinear) instead of being halved: kLinearBoxVoxels, or
+// HDT_WINDING_LINEAR_VOXELS (0: never; for A/B runs and tests of the halving).
+constexpr uint32_t kLinearBoxVoxels = 64;
+
+uint32_t linearBoxVoxels() {
+  const char* voxels = std::getenv("HDT_WINDING_LINEAR_VOXELS");
+  return voxels ? uint32_t(std::strtoul(voxels, nullptr, 10)) : kLinearBoxVoxels;
+}
+
 // The leaves' boxes level by level (leafBoxesKernel); returns the boxes taken.
 // hard: on return the voxels left to the host (decideHardVoxels).
 // leafT: each leaf's block threshold (those with one are settled already), or null.
@@ -1093,6 +1200,7 @@ uint64_t decideLeavesBreadthFirst(const WindingTreeView& t, const LeafOrigin* or
   hardCount.zero();
   const uint32_t limit = queueLimit(memory, leaves, kLeafQueue, kQueueSpareBytes);
   const bool allHard = std::getenv("HDT_WINDING_HOST_VOXELS") != nullptr;
+  const uint32_t linearVoxels = linearBoxVoxels();
   uint32_t first = 0;
   {
     Array<uint32_t> firstCount(1);
@@ -1108,7 +1216,7 @@ uint64_t decideLeavesBreadthFirst(const WindingTreeView& t, const LeafOrigin* or
                               [&](LeafBox* from, uint32_t n, LeafBox* to, uint32_t capacity, uint32_t* toCount) {
         leafBoxesKernel<<<(n + kBoxBlock - 1) / kBoxBlock, kBoxBlock>>>(t, origins, L, counts, slots, fits, words,
                                                                          from, n, to, toCount, capacity, hardVoxels,
-                                                                         allHard);
+                                                                         allHard, linearVoxels);
         checkLaunch("leafBoxesKernel");
       });
   uint32_t n = 0;
@@ -1159,15 +1267,9 @@ struct LeafCandidates {
 void listLeafCandidates(const WindingTreeView& t, const CountsOnDevice& d, uint32_t leaves, int L,
                         LeafCandidates& c) {
   Array<uint64_t> counts(size_t(leaves) + 1);
-  HDT_CUDA_CHECK(cudaMemset(counts.data() + leaves, 0, sizeof(uint64_t))); // the scan's last input
   candidateCountKernel<<<blocks(leaves), kBlock>>>(t, d.origins.data(), leaves, L, counts.data());
   checkLaunch("candidateCountKernel");
-  size_t bytes = 0;
-  HDT_CUDA_CHECK(cub::DeviceScan::ExclusiveSum(nullptr, bytes, counts.data(), c.offsets.data(), int(leaves) + 1));
-  Array<uint8_t> temp(std::max<size_t>(bytes, 16));
-  HDT_CUDA_CHECK(cub::DeviceScan::ExclusiveSum(temp.data(), bytes, counts.data(), c.offsets.data(), int(leaves) + 1));
-  // The copy waits for the scan: counts and temp may go after it.
-  HDT_CUDA_CHECK(cudaMemcpy(&c.pairs, c.offsets.data() + leaves, sizeof(uint64_t), cudaMemcpyDeviceToHost));
+  c.pairs = exclusiveSumAndTotal(counts.data(), c.offsets.data(), leaves);
   c.list = std::make_unique<Array<uint32_t>>(std::max<uint64_t>(c.pairs, 1));
   candidateListKernel<<<blocks(leaves), kBlock>>>(t, d.origins.data(), leaves, L, c.offsets.data(),
                                                   c.list->data());
@@ -1463,6 +1565,7 @@ bool WindingDevicePass::uniform(const WindingTree& tree, const std::vector<Windi
     // the elements whose boxes overflow (at most all of them).
     const uint64_t spare = kQueueSpareBytes + uint64_t(count) * (sizeof(WindingUniformJob) + 1);
     const uint32_t limit = queueLimit(impl_->queues, count, kUniformQueue, spare);
+    const uint32_t linearVoxels = linearBoxVoxels();
     {
       Array<uint32_t> queued(1);
       queued.zero();
@@ -1478,7 +1581,7 @@ bool WindingDevicePass::uniform(const WindingTree& tree, const std::vector<Windi
         runQueueLevels<QueuedBox>("uniform", first, limit, impl_->queues,
                                   [&](QueuedBox* from, uint32_t n, QueuedBox* to, uint32_t capacity, uint32_t* toCount) {
           uniformBoxesKernel<<<(n + kBoxBlock - 1) / kBoxBlock, kBoxBlock>>>(t.view(), from, n, to, toCount, capacity,
-                                                                             seen.data());
+                                                                             seen.data(), linearVoxels);
           checkLaunch("uniformBoxesKernel");
         });
     std::vector<uint32_t> state(jobs.size());

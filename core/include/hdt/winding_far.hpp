@@ -109,6 +109,35 @@ struct WindingFarExpansion {
   double hessian;  // H over the anchor box
 };
 
+// One edge's share of an expansion about x.c: its field added to x.g (its
+// rounding to gError) and its factor of K's running product z. strips: 0 the
+// product holds, 1 it cannot count its turns (K is then summed edge by edge),
+// -1 x.c lies in a strip's plane (no expansion there).
+HDT_HD void windingExpansionEdge(const WindingEdge& e, WindingFarExpansion& x, WindingStripRunning& z, int& strips,
+                                 double& gError) {
+  const WindingStripGeometry geometry = windingStripGeometry(e, x.c);
+  windingAddSegmentField(e, geometry, e.net, x.g, gError);
+  double det, den, d;
+  const int kind = strips == 0 ? windingStripPairOf(e, geometry, det, den, d) : 1;
+  if (kind < 0) strips = -1;
+  if (kind == 0 && !windingStripProductStep(z, det, den, d, e.net)) strips = 1;
+}
+
+// The field's sign, its norm and the bounds, rounded up, once every edge
+// and ray is in.
+HDT_HD void windingExpansionBounds(WindingFarExpansion& x, double hessian, double gError) {
+  for (int a = 0; a < 3; ++a) x.g[a] = kWindingFieldSign * x.g[a];
+  x.gNorm = sqrt(x.g[0] * x.g[0] + x.g[1] * x.g[1] + x.g[2] * x.g[2]) * (1 + 1e-12);
+  x.gError = gError * (1 + 1e-9) + 1e-300;
+  x.hessian = hessian * (1 + 1e-9);
+}
+
+// K from the finished product (strips 0), with windingStripSumOf's rounding.
+HDT_HD void windingExpansionValue(const WindingStripRunning& z, WindingFarExpansion& x) {
+  windingStripProductFinish(z, x.K, x.error);
+  x.error = x.error + 4.0 * kWindingUlp * fabs(x.K);
+}
+
 // False when the far part is not smooth over [lo, hi] (an edge or a ray meets
 // it), K_far cannot be evaluated at c, or there are too many ends.
 HDT_HD bool windingFarExpansion(const WindingTreeView& t, const WindingLeafSplit& split, const WindingFarLeaf& f,
@@ -122,14 +151,9 @@ HDT_HD bool windingFarExpansion(const WindingTreeView& t, const WindingLeafSplit
   // K_far(c) as windingPartStripSum takes it (one running product), in the
   // same pass as the far edges' field: the two share c's geometry.
   WindingStripRunning z;
-  int strips = 0; // 0 the product holds, 1 it cannot count its turns, -1 c lies in a strip's plane
+  int strips = 0;
   windingForEachFarEdge(t, split, [&](const WindingEdge& e) {
-    const WindingStripGeometry geometry = windingStripGeometry(e, x.c);
-    windingAddSegmentField(e, geometry, e.net, x.g, gErr);
-    double det, den, d;
-    const int kind = strips == 0 ? windingStripPairOf(e, geometry, det, den, d) : 1;
-    if (kind < 0) strips = -1;
-    if (kind == 0 && !windingStripProductStep(z, det, den, d, e.net)) strips = 1;
+    windingExpansionEdge(e, x, z, strips, gErr);
     return strips >= 0;
   });
   if (strips < 0) return false;
@@ -140,13 +164,38 @@ HDT_HD bool windingFarExpansion(const WindingTreeView& t, const WindingLeafSplit
     H = H + fabs(endCoef[j]) * 4.0 / (d * d);
     windingAddRayField(split.end[j], x.c, -endCoef[j], x.g, gErr);
   }
-  for (int a = 0; a < 3; ++a) x.g[a] = kWindingFieldSign * x.g[a];
-  x.gNorm = sqrt(x.g[0] * x.g[0] + x.g[1] * x.g[1] + x.g[2] * x.g[2]) * (1 + 1e-12);
-  x.gError = gErr * (1 + 1e-9) + 1e-300;
-  x.hessian = H * (1 + 1e-9);
+  windingExpansionBounds(x, H, gErr);
   if (strips == 1) return windingPartStripSum(t, split, false, x.c, x.K, x.error); // edge by edge
-  windingStripProductFinish(z, x.K, x.error);
-  x.error = x.error + 4.0 * kWindingUlp * fabs(x.K); // as windingStripSumOf
+  windingExpansionValue(z, x);
+  return true;
+}
+
+// The whole chain's K to first order about the centre of a box [lo, hi]
+// that no sheet meets (windingSheetsMeetBox false: K is smooth over it, and
+// with the whole chain no open end's ray enters): K and the chain's field at
+// the centre and H over the box, in one pass over the edges. Where the far
+// part's expansion needs a leaf's split, this needs none, so one box of a
+// breadth-first walk (the device's) can take it on its own. False when an
+// edge meets the box or the centre lies in a strip's plane.
+HDT_HD bool windingChainExpansion(const WindingTreeView& t, const double* lo, const double* hi,
+                                  WindingFarExpansion& x) {
+  const double rho = windingBoxBall(lo, hi, x.c);
+  for (int a = 0; a < 3; ++a) x.g[a] = 0;
+  double H = 0, gErr = 0;
+  WindingStripRunning z;
+  int strips = 0;
+  for (uint32_t i = 0; i < t.edgeCount && strips >= 0; ++i) {
+    const WindingEdge& e = t.edges[i];
+    const double d = windingEdgeDistance(e, lo, hi, x.c, rho);
+    if (!(d > 0)) return false;
+    const double byLength = 2.0 * e.length / (d * d * d), byDistance = 4.0 / (d * d);
+    H = H + e.weight * (byLength < byDistance ? byLength : byDistance);
+    windingExpansionEdge(e, x, z, strips, gErr);
+  }
+  if (strips < 0) return false;
+  windingExpansionBounds(x, H, gErr);
+  if (strips == 1) return windingStripSum(t, x.c, x.K, x.error); // edge by edge
+  windingExpansionValue(z, x);
   return true;
 }
 
@@ -180,6 +229,18 @@ HDT_HD bool windingFarExpansionUseful(const WindingFarExpansion& x, const double
   for (int a = 0; a < 3; ++a) far2 = far2 + 0.25 * (hi[a] - lo[a]) * (hi[a] - lo[a]);
   const double r = sqrt(far2);
   return r * (x.gError + 0.5 * x.hessian * r) < kWindingPi;
+}
+
+// The verdict at a voxel centre p with crossing count N from an expansion of
+// the whole of K (windingChainExpansion over a box holding p): 4 pi N +
+// K(c) + g . (p - c), unsure when the remainder's bound leaves it within the
+// margins of 2 pi (windingAnchoredBoxStep's single voxel with no near part).
+HDT_HD int windingLinearVerdict(const WindingTreeView& t, const WindingFarExpansion& x, const double* p, int N) {
+  double K = 0, stray = 0;
+  windingFarOverBox(x, p, p, K, stray);
+  const double whole = 4.0 * kWindingPi * double(N);
+  const WindingSum s{whole + K, stray + 4.0 * kWindingUlp * (fabs(whole) + 2.0 * fabs(K)), true};
+  return windingVerdict(s, t.triangleCount);
 }
 
 // The anchor as one box (windingAnchoredBoxStep) with the leaf's expansion
