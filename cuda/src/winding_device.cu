@@ -533,8 +533,60 @@ __device__ int countedVerdict(const WindingTreeView& t, const double* p, int N) 
   return windingVerdict(s, t.triangleCount);
 }
 
+// ---- boxes to first order ------------------------------------------------------
+//
+// Near w = 1/2 a box walk halves down to single voxels, each paying K from
+// every edge. A sheet-free box of at most kMaxLinearVoxels voxels can instead
+// take K to first order about its centre (windingChainExpansion: K, the whole
+// chain's field and H over the box in one pass over the edges) and decide
+// each voxel from its N alone (windingLinearVerdict). Close to a rim the
+// remainder leaves a wide band unsure; a box with more than kLinearUnsure
+// unsure voxels is halved as before (its expansion wasted), otherwise its
+// unsure voxels go to the next level as single-voxel boxes (no more than the
+// 8 halves the queue is sized for), where each takes K at its centre on a
+// thread of its own.
+constexpr int kMaxLinearVoxels = 64; // one bit a voxel
+constexpr int kLinearUnsure = 8;
+
+struct LinearVerdicts {
+  uint64_t inside = 0, unsure = 0; // bit k: voxel k of the box, x fastest
+};
+
 __device__ uint32_t boxVoxels(const VoxelBox& b) {
   return uint32_t(b.size(0)) * uint32_t(b.size(1)) * uint32_t(b.size(2));
+}
+
+__device__ VoxelBox boxVoxel(const VoxelBox& b, int k) {
+  const int sx = b.size(0), sy = b.size(1);
+  const int x = b.lo[0] + k % sx, y = b.lo[1] + (k / sx) % sy, z = b.lo[2] + k / (sx * sy);
+  return VoxelBox{{x, y, z}, {x + 1, y + 1, z + 1}};
+}
+
+// The verdicts over the box b whose voxel centres span [lo, hi]; countAt(x,
+// y, z, N) gives a voxel's N, or false for a voxel that needs none (a surface
+// voxel). False when the expansion cannot be had, leaves the corners no
+// chance (windingFarExpansionUseful) or leaves more than kLinearUnsure voxels
+// unsure.
+template <class CountAt>
+__device__ bool linearVerdicts(const WindingTreeView& t, const double* lo, const double* hi, const VoxelBox& b,
+                               CountAt&& countAt, LinearVerdicts& out) {
+  WindingFarExpansion x;
+  if (!windingChainExpansion(t, lo, hi, x) || !windingFarExpansionUseful(x, lo, hi)) return false;
+  int unsure = 0, k = 0;
+  for (int z = b.lo[2]; z < b.hi[2]; ++z)
+    for (int y = b.lo[1]; y < b.hi[1]; ++y)
+      for (int xx = b.lo[0]; xx < b.hi[0]; ++xx, ++k) {
+        int N = 0;
+        if (!countAt(xx, y, z, N)) continue;
+        const double p[3] = {lo[0] + (xx - b.lo[0]), lo[1] + (y - b.lo[1]), lo[2] + (z - b.lo[2])};
+        const int verdict = windingLinearVerdict(t, x, p, N);
+        if (verdict == kWindingInside) out.inside |= uint64_t(1) << k;
+        if (verdict == kWindingUnsure) {
+          out.unsure |= uint64_t(1) << k;
+          if (++unsure > kLinearUnsure) return false;
+        }
+      }
+  return true;
 }
 
 // ---- uniform elements, breadth first ------------------------------------------
@@ -553,39 +605,6 @@ __device__ uint32_t boxVoxels(const VoxelBox& b) {
 constexpr uint32_t kSeenOutside = 1, kSeenInside = 2, kSeenBoth = 3, kQueueFull = 4;
 constexpr uint32_t kNoJob = 0xFFFFFFFFu;
 constexpr uint32_t kUniformQueue = 1u << 23; // boxes per level (at least twice the jobs)
-
-// A sheet-free box of a uniform element that the carried verdict left unsure.
-// No triangle meets its closed voxels and no sheet its voxel centres, so N is
-// one count over it; each centre is decided from K to first order about the
-// box's centre (as decideLeafBoxLinear below), a centre that leaves unsure by
-// K summed there, else by windingInsideAt (as a single voxel box is). Returns
-// the sides met (kSeenInside / kSeenOutside), stopping once both are; 0 when
-// the expansion or the count cannot be had (the box is halved as before).
-__device__ uint32_t uniformBoxLinearSides(const WindingTreeView& t, const VoxelBox& b) {
-  double lo[3], hi[3];
-  for (int a = 0; a < 3; ++a) {
-    lo[a] = b.lo[a] + 0.5;
-    hi[a] = b.hi[a] - 0.5;
-  }
-  WindingFarExpansion x;
-  if (windingSheetsMeetBox(t, lo, hi) || !windingChainExpansion(t, lo, hi, x) || !windingFarExpansionUseful(x, lo, hi))
-    return 0;
-  const int64_t P[3] = {latticeOfVoxelCentre(b.lo[0]), latticeOfVoxelCentre(b.lo[1]), latticeOfVoxelCentre(b.lo[2])};
-  int N = 0;
-  if (!windingRayCrossings(t, P, N)) return 0;
-  uint32_t sides = 0;
-  for (int z = b.lo[2]; z < b.hi[2]; ++z)
-    for (int y = b.lo[1]; y < b.hi[1]; ++y)
-      for (int xx = b.lo[0]; xx < b.hi[0]; ++xx) {
-        const double p[3] = {xx + 0.5, y + 0.5, z + 0.5};
-        int verdict = windingLinearVerdict(t, x, p, N);
-        if (verdict == kWindingUnsure) verdict = countedVerdict(t, p, N);
-        const bool inside = verdict != kWindingUnsure ? verdict == kWindingInside : windingInsideAt(t, p[0], p[1], p[2]);
-        sides |= inside ? kSeenInside : kSeenOutside;
-        if (sides == kSeenBoth) return sides;
-      }
-  return sides;
-}
 
 // A queue's least capacity in boxes: `standard`, or HDT_WINDING_QUEUE_BOXES
 // (for tests: small enough that the queues overflow and the fallbacks run).
@@ -618,12 +637,32 @@ __global__ void uniformBoxesKernel(WindingTreeView t, const QueuedBox* in, uint3
     atomicOr(seen + q.job, v == kWindingInside ? kSeenInside : kSeenOutside);
     return;
   }
-  if (boxVoxels(b) <= linearVoxels) {
-    const uint32_t sides = uniformBoxLinearSides(t, b);
-    if (sides) {
-      atomicOr(seen + q.job, sides);
+  // No triangle meets the box's closed voxels, so with no sheet across its
+  // voxel centres N is one count over it.
+  LinearVerdicts linear;
+  double lo[3], hi[3];
+  for (int a = 0; a < 3; ++a) {
+    lo[a] = b.lo[a] + 0.5;
+    hi[a] = b.hi[a] - 0.5;
+  }
+  const int64_t P[3] = {latticeOfVoxelCentre(b.lo[0]), latticeOfVoxelCentre(b.lo[1]), latticeOfVoxelCentre(b.lo[2])};
+  int N = 0;
+  if (boxVoxels(b) <= linearVoxels && !windingSheetsMeetBox(t, lo, hi) && windingRayCrossings(t, P, N) &&
+      linearVerdicts(t, lo, hi, b, [&](int, int, int, int& n) { n = N; return true; }, linear)) {
+    const uint64_t all = boxVoxels(b) == 64 ? ~uint64_t(0) : (uint64_t(1) << boxVoxels(b)) - 1;
+    const uint64_t outside = all & ~linear.inside & ~linear.unsure;
+    atomicOr(seen + q.job, (linear.inside ? kSeenInside : 0u) | (outside ? kSeenOutside : 0u));
+    if (!linear.unsure || (linear.inside && outside)) return;
+    const uint32_t n = uint32_t(__popcll(linear.unsure));
+    const uint32_t at = atomicAdd(outCount, n);
+    if (at + n > capacity) {
+      atomicOr(seen + q.job, kQueueFull);
+      for (uint32_t k = at; k < capacity && k < at + n; ++k) out[k].job = kNoJob;
       return;
     }
+    uint32_t k = 0;
+    for (uint64_t u = linear.unsure; u; u &= u - 1) out[at + k++] = QueuedBox{boxVoxel(b, __ffsll(u) - 1), q.job};
+    return;
   }
   bool halve[3];
   uint32_t n = 1;
@@ -719,6 +758,23 @@ __device__ void settleLeafBox(uint32_t* words, uint32_t L, const VoxelBox& b, co
   if (mask) atomicOr(words + word, mask);
 }
 
+// The inside bits of the voxels of b whose bits are set in `inside` (bit k:
+// voxel k of b, x fastest).
+__device__ void settleLeafVoxels(uint32_t* words, const WindingLeafWords& w, const VoxelBox& b, uint64_t inside) {
+  uint32_t word = 0xFFFFFFFFu, mask = 0;
+  for (uint64_t u = inside; u; u &= u - 1) {
+    const VoxelBox one = boxVoxel(b, __ffsll(u) - 1);
+    const uint32_t v = w.index(one.lo[0], one.lo[1], one.lo[2]);
+    if (v / kVoxelsPerWord != word) {
+      if (mask) atomicOr(words + word, mask);
+      word = v / kVoxelsPerWord;
+      mask = 0;
+    }
+    mask |= 1u << (2 * (v % kVoxelsPerWord));
+  }
+  if (mask) atomicOr(words + word, mask);
+}
+
 // The whole leaves that fit and that no block settled, queued in any order
 // (every verdict is certified).
 __global__ void firstLeafBoxesKernel(uint32_t leafCount, int L, const uint8_t* fits, const int* leafT, LeafBox* boxes,
@@ -752,40 +808,6 @@ __device__ void listHardVoxel(HardVoxels hard, uint8_t* fits, uint32_t leaf, uin
   }
 }
 
-// A sheet-free leaf box that its threshold did not settle: near w = 1/2 the
-// halving would go on down to single voxels, each paying K from every edge.
-// Instead K to first order about the box's centre (windingChainExpansion: one
-// pass over the edges) decides each open voxel from its N alone
-// (windingLinearVerdict); a voxel it leaves unsure takes K summed at its
-// centre (countedVerdict), else goes to the host. False, nothing written,
-// when the expansion cannot be had or its remainder would leave the corners
-// unsure (windingFarExpansionUseful): the box is halved as before.
-__device__ bool decideLeafBoxLinear(const WindingTreeView& t, const double* lo, const double* hi, const VoxelBox& b,
-                                    const WindingLeafWords& w, const int16_t* N, uint32_t leaf, uint8_t* fits,
-                                    HardVoxels hard) {
-  WindingFarExpansion x;
-  if (!windingChainExpansion(t, lo, hi, x) || !windingFarExpansionUseful(x, lo, hi)) return false;
-  uint32_t word = 0xFFFFFFFFu, mask = 0;
-  for (int z = b.lo[2]; z < b.hi[2]; ++z)
-    for (int y = b.lo[1]; y < b.hi[1]; ++y)
-      for (int xx = b.lo[0]; xx < b.hi[0]; ++xx) {
-        const uint32_t v = w.index(xx, y, z);
-        if (w.surface(v)) continue;
-        if (v / kVoxelsPerWord != word) {
-          if (mask) atomicOr(w.words + word, mask);
-          word = v / kVoxelsPerWord;
-          mask = 0;
-        }
-        const double p[3] = {lo[0] + (xx - b.lo[0]), lo[1] + (y - b.lo[1]), lo[2] + (z - b.lo[2])};
-        int verdict = windingLinearVerdict(t, x, p, int(N[v]));
-        if (verdict == kWindingUnsure) verdict = countedVerdict(t, p, int(N[v]));
-        if (verdict == kWindingInside) mask |= 1u << (2 * (v % kVoxelsPerWord));
-        if (verdict == kWindingUnsure) listHardVoxel(hard, fits, leaf, v);
-      }
-  if (mask) atomicOr(w.words + word, mask);
-  return true;
-}
-
 __global__ void leafBoxesKernel(WindingTreeView t, const LeafOrigin* origins, int L, const int16_t* counts,
                                 const uint32_t* slots, uint8_t* fits, uint32_t* words, const LeafBox* in,
                                 uint32_t count, LeafBox* out, uint32_t* outCount, uint32_t capacity, HardVoxels hard,
@@ -815,8 +837,27 @@ __global__ void leafBoxesKernel(WindingTreeView t, const LeafOrigin* origins, in
     settleLeafBox(leafWords, uint32_t(L), b, N, T);
     return;
   }
-  if (!sheet && !allHard && boxVoxels(b) <= linearVoxels && decideLeafBoxLinear(t, lo, hi, b, w, N, q.leaf, fits, hard))
+  LinearVerdicts linear;
+  if (!sheet && !allHard && boxVoxels(b) <= linearVoxels &&
+      linearVerdicts(t, lo, hi, b,
+                     [&](int x, int y, int z, int& n) {
+                       const uint32_t v = w.index(x, y, z);
+                       n = N[v];
+                       return !w.surface(v);
+                     },
+                     linear)) {
+    settleLeafVoxels(leafWords, w, b, linear.inside);
+    const uint32_t n = uint32_t(__popcll(linear.unsure));
+    const uint32_t at = atomicAdd(outCount, n);
+    if (at + n > capacity) {
+      fits[q.leaf] = 0;
+      for (uint32_t k = at; k < capacity && k < at + n; ++k) out[k].leaf = kNoJob;
+      return;
+    }
+    uint32_t k = 0;
+    for (uint64_t u = linear.unsure; u; u &= u - 1) out[at + k++] = LeafBox{boxVoxel(b, __ffsll(u) - 1), q.leaf, INFINITY};
     return;
+  }
   VoxelBox halves[8];
   double known[8];
   int n = 0;
@@ -1179,14 +1220,15 @@ uint64_t runQueueLevels(const char* name, uint32_t first, uint32_t limit, QueueM
   return total;
 }
 
-// Boxes of at most this many voxels go first order (decideLeafBoxLinear,
-// decideUniformBoxLinear) instead of being halved: kLinearBoxVoxels, or
-// HDT_WINDING_LINEAR_VOXELS (0: never; for A/B runs and tests of the halving).
+// Boxes of at most this many voxels try the first order (linearVerdicts)
+// before they are halved: kLinearBoxVoxels, or HDT_WINDING_LINEAR_VOXELS (0:
+// never, the halving alone; for A/B runs and tests), at most kMaxLinearVoxels.
 constexpr uint32_t kLinearBoxVoxels = 64;
 
 uint32_t linearBoxVoxels() {
   const char* voxels = std::getenv("HDT_WINDING_LINEAR_VOXELS");
-  return voxels ? uint32_t(std::strtoul(voxels, nullptr, 10)) : kLinearBoxVoxels;
+  const uint32_t n = voxels ? uint32_t(std::strtoul(voxels, nullptr, 10)) : kLinearBoxVoxels;
+  return std::min(n, uint32_t(kMaxLinearVoxels));
 }
 
 // The leaves' boxes level by level (leafBoxesKernel); returns the boxes taken.
