@@ -619,7 +619,7 @@ struct QueuedBox {
 };
 
 __global__ void uniformBoxesKernel(WindingTreeView t, const QueuedBox* in, uint32_t count, QueuedBox* out,
-                                   uint32_t* outCount, uint32_t capacity, uint32_t* seen, uint32_t linearVoxels) {
+                                   uint32_t* outCount, uint32_t capacity, uint32_t* seen) {
   const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i >= count) return;
   const QueuedBox q = in[i];
@@ -635,33 +635,6 @@ __global__ void uniformBoxesKernel(WindingTreeView t, const QueuedBox* in, uint3
   const int v = windingCarriedBoxVerdict(t, b, false);
   if (v != kWindingUnsure) {
     atomicOr(seen + q.job, v == kWindingInside ? kSeenInside : kSeenOutside);
-    return;
-  }
-  // No triangle meets the box's closed voxels, so with no sheet across its
-  // voxel centres N is one count over it.
-  LinearVerdicts linear;
-  double lo[3], hi[3];
-  for (int a = 0; a < 3; ++a) {
-    lo[a] = b.lo[a] + 0.5;
-    hi[a] = b.hi[a] - 0.5;
-  }
-  const int64_t P[3] = {latticeOfVoxelCentre(b.lo[0]), latticeOfVoxelCentre(b.lo[1]), latticeOfVoxelCentre(b.lo[2])};
-  int N = 0;
-  if (boxVoxels(b) <= linearVoxels && !windingSheetsMeetBox(t, lo, hi) && windingRayCrossings(t, P, N) &&
-      linearVerdicts(t, lo, hi, b, [&](int, int, int, int& n) { n = N; return true; }, linear)) {
-    const uint64_t all = boxVoxels(b) == 64 ? ~uint64_t(0) : (uint64_t(1) << boxVoxels(b)) - 1;
-    const uint64_t outside = all & ~linear.inside & ~linear.unsure;
-    atomicOr(seen + q.job, (linear.inside ? kSeenInside : 0u) | (outside ? kSeenOutside : 0u));
-    if (!linear.unsure || (linear.inside && outside)) return;
-    const uint32_t n = uint32_t(__popcll(linear.unsure));
-    const uint32_t at = atomicAdd(outCount, n);
-    if (at + n > capacity) {
-      atomicOr(seen + q.job, kQueueFull);
-      for (uint32_t k = at; k < capacity && k < at + n; ++k) out[k].job = kNoJob;
-      return;
-    }
-    uint32_t k = 0;
-    for (uint64_t u = linear.unsure; u; u &= u - 1) out[at + k++] = QueuedBox{boxVoxel(b, __ffsll(u) - 1), q.job};
     return;
   }
   bool halve[3];
@@ -1220,9 +1193,9 @@ uint64_t runQueueLevels(const char* name, uint32_t first, uint32_t limit, QueueM
   return total;
 }
 
-// Boxes of at most this many voxels try the first order (linearVerdicts)
-// before they are halved: kLinearBoxVoxels, or HDT_WINDING_LINEAR_VOXELS (0:
-// never, the halving alone; for A/B runs and tests), at most kMaxLinearVoxels.
+// The fresh leaves' boxes of at most this many voxels try the first order
+// (decideLeavesBreadthFirst): kLinearBoxVoxels, or HDT_WINDING_LINEAR_VOXELS
+// (0: never, the halving alone; for A/B runs), at most kMaxLinearVoxels.
 constexpr uint32_t kLinearBoxVoxels = 64;
 
 uint32_t linearBoxVoxels() {
@@ -1234,15 +1207,22 @@ uint32_t linearBoxVoxels() {
 // The leaves' boxes level by level (leafBoxesKernel); returns the boxes taken.
 // hard: on return the voxels left to the host (decideHardVoxels).
 // leafT: each leaf's block threshold (those with one are settled already), or null.
+// linearVoxels: boxes of at most this many voxels try the first order
+// (linearVerdicts) before they are halved; 0: never. The fresh leaves of
+// refined elements take it: they lie on the w = 1/2 sheet spanning a hole,
+// where it settled most boxes (teapot 8192^3: their pass 49 -> 23 ms, H100,
+// bench/results/winding.md). The leaves holding the surface do not: theirs
+// lie along the rims, where the remainder is wide and the expansion was
+// mostly wasted (their boxes' step 23 -> 31 ms there).
 uint64_t decideLeavesBreadthFirst(const WindingTreeView& t, const LeafOrigin* origins, uint32_t leaves, int L,
                                   const int16_t* counts, const uint32_t* slots, uint8_t* fits, const int* leafT,
-                                  uint32_t* words, QueueMemory& memory, std::vector<uint2>& hard) {
+                                  uint32_t* words, QueueMemory& memory, uint32_t linearVoxels,
+                                  std::vector<uint2>& hard) {
   Array<uint32_t> hardCount(1);
   Array<uint2> hardItems(kHardVoxels);
   hardCount.zero();
   const uint32_t limit = queueLimit(memory, leaves, kLeafQueue, kQueueSpareBytes);
   const bool allHard = std::getenv("HDT_WINDING_HOST_VOXELS") != nullptr;
-  const uint32_t linearVoxels = linearBoxVoxels();
   uint32_t first = 0;
   {
     Array<uint32_t> firstCount(1);
@@ -1523,7 +1503,7 @@ bool WindingDevicePass::leaves(const WindingTree& tree, Volume& volume, const st
     ev.mark(7);
     const uint64_t boxes =
         decideLeavesBreadthFirst(t.view(), d.origins.data(), leaves, L, d.countsData(), d.slotsData(), d.fits.data(),
-                                 leafT.data(), words, impl_->queues, hard);
+                                 leafT.data(), words, impl_->queues, 0, hard);
     ev.mark(5);
     std::vector<uint8_t> fits(leaves);
     d.fits.download(fits.data());
@@ -1607,7 +1587,6 @@ bool WindingDevicePass::uniform(const WindingTree& tree, const std::vector<Windi
     // the elements whose boxes overflow (at most all of them).
     const uint64_t spare = kQueueSpareBytes + uint64_t(count) * (sizeof(WindingUniformJob) + 1);
     const uint32_t limit = queueLimit(impl_->queues, count, kUniformQueue, spare);
-    const uint32_t linearVoxels = linearBoxVoxels();
     {
       Array<uint32_t> queued(1);
       queued.zero();
@@ -1623,7 +1602,7 @@ bool WindingDevicePass::uniform(const WindingTree& tree, const std::vector<Windi
         runQueueLevels<QueuedBox>("uniform", first, limit, impl_->queues,
                                   [&](QueuedBox* from, uint32_t n, QueuedBox* to, uint32_t capacity, uint32_t* toCount) {
           uniformBoxesKernel<<<(n + kBoxBlock - 1) / kBoxBlock, kBoxBlock>>>(t.view(), from, n, to, toCount, capacity,
-                                                                             seen.data(), linearVoxels);
+                                                                             seen.data());
           checkLaunch("uniformBoxesKernel");
         });
     std::vector<uint32_t> state(jobs.size());
@@ -1686,7 +1665,7 @@ bool WindingDevicePass::fresh(const WindingTree& tree, int L, const std::vector<
     checkLaunch("freshCountsKernel");
     std::vector<uint2> hard;
     decideLeavesBreadthFirst(t.view(), o.data(), leaves, L, counts.data(), nullptr, fits.data(), nullptr, w.data(),
-                             impl_->queues, hard);
+                             impl_->queues, linearBoxVoxels(), hard);
     std::vector<uint8_t> hostFits(leaves);
     fits.download(hostFits.data());
     copyToHost(0, words, w.data(), w.size() * sizeof(uint32_t));
