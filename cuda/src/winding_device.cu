@@ -1210,10 +1210,9 @@ uint32_t linearBoxVoxels() {
 // linearVoxels: boxes of at most this many voxels try the first order
 // (linearVerdicts) before they are halved; 0: never. The fresh leaves of
 // refined elements take it: they lie on the w = 1/2 sheet spanning a hole,
-// where it settled most boxes (teapot 8192^3: their pass 49 -> 23 ms, H100,
-// bench/results/winding.md). The leaves holding the surface do not: theirs
-// lie along the rims, where the remainder is wide and the expansion was
-// mostly wasted (their boxes' step 23 -> 31 ms there).
+// where it settles most boxes. The leaves holding the surface do not: their
+// open boxes lie along the rims, where the remainder is wide and most
+// expansions would be wasted (bench/results/winding.md, session 18).
 uint64_t decideLeavesBreadthFirst(const WindingTreeView& t, const LeafOrigin* origins, uint32_t leaves, int L,
                                   const int16_t* counts, const uint32_t* slots, uint8_t* fits, const int* leafT,
                                   uint32_t* words, QueueMemory& memory, uint32_t linearVoxels,
