@@ -770,7 +770,6 @@ struct HardVoxels {
 
 constexpr uint32_t kHardVoxels = 1u << 20;
 
-
 // A voxel left to the host: listed, or when the list is full its whole leaf.
 __device__ void listHardVoxel(HardVoxels hard, uint8_t* fits, uint32_t leaf, uint32_t v) {
   const uint32_t at = atomicAdd(hard.count, 1u);
