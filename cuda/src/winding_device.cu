@@ -524,15 +524,6 @@ __global__ void freshCountsKernel(WindingTreeView t, const LeafOrigin* origins, 
   for (int x = 0; x < L; ++x) row[x] = int16_t(count);
 }
 
-// windingInsideWithCount's first step: the verdict from N and K at p.
-__device__ int countedVerdict(const WindingTreeView& t, const double* p, int N) {
-  double K = 0, error = 0;
-  if (!windingStripSum(t, p, K, error)) return kWindingUnsure;
-  const double whole = 4.0 * kWindingPi * double(N);
-  const WindingSum s{whole + K, error + 4.0 * kWindingUlp * (fabs(whole) + fabs(K)), true};
-  return windingVerdict(s, t.triangleCount);
-}
-
 // ---- boxes to first order ------------------------------------------------------
 //
 // Near w = 1/2 a box walk halves down to single voxels, each paying K from
@@ -562,24 +553,22 @@ __device__ VoxelBox boxVoxel(const VoxelBox& b, int k) {
   return VoxelBox{{x, y, z}, {x + 1, y + 1, z + 1}};
 }
 
-// The verdicts over the box b whose voxel centres span [lo, hi]; countAt(x,
-// y, z, N) gives a voxel's N, or false for a voxel that needs none (a surface
-// voxel). False when the expansion cannot be had, leaves the corners no
-// chance (windingFarExpansionUseful) or leaves more than kLinearUnsure voxels
-// unsure.
-template <class CountAt>
+// The verdicts over the open voxels of the leaf box b (voxel centres [lo,
+// hi], crossing counts N, the leaf's words w). False when the expansion
+// cannot be had, leaves the corners no chance (windingFarExpansionUseful) or
+// leaves more than kLinearUnsure voxels unsure.
 __device__ bool linearVerdicts(const WindingTreeView& t, const double* lo, const double* hi, const VoxelBox& b,
-                               CountAt&& countAt, LinearVerdicts& out) {
+                               const WindingLeafWords& w, const int16_t* N, LinearVerdicts& out) {
   WindingFarExpansion x;
   if (!windingChainExpansion(t, lo, hi, x) || !windingFarExpansionUseful(x, lo, hi)) return false;
   int unsure = 0, k = 0;
   for (int z = b.lo[2]; z < b.hi[2]; ++z)
     for (int y = b.lo[1]; y < b.hi[1]; ++y)
       for (int xx = b.lo[0]; xx < b.hi[0]; ++xx, ++k) {
-        int N = 0;
-        if (!countAt(xx, y, z, N)) continue;
+        const uint32_t v = w.index(xx, y, z);
+        if (w.surface(v)) continue;
         const double p[3] = {lo[0] + (xx - b.lo[0]), lo[1] + (y - b.lo[1]), lo[2] + (z - b.lo[2])};
-        const int verdict = windingLinearVerdict(t, x, p, N);
+        const int verdict = windingLinearVerdict(t, x, p, int(N[v]));
         if (verdict == kWindingInside) out.inside |= uint64_t(1) << k;
         if (verdict == kWindingUnsure) {
           out.unsure |= uint64_t(1) << k;
@@ -770,14 +759,13 @@ struct HardVoxels {
 
 constexpr uint32_t kHardVoxels = 1u << 20;
 
-// A voxel left to the host: listed, or when the list is full its whole leaf.
-__device__ void listHardVoxel(HardVoxels hard, uint8_t* fits, uint32_t leaf, uint32_t v) {
-  const uint32_t at = atomicAdd(hard.count, 1u);
-  if (at < hard.capacity) {
-    hard.items[at] = make_uint2(leaf, v);
-  } else {
-    fits[leaf] = 0; // the host's whole leaf
-  }
+// windingInsideWithCount's first step: the verdict from N and K at p.
+__device__ int countedVerdict(const WindingTreeView& t, const double* p, int N) {
+  double K = 0, error = 0;
+  if (!windingStripSum(t, p, K, error)) return kWindingUnsure;
+  const double whole = 4.0 * kWindingPi * double(N);
+  const WindingSum s{whole + K, error + 4.0 * kWindingUlp * (fabs(whole) + fabs(K)), true};
+  return windingVerdict(s, t.triangleCount);
 }
 
 __global__ void leafBoxesKernel(WindingTreeView t, const LeafOrigin* origins, int L, const int16_t* counts,
@@ -799,7 +787,14 @@ __global__ void leafBoxesKernel(WindingTreeView t, const LeafOrigin* origins, in
     const uint32_t v = w.index(b.lo[0], b.lo[1], b.lo[2]);
     const int verdict = allHard ? int(kWindingUnsure) : countedVerdict(t, lo, int(N[v]));
     if (verdict == kWindingInside) atomicOr(leafWords + v / kVoxelsPerWord, 1u << (2 * (v % kVoxelsPerWord)));
-    if (verdict == kWindingUnsure) listHardVoxel(hard, fits, q.leaf, v);
+    if (verdict == kWindingUnsure) {
+      const uint32_t at = atomicAdd(hard.count, 1u);
+      if (at < hard.capacity) {
+        hard.items[at] = make_uint2(q.leaf, v);
+      } else {
+        fits[q.leaf] = 0; // the host's whole leaf
+      }
+    }
     return;
   }
   const bool sheet = windingSheetsMeetBox(t, lo, hi);
@@ -810,14 +805,7 @@ __global__ void leafBoxesKernel(WindingTreeView t, const LeafOrigin* origins, in
     return;
   }
   LinearVerdicts linear;
-  if (!sheet && !allHard && boxVoxels(b) <= linearVoxels &&
-      linearVerdicts(t, lo, hi, b,
-                     [&](int x, int y, int z, int& n) {
-                       const uint32_t v = w.index(x, y, z);
-                       n = N[v];
-                       return !w.surface(v);
-                     },
-                     linear)) {
+  if (!sheet && !allHard && boxVoxels(b) <= linearVoxels && linearVerdicts(t, lo, hi, b, w, N, linear)) {
     settleLeafVoxels(leafWords, w, b, linear.inside);
     const uint32_t n = uint32_t(__popcll(linear.unsure));
     const uint32_t at = atomicAdd(outCount, n);

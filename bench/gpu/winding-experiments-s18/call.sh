@@ -1,24 +1,8 @@
 #!/bin/bash
-# Run from the repository root with carry [".devdeps"]; .devcarry/s18-lin.tar.xz (untracked) unpacks
-# to /tmp/lin: hdt_cuda_tests and hdt_gpu_bench of the branch, and broken/hdt_cuda_tests with H
-# dropped from windingChainExpansion (must fail), each built as in gpu-notes.md (build-devbin:
-# Release, 90-real, no ParaView, no assimp) and stripped.
+# Run from the repository root with carry [".devdeps"] (binaries: setup.sh).
 # Session 18: first-order leaf/uniform boxes (s18-linear). One binary, variants by
 # HDT_WINDING_LINEAR_VOXELS: halving (0: the old code path), linear (default 64), l512 (512).
-set -u
-ROOT=$(pwd)
-export LD_LIBRARY_PATH=$ROOT/.devdeps/lib/x86_64-linux-gnu:/usr/local/cuda/lib64 HDT_MESHES_DIR=$ROOT/.devdeps/meshes
-export PATH=/usr/local/cuda/bin:$PATH
-T0=$SECONDS
-tar xJf .devcarry/s18-lin.tar.xz -C /tmp || { echo "unpack failed"; exit 1; }
-B=/tmp/lin
-nvidia-smi --query-gpu=name,memory.total,driver_version --format=csv,noheader; date -u
-W=/tmp/s18work; rm -rf $W; mkdir -p $W
-bench() { # name round linear-voxels
-  HDT_WINDING_LINEAR_VOXELS=$3 HDT_WINDING_TRACE=1 timeout 60 $B/hdt_gpu_bench --meshes .devdeps/meshes --mesh teapot.ply --mesh ogre.ply \
-    --res 1024,8192 --root 8 --modes solid,winding --runs ${RUNS:-3} --out $W/$1-$2.jsonl > $W/$1-$2.log 2>&1
-  echo "bench $1 round $2 rc=$? at $((SECONDS-T0)) s"
-}
+. bench/gpu/winding-experiments-s18/setup.sh
 # correctness first (the part that must come back)
 timeout 40 $B/broken/hdt_cuda_tests --gtest_filter='Shapes/CudaWinding.SameBytesAsCpu/*:CudaWindingSharedMeshes*' > $OUT/broken.log 2>&1
 echo "broken rc=$? (must be nonzero); failed: $(grep -cE '^\[  FAILED  \] .*\(' $OUT/broken.log) at $((SECONDS-T0)) s"

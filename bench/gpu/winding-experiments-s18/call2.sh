@@ -1,18 +1,8 @@
 #!/bin/bash
-# Run from the repository root with carry [".devdeps"]; .devcarry/s18-lin.tar.xz (untracked) unpacks
-# to /tmp/lin: hdt_cuda_tests and hdt_gpu_bench of the branch, and broken/hdt_cuda_tests with H
-# dropped from windingChainExpansion (must fail), each built as in gpu-notes.md (build-devbin:
-# Release, 90-real, no ParaView, no assimp) and stripped.
+# Run from the repository root with carry [".devdeps"] (binaries: setup.sh).
 # Session 18, final s18-linear (first order in the fresh leaves only): whole tests, broken binary, short A/B.
-set -u
-ROOT=$(pwd)
-export LD_LIBRARY_PATH=$ROOT/.devdeps/lib/x86_64-linux-gnu:/usr/local/cuda/lib64 HDT_MESHES_DIR=$ROOT/.devdeps/meshes
-export PATH=/usr/local/cuda/bin:$PATH
-T0=$SECONDS
-tar xJf .devcarry/s18-lin.tar.xz -C /tmp || { echo "unpack failed"; exit 1; }
-B=/tmp/lin
-nvidia-smi --query-gpu=name,memory.total,driver_version --format=csv,noheader; date -u
-W=/tmp/s18work; rm -rf $W; mkdir -p $W
+. bench/gpu/winding-experiments-s18/setup.sh
+BENCH_TIMEOUT=40
 timeout 45 compute-sanitizer --tool memcheck $B/hdt_cuda_tests --gtest_filter='CudaWindingRefined.*:Shapes/CudaWinding.SameBytesAsCpu/*' > $OUT/memcheck.log 2>&1 &
 MC=$!
 timeout 60 $B/hdt_cuda_tests > $OUT/tests.log 2>&1; echo "tests rc=$? at $((SECONDS-T0)) s"
@@ -23,11 +13,6 @@ grep -E "^\[  FAILED  \] .*\(" $OUT/broken.log | head -5
 grep -E "^\[  (PASSED|FAILED) |^\[  FAILED  \]" $OUT/tests.log | head -10
 echo "tests OK lines: $(grep -c "^\[       OK \]" $OUT/tests.log), SKIPPED: $(grep -c "^\[  SKIPPED \] .*(" $OUT/tests.log)"
 grep -E "ERROR SUMMARY|^\[  (PASSED|FAILED) " $OUT/memcheck.log | tail -3
-bench() { # name round linear-voxels
-  HDT_WINDING_LINEAR_VOXELS=$3 HDT_WINDING_TRACE=1 timeout 40 $B/hdt_gpu_bench --meshes .devdeps/meshes --mesh teapot.ply --mesh ogre.ply \
-    --res 1024,8192 --root 8 --modes solid,winding --runs 3 --out $W/$1-$2.jsonl > $W/$1-$2.log 2>&1
-  echo "bench $1 round $2 rc=$? at $((SECONDS-T0)) s"
-}
 bench halving 1 0; bench linear 1 64; bench linear 2 64; bench halving 2 0
 for f in $W/*-?.log; do echo "=== $(basename $f)"; cat $f; done > $OUT/bench.log
 python3 bench/gpu/winding-experiments-s15/summary.py $W $OUT/all.jsonl halving linear > $OUT/summary.txt 2>&1

@@ -64,6 +64,13 @@ HDT_HD void windingAddRayField(const double* v, const double* p, double coef, do
   err = err + fabs(s) * 32.0 * kWindingUlp * sqrt(rho2);
 }
 
+// Edge e's share of H, the bound on the derivative of the chain's field over
+// a box at distance d from it (weight * min(2 len / d^3, 4 / d^2)).
+HDT_HD double windingEdgeHessianBound(const WindingEdge& e, double d) {
+  const double byLength = 2.0 * e.length / (d * d * d), byDistance = 4.0 / (d * d);
+  return e.weight * (byLength < byDistance ? byLength : byDistance);
+}
+
 // What the anchors of one leaf share: the near part's ends with their signed
 // coefficients (outward rays; the far part's are their negatives: the whole
 // chain is closed) and the far edges' part of H over the leaf's box (it holds
@@ -91,8 +98,7 @@ HDT_HD bool windingFarLeaf(const WindingTreeView& t, const WindingLeafSplit& spl
   const bool clear = windingForEachFarEdge(t, split, [&](const WindingEdge& e) {
     const double d = windingEdgeDistance(e, lo, hi, c, rho);
     if (!(d > 0)) return false;
-    const double byLength = 2.0 * e.length / (d * d * d), byDistance = 4.0 / (d * d);
-    H = H + e.weight * (byLength < byDistance ? byLength : byDistance);
+    H = H + windingEdgeHessianBound(e, d);
     return true;
   });
   f.edgeHessian = H;
@@ -188,8 +194,7 @@ HDT_HD bool windingChainExpansion(const WindingTreeView& t, const double* lo, co
     const WindingEdge& e = t.edges[i];
     const double d = windingEdgeDistance(e, lo, hi, x.c, rho);
     if (!(d > 0)) return false;
-    const double byLength = 2.0 * e.length / (d * d * d), byDistance = 4.0 / (d * d);
-    H = H + e.weight * (byLength < byDistance ? byLength : byDistance);
+    H = H + windingEdgeHessianBound(e, d);
     windingExpansionEdge(e, x, z, strips, gErr);
   }
   if (strips < 0) return false;
