@@ -768,6 +768,10 @@ __device__ int countedVerdict(const WindingTreeView& t, const double* p, int N) 
   return windingVerdict(s, t.triangleCount);
 }
 
+// LINEAR: boxes of at most linearVoxels voxels try the first order before
+// they are halved. A template switch, so that the passes without it (the
+// surface leaves) do not carry its code and registers.
+template <bool LINEAR>
 __global__ void leafBoxesKernel(WindingTreeView t, const LeafOrigin* origins, int L, const int16_t* counts,
                                 const uint32_t* slots, uint8_t* fits, uint32_t* words, const LeafBox* in,
                                 uint32_t count, LeafBox* out, uint32_t* outCount, uint32_t capacity, HardVoxels hard,
@@ -805,7 +809,7 @@ __global__ void leafBoxesKernel(WindingTreeView t, const LeafOrigin* origins, in
     return;
   }
   LinearVerdicts linear;
-  if (!sheet && !allHard && boxVoxels(b) <= linearVoxels && linearVerdicts(t, lo, hi, b, w, N, linear)) {
+  if (LINEAR && !sheet && !allHard && boxVoxels(b) <= linearVoxels && linearVerdicts(t, lo, hi, b, w, N, linear)) {
     settleLeafVoxels(leafWords, w, b, linear.inside);
     const uint32_t n = uint32_t(__popcll(linear.unsure));
     const uint32_t at = atomicAdd(outCount, n);
@@ -1222,9 +1226,13 @@ uint64_t decideLeavesBreadthFirst(const WindingTreeView& t, const LeafOrigin* or
   const uint64_t total =
       runQueueLevels<LeafBox>("leaves", first, limit, memory,
                               [&](LeafBox* from, uint32_t n, LeafBox* to, uint32_t capacity, uint32_t* toCount) {
-        leafBoxesKernel<<<(n + kBoxBlock - 1) / kBoxBlock, kBoxBlock>>>(t, origins, L, counts, slots, fits, words,
-                                                                         from, n, to, toCount, capacity, hardVoxels,
-                                                                         allHard, linearVoxels);
+        const unsigned grid = (n + kBoxBlock - 1) / kBoxBlock;
+        if (linearVoxels > 0)
+          leafBoxesKernel<true><<<grid, kBoxBlock>>>(t, origins, L, counts, slots, fits, words, from, n, to, toCount,
+                                                     capacity, hardVoxels, allHard, linearVoxels);
+        else
+          leafBoxesKernel<false><<<grid, kBoxBlock>>>(t, origins, L, counts, slots, fits, words, from, n, to, toCount,
+                                                      capacity, hardVoxels, allHard, 0);
         checkLaunch("leafBoxesKernel");
       });
   uint32_t n = 0;
