@@ -8,14 +8,8 @@
 # Release, 90-real, no ParaView, no assimp), stripped.
 # The A/B is one binary: HDT_CUDA_FUSED_CLASSIFICATION=0 (two passes, main's
 # path) against the default (inside T3), alternating processes.
-set -u
-ROOT=$(pwd)
-export LD_LIBRARY_PATH=$ROOT/.devdeps/lib/x86_64-linux-gnu:/usr/local/cuda/lib64 HDT_MESHES_DIR=$ROOT/.devdeps/meshes
-export PATH=/usr/local/cuda/bin:$PATH
-T0=$SECONDS
-tar xJf .devcarry/s19-fused.tar.xz -C /tmp || { echo "unpack failed"; exit 1; }
+. bench/gpu/call-setup.sh s19-fused
 B=/tmp/fused
-nvidia-smi --query-gpu=name,memory.total,driver_version --format=csv,noheader; date -u
 timeout ${SAN_TIMEOUT:-150} compute-sanitizer --tool memcheck --error-exitcode 9 $B/hdt_cuda_tests \
   --gtest_filter='*CudaDense*:*CudaShapes*R8*solid:CudaDriver.*:*CudaSharedMeshes*N1024*' > $OUT/memcheck.log 2>&1 &
 MC=$!

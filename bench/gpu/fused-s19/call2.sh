@@ -5,14 +5,8 @@
 # published, wrong bytes) and fv/nolook/ (no look-back at all: exit parity 0,
 # statuses, fences and the classified write kept, wrong bytes). twopass =
 # the branch's binary with HDT_CUDA_FUSED_CLASSIFICATION=0.
-set -u
-ROOT=$(pwd)
-export LD_LIBRARY_PATH=$ROOT/.devdeps/lib/x86_64-linux-gnu:/usr/local/cuda/lib64 HDT_MESHES_DIR=$ROOT/.devdeps/meshes
-export PATH=/usr/local/cuda/bin:$PATH
-T0=$SECONDS
-tar xJf .devcarry/s19-fv.tar.xz -C /tmp || { echo "unpack failed"; exit 1; }
+. bench/gpu/call-setup.sh s19-fv
 B=/tmp/fv
-nvidia-smi --query-gpu=name,memory.total,driver_version --format=csv,noheader; date -u
 W=/tmp/s19work2; rm -rf $W; mkdir -p $W
 bench() { # name round fused(0/1) binary
   HDT_CUDA_FUSED_CLASSIFICATION=$3 timeout 60 $4 --meshes .devdeps/meshes --mesh cycloidal-drive.ply --mesh tray-bottom.ply \

@@ -3,14 +3,8 @@
 # lin/hdt_gpu_bench of the branch and lin/broken/hdt_cuda_tests with H dropped
 # from windingChainExpansion, built as in gpu-notes.md: build-devbin, Release,
 # 90-real, no ParaView, no assimp, stripped), the work folder $W and bench().
-set -u
-ROOT=$(pwd)
-export LD_LIBRARY_PATH=$ROOT/.devdeps/lib/x86_64-linux-gnu:/usr/local/cuda/lib64 HDT_MESHES_DIR=$ROOT/.devdeps/meshes
-export PATH=/usr/local/cuda/bin:$PATH
-T0=$SECONDS
-tar xJf .devcarry/s18-lin.tar.xz -C /tmp || { echo "unpack failed"; exit 1; }
+. bench/gpu/call-setup.sh s18-lin
 B=/tmp/lin
-nvidia-smi --query-gpu=name,memory.total,driver_version --format=csv,noheader; date -u
 W=/tmp/s18work; rm -rf $W; mkdir -p $W
 # One process of 4 builds a variant: bench name round linear-voxels
 # (HDT_WINDING_LINEAR_VOXELS; 0 is the halving alone). BENCH_TIMEOUT: seconds (60).

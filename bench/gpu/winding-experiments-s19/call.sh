@@ -7,14 +7,8 @@
 # (the branch + bounds12.patch: 12 blocks of 64 threads an SM for the box
 # kernels, at most 80 registers, some spilled); built as in
 # gpu-notes.md (build-devbin: Release, 90-real, no ParaView, no assimp), stripped.
-set -u
-ROOT=$(pwd)
-export LD_LIBRARY_PATH=$ROOT/.devdeps/lib/x86_64-linux-gnu:/usr/local/cuda/lib64 HDT_MESHES_DIR=$ROOT/.devdeps/meshes
-export PATH=/usr/local/cuda/bin:$PATH
-T0=$SECONDS
-tar xJf .devcarry/s19-lt.tar.xz -C /tmp || { echo "unpack failed"; exit 1; }
+. bench/gpu/call-setup.sh s19-lt
 B=/tmp/lt
-nvidia-smi --query-gpu=name,memory.total,driver_version --format=csv,noheader; date -u
 timeout 60 compute-sanitizer --tool memcheck $B/hdt_cuda_tests --gtest_filter='CudaWindingRefined.*:Shapes/CudaWinding.SameBytesAsCpu/*' > $OUT/memcheck.log 2>&1 &
 MC=$!
 timeout 120 $B/hdt_cuda_tests > $OUT/tests.log 2>&1; echo "tests rc=$? at $((SECONDS-T0)) s"
