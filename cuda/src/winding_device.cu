@@ -56,6 +56,11 @@ namespace {
 
 constexpr unsigned kBlock = 128;
 constexpr unsigned kBoxBlock = 64; // the box queues' kernels (double-heavy threads)
+// Blocks of kBoxBlock threads an SM that the box kernels are compiled for:
+// at most 80 registers a thread (a few hundred bytes spilled) instead of 92
+// to 144, and the occupancy won more than the spills cost
+// (bench/results/winding.md, session 19).
+constexpr int kBoxBlocksPerSM = 12;
 
 unsigned blocks(uint64_t n) { return unsigned((n + kBlock - 1) / kBlock); }
 
@@ -607,8 +612,9 @@ struct QueuedBox {
   uint32_t job;
 };
 
-__global__ void uniformBoxesKernel(WindingTreeView t, const QueuedBox* in, uint32_t count, QueuedBox* out,
-                                   uint32_t* outCount, uint32_t capacity, uint32_t* seen) {
+__global__ void __launch_bounds__(kBoxBlock, kBoxBlocksPerSM)
+    uniformBoxesKernel(WindingTreeView t, const QueuedBox* in, uint32_t count, QueuedBox* out, uint32_t* outCount,
+                       uint32_t capacity, uint32_t* seen) {
   const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i >= count) return;
   const QueuedBox q = in[i];
@@ -772,10 +778,10 @@ __device__ int countedVerdict(const WindingTreeView& t, const double* p, int N) 
 // they are halved. A template switch, so that the passes without it (the
 // surface leaves) do not carry its code and registers.
 template <bool LINEAR>
-__global__ void leafBoxesKernel(WindingTreeView t, const LeafOrigin* origins, int L, const int16_t* counts,
-                                const uint32_t* slots, uint8_t* fits, uint32_t* words, const LeafBox* in,
-                                uint32_t count, LeafBox* out, uint32_t* outCount, uint32_t capacity, HardVoxels hard,
-                                bool allHard, uint32_t linearVoxels) {
+__global__ void __launch_bounds__(kBoxBlock, kBoxBlocksPerSM)
+    leafBoxesKernel(WindingTreeView t, const LeafOrigin* origins, int L, const int16_t* counts, const uint32_t* slots,
+                    uint8_t* fits, uint32_t* words, const LeafBox* in, uint32_t count, LeafBox* out,
+                    uint32_t* outCount, uint32_t capacity, HardVoxels hard, bool allHard, uint32_t linearVoxels) {
   const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i >= count) return;
   const LeafBox q = in[i];
