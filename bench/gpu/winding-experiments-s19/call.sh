@@ -9,13 +9,7 @@
 # gpu-notes.md (build-devbin: Release, 90-real, no ParaView, no assimp), stripped.
 . bench/gpu/call-setup.sh s19-lt
 B=/tmp/lt
-timeout 60 compute-sanitizer --tool memcheck $B/hdt_cuda_tests --gtest_filter='CudaWindingRefined.*:Shapes/CudaWinding.SameBytesAsCpu/*' > $OUT/memcheck.log 2>&1 &
-MC=$!
-timeout 120 $B/hdt_cuda_tests > $OUT/tests.log 2>&1; echo "tests rc=$? at $((SECONDS-T0)) s"
-wait $MC; echo "memcheck rc=$? at $((SECONDS-T0)) s"
-echo "tests: $(grep -E '^\[  (PASSED|FAILED) ' $OUT/tests.log | tr '\n' ' ') OK lines $(grep -c '^\[       OK \]' $OUT/tests.log)"
-grep -E "^\[  FAILED  \] .*\(" $OUT/tests.log | head -5
-echo "memcheck: $(grep -E 'ERROR SUMMARY|^\[  (PASSED|FAILED) ' $OUT/memcheck.log | tr '\n' ' ')"
+deviceTests $B/hdt_cuda_tests 'CudaWindingRefined.*:Shapes/CudaWinding.SameBytesAsCpu/*'
 W=/tmp/s19lt; rm -rf $W; mkdir -p $W
 bench() { # name round binary
   HDT_WINDING_TRACE=1 timeout 60 $3 --meshes .devdeps/meshes --mesh teapot.ply --mesh ogre.ply --res 1024,8192 --root 8 \
