@@ -3,16 +3,10 @@
 # Session 18, final s18-linear (first order in the fresh leaves only): whole tests, broken binary, short A/B.
 . bench/gpu/winding-experiments-s18/setup.sh
 BENCH_TIMEOUT=40
-timeout 45 compute-sanitizer --tool memcheck $B/hdt_cuda_tests --gtest_filter='CudaWindingRefined.*:Shapes/CudaWinding.SameBytesAsCpu/*' > $OUT/memcheck.log 2>&1 &
-MC=$!
-timeout 60 $B/hdt_cuda_tests > $OUT/tests.log 2>&1; echo "tests rc=$? at $((SECONDS-T0)) s"
-wait $MC; echo "memcheck rc=$? at $((SECONDS-T0)) s"
+deviceTests $B/hdt_cuda_tests 'CudaWindingRefined.*:Shapes/CudaWinding.SameBytesAsCpu/*' 45 60
 timeout 20 $B/broken/hdt_cuda_tests --gtest_filter='*CudaWinding*' > $OUT/broken.log 2>&1
 echo "broken rc=$? (must be nonzero); failed: $(grep -cE '^\[  FAILED  \] .*\(' $OUT/broken.log) at $((SECONDS-T0)) s"
 grep -E "^\[  FAILED  \] .*\(" $OUT/broken.log | head -5
-grep -E "^\[  (PASSED|FAILED) |^\[  FAILED  \]" $OUT/tests.log | head -10
-echo "tests OK lines: $(grep -c "^\[       OK \]" $OUT/tests.log), SKIPPED: $(grep -c "^\[  SKIPPED \] .*(" $OUT/tests.log)"
-grep -E "ERROR SUMMARY|^\[  (PASSED|FAILED) " $OUT/memcheck.log | tail -3
 bench halving 1 0; bench linear 1 64; bench linear 2 64; bench halving 2 0
 for f in $W/*-?.log; do echo "=== $(basename $f)"; cat $f; done > $OUT/bench.log
 python3 bench/gpu/winding-experiments-s15/summary.py $W $OUT/all.jsonl halving linear > $OUT/summary.txt 2>&1
