@@ -814,19 +814,22 @@ __global__ void __launch_bounds__(kBoxBlock, kBoxBlocksPerSM)
     settleLeafBox(leafWords, uint32_t(L), b, N, T);
     return;
   }
-  LinearVerdicts linear;
-  if (LINEAR && !sheet && !allHard && boxVoxels(b) <= linearVoxels && linearVerdicts(t, lo, hi, b, w, N, linear)) {
-    settleLeafVoxels(leafWords, w, b, linear.inside);
-    const uint32_t n = uint32_t(__popcll(linear.unsure));
-    const uint32_t at = atomicAdd(outCount, n);
-    if (at + n > capacity) {
-      fits[q.leaf] = 0;
-      for (uint32_t k = at; k < capacity && k < at + n; ++k) out[k].leaf = kNoJob;
+  if constexpr (LINEAR) {
+    LinearVerdicts linear;
+    if (!sheet && !allHard && boxVoxels(b) <= linearVoxels && linearVerdicts(t, lo, hi, b, w, N, linear)) {
+      settleLeafVoxels(leafWords, w, b, linear.inside);
+      const uint32_t n = uint32_t(__popcll(linear.unsure));
+      const uint32_t at = atomicAdd(outCount, n);
+      if (at + n > capacity) {
+        fits[q.leaf] = 0;
+        for (uint32_t k = at; k < capacity && k < at + n; ++k) out[k].leaf = kNoJob;
+        return;
+      }
+      uint32_t k = 0;
+      for (uint64_t u = linear.unsure; u; u &= u - 1)
+        out[at + k++] = LeafBox{boxVoxel(b, __ffsll(u) - 1), q.leaf, INFINITY};
       return;
     }
-    uint32_t k = 0;
-    for (uint64_t u = linear.unsure; u; u &= u - 1) out[at + k++] = LeafBox{boxVoxel(b, __ffsll(u) - 1), q.leaf, INFINITY};
-    return;
   }
   VoxelBox halves[8];
   double known[8];
@@ -1233,12 +1236,9 @@ uint64_t decideLeavesBreadthFirst(const WindingTreeView& t, const LeafOrigin* or
       runQueueLevels<LeafBox>("leaves", first, limit, memory,
                               [&](LeafBox* from, uint32_t n, LeafBox* to, uint32_t capacity, uint32_t* toCount) {
         const unsigned grid = (n + kBoxBlock - 1) / kBoxBlock;
-        if (linearVoxels > 0)
-          leafBoxesKernel<true><<<grid, kBoxBlock>>>(t, origins, L, counts, slots, fits, words, from, n, to, toCount,
-                                                     capacity, hardVoxels, allHard, linearVoxels);
-        else
-          leafBoxesKernel<false><<<grid, kBoxBlock>>>(t, origins, L, counts, slots, fits, words, from, n, to, toCount,
-                                                      capacity, hardVoxels, allHard, 0);
+        const auto kernel = linearVoxels > 0 ? leafBoxesKernel<true> : leafBoxesKernel<false>;
+        kernel<<<grid, kBoxBlock>>>(t, origins, L, counts, slots, fits, words, from, n, to, toCount, capacity,
+                                    hardVoxels, allHard, linearVoxels);
         checkLaunch("leafBoxesKernel");
       });
   uint32_t n = 0;
